@@ -1,0 +1,570 @@
+//! The job file as typed options. Every table is a plain `Default + Deserialize`
+//! struct with `deny_unknown_fields`; defaults are the paper's prototype.
+
+use serde::de::{self, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::fmt;
+
+use crate::error::JobError;
+use crate::kinds::{ClearanceKind, KINDS};
+
+/// One job: a mechanism, its loads and clearances, what to analyse, and where.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobSpec {
+    /// Defaults to the job file's stem.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    #[serde(default)]
+    pub mechanism: MechanismSpec,
+    #[serde(default)]
+    pub mass: MassSpec,
+    #[serde(default)]
+    pub load: LoadSpec,
+    #[serde(default)]
+    pub clearance: ClearanceSpec,
+    #[serde(default)]
+    pub analysis: AnalysisSpec,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<GridSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<TrajectorySpec>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sweep: Vec<SweepSpec>,
+}
+
+/// Geometry of the 3-PRS robot (MODEL.md §1).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MechanismSpec {
+    /// `R_b`, radius of the circle of the actuators (m). Default 0.18.
+    pub base_radius: f64,
+    /// `r_p`, distance from P to each spherical joint (m). Default 0.36.
+    pub platform_radius: f64,
+    /// `L`, length of each leg `B_j A_j` (m). Default 1.0.
+    pub leg_length: f64,
+    /// Gravity in the fixed frame (m/s²). Default `(0, 0, -9.81)`.
+    pub gravity: [f64; 3],
+}
+
+impl Default for MechanismSpec {
+    fn default() -> Self {
+        Self { base_radius: 0.18, platform_radius: 0.36, leg_length: 1.0, gravity: [0.0, 0.0, -9.81] }
+    }
+}
+
+/// Masses and inertias (MODEL.md §3).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MassSpec {
+    /// Platform mass (kg), centre of mass at P. Default 9.8.
+    pub platform: f64,
+    /// Mass of each leg (kg), a slender rod. Default 3.0.
+    pub leg: f64,
+    /// Platform inertia about P in platform axes `[Ixx, Iyy, Izz]` (kg·m²);
+    /// default a thin uniform disc of radius `r_p`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub platform_inertia: Option<[f64; 3]>,
+    /// Point masses rigidly attached to the platform.
+    pub points: Vec<PointMass>,
+}
+
+impl Default for MassSpec {
+    fn default() -> Self {
+        Self { platform: 9.8, leg: 3.0, platform_inertia: None, points: Vec::new() }
+    }
+}
+
+/// A point mass on the platform: `mass` (kg) at `at` (m, platform frame).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointMass {
+    pub mass: f64,
+    pub at: [f64; 3],
+}
+
+/// External wrench on the platform.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoadSpec {
+    /// Force, world frame (N).
+    pub force: [f64; 3],
+    /// Couple, world frame (N·m).
+    pub moment: [f64; 3],
+    /// Application point of the force, platform frame (m).
+    pub at: [f64; 3],
+}
+
+/// Clearance magnitudes at full take-up (MODEL.md §5). 0 (the default) is rigid.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ClearanceSpec {
+    /// Spherical joints, radial (m).
+    pub s_radial: f64,
+    /// Revolute joints, radial (m).
+    pub r_radial: f64,
+    /// Revolute joints, axial (m).
+    pub r_axial: f64,
+    /// Revolute joints, angular (rad).
+    pub r_angular: f64,
+}
+
+impl ClearanceSpec {
+    /// The magnitude of one kind.
+    pub fn get(&self, kind: ClearanceKind) -> f64 {
+        match kind {
+            ClearanceKind::SRadial => self.s_radial,
+            ClearanceKind::RRadial => self.r_radial,
+            ClearanceKind::RAxial => self.r_axial,
+            ClearanceKind::RAngular => self.r_angular,
+        }
+    }
+
+    /// Magnitudes in the order of [`KINDS`].
+    pub fn as_array(&self) -> [f64; 4] {
+        KINDS.map(|k| self.get(k))
+    }
+}
+
+/// Kinetostatics (no inertial terms) or dynamics (trajectories only).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    Kinetostatic,
+    Dynamic,
+}
+
+impl Mode {
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Kinetostatic => "kinetostatic",
+            Mode::Dynamic => "dynamic",
+        }
+    }
+}
+
+/// What to compute.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AnalysisSpec {
+    /// Default `["kinetostatic"]`.
+    pub modes: Vec<Mode>,
+    /// Also solve the nonlinear closure (MODEL.md §7). Default false.
+    pub exact: bool,
+    /// Vector-load switches count only below this fraction of the weight W (MODEL.md §8).
+    pub discontinuity_load_fraction: f64,
+    /// A deciding load at or below this fraction of W makes the take-up indeterminate.
+    pub indeterminate_load_fraction: f64,
+    /// Poses whose `cond_a` or `cond_jp` exceeds this are `near_singular`.
+    pub singular_cond: f64,
+}
+
+impl Default for AnalysisSpec {
+    fn default() -> Self {
+        Self {
+            modes: vec![Mode::Kinetostatic],
+            exact: false,
+            discontinuity_load_fraction: 0.05,
+            indeterminate_load_fraction: 1e-9,
+            singular_cond: 1e8,
+        }
+    }
+}
+
+/// A scalar, or an inclusive range of `n` evenly spaced values.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum RangeSpec {
+    Value(f64),
+    Range { start: f64, stop: f64, n: u64 },
+}
+
+impl RangeSpec {
+    pub fn len(&self) -> u64 {
+        match *self {
+            RangeSpec::Value(_) => 1,
+            RangeSpec::Range { n, .. } => n,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The `i`-th value: `start + (stop − start)·i/(n − 1)` (docs/conventions.md).
+    pub fn value(&self, i: u64) -> f64 {
+        match *self {
+            RangeSpec::Value(v) => v,
+            RangeSpec::Range { start, stop, n } => {
+                if n <= 1 {
+                    start
+                } else {
+                    start + (stop - start) * (i as f64) / ((n - 1) as f64)
+                }
+            }
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RangeTable {
+    start: f64,
+    stop: f64,
+    n: u64,
+}
+
+impl<'de> Deserialize<'de> for RangeSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RangeSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or a table { start, stop, n }")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<RangeSpec, E> {
+                Ok(RangeSpec::Value(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<RangeSpec, E> {
+                Ok(RangeSpec::Value(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<RangeSpec, E> {
+                Ok(RangeSpec::Value(v as f64))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<RangeSpec, A::Error> {
+                let t = RangeTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(RangeSpec::Range { start: t.start, stop: t.stop, n: t.n })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// The workspace grid: every combination of the three inputs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    pub z: RangeSpec,
+    pub psi: RangeSpec,
+    pub theta: RangeSpec,
+}
+
+/// One term `amplitude·sin(2π·t/period + phase)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Harmonic {
+    pub amplitude: f64,
+    pub period: f64,
+    #[serde(default)]
+    pub phase: f64,
+}
+
+/// A trajectory input: a constant, or `offset + Σ harmonics`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum InputSpec {
+    Constant(f64),
+    Harmonics { offset: f64, harmonics: Vec<Harmonic> },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HarmonicTable {
+    #[serde(default)]
+    offset: f64,
+    #[serde(default)]
+    harmonics: Vec<Harmonic>,
+}
+
+impl<'de> Deserialize<'de> for InputSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = InputSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or a table { offset, harmonics = [{ amplitude, period, phase }] }")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<InputSpec, E> {
+                Ok(InputSpec::Constant(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<InputSpec, E> {
+                Ok(InputSpec::Constant(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<InputSpec, E> {
+                Ok(InputSpec::Constant(v as f64))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<InputSpec, A::Error> {
+                let t = HarmonicTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                Ok(InputSpec::Harmonics { offset: t.offset, harmonics: t.harmonics })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl InputSpec {
+    /// Value and first two time derivatives at `t`.
+    pub fn eval(&self, t: f64) -> [f64; 3] {
+        match self {
+            InputSpec::Constant(v) => [*v, 0.0, 0.0],
+            InputSpec::Harmonics { offset, harmonics } => {
+                let mut out = [*offset, 0.0, 0.0];
+                for h in harmonics {
+                    let w = 2.0 * std::f64::consts::PI / h.period;
+                    let (s, c) = (w * t + h.phase).sin_cos();
+                    out[0] += h.amplitude * s;
+                    out[1] += h.amplitude * w * c;
+                    out[2] -= h.amplitude * w * w * s;
+                }
+                out
+            }
+        }
+    }
+}
+
+/// A trajectory `(Z(t), Ψ(t), Θ(t))` sampled at `time`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrajectorySpec {
+    pub time: RangeSpec,
+    pub z: InputSpec,
+    pub psi: InputSpec,
+    pub theta: InputSpec,
+}
+
+/// One swept parameter: a dotted path into the job and its values.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    pub param: String,
+    pub values: Vec<f64>,
+}
+
+/// The samples of a validated job.
+#[derive(Clone, Copy, Debug)]
+pub enum SamplesSpec<'a> {
+    Grid(&'a GridSpec),
+    Trajectory(&'a TrajectorySpec),
+}
+
+impl JobSpec {
+    /// Parses, defaults and validates a job file's text. `file` names it in errors
+    /// and gives the default `name` (its stem).
+    pub fn from_toml_str(text: &str, file: &str) -> Result<JobSpec, JobError> {
+        let mut job: JobSpec = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
+        if job.name.is_none() {
+            let stem = std::path::Path::new(file)
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "job".to_string());
+            job.name = Some(stem);
+        }
+        job.validate(file)?;
+        // Sweeps are checked by expanding them: each variant must be a valid job too.
+        job.variants(file)?;
+        Ok(job)
+    }
+
+    /// Reads and parses a job file.
+    pub fn from_path(path: &std::path::Path) -> Result<JobSpec, JobError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| JobError::new(&file, "", format!("cannot read the job file: {e}")))?;
+        Self::from_toml_str(&text, &file)
+    }
+
+    /// The job's name (after defaults).
+    pub fn name(&self) -> &str {
+        self.name.as_deref().unwrap_or("job")
+    }
+
+    /// The samples. Only valid after validation (exactly one of grid or trajectory).
+    pub fn samples(&self) -> SamplesSpec<'_> {
+        match (&self.grid, &self.trajectory) {
+            (Some(g), _) => SamplesSpec::Grid(g),
+            (None, Some(t)) => SamplesSpec::Trajectory(t),
+            (None, None) => panic!("job has neither [grid] nor [trajectory]; validate it first"),
+        }
+    }
+
+    /// Number of samples per (variant, mode).
+    pub fn sample_count(&self) -> u64 {
+        match self.samples() {
+            SamplesSpec::Grid(g) => g.z.len() * g.psi.len() * g.theta.len(),
+            SamplesSpec::Trajectory(t) => t.time.len(),
+        }
+    }
+
+    /// Total moving mass: platform, point masses and three legs (kg).
+    pub fn total_mass(&self) -> f64 {
+        self.mass.platform + self.mass.points.iter().map(|p| p.mass).sum::<f64>() + 3.0 * self.mass.leg
+    }
+
+    /// `W = m_total·|g|`, the natural load scale of MODEL.md §8 (N).
+    pub fn weight(&self) -> f64 {
+        let g = self.mechanism.gravity;
+        self.total_mass() * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt()
+    }
+
+    /// Serialises the job (after defaults) as TOML, for provenance.
+    pub fn to_toml_string(&self) -> String {
+        toml::to_string(self).expect("a job always serialises")
+    }
+
+    /// Checks every value against its physical range. Errors name the dotted key.
+    pub fn validate(&self, file: &str) -> Result<(), JobError> {
+        let err = |key: &str, reason: String| Err(JobError::new(file, key, reason));
+        let m = &self.mechanism;
+        for (key, v) in [
+            ("mechanism.base_radius", m.base_radius),
+            ("mechanism.platform_radius", m.platform_radius),
+            ("mechanism.leg_length", m.leg_length),
+        ] {
+            finite(file, key, v)?;
+            if v <= 0.0 {
+                return err(key, format!("must be a positive length in m, got {v}"));
+            }
+        }
+        for (i, v) in m.gravity.iter().enumerate() {
+            finite(file, &format!("mechanism.gravity.{i}"), *v)?;
+        }
+        let ms = &self.mass;
+        for (key, v) in [("mass.platform", ms.platform), ("mass.leg", ms.leg)] {
+            non_negative(file, key, v, "kg")?;
+        }
+        if let Some(inertia) = ms.platform_inertia {
+            for (i, v) in inertia.iter().enumerate() {
+                non_negative(file, &format!("mass.platform_inertia.{i}"), *v, "kg·m²")?;
+            }
+        }
+        for (i, p) in ms.points.iter().enumerate() {
+            non_negative(file, &format!("mass.points.{i}.mass"), p.mass, "kg")?;
+            for (k, v) in p.at.iter().enumerate() {
+                finite(file, &format!("mass.points.{i}.at.{k}"), *v)?;
+            }
+        }
+        for (name, arr) in [("force", self.load.force), ("moment", self.load.moment), ("at", self.load.at)] {
+            for (k, v) in arr.iter().enumerate() {
+                finite(file, &format!("load.{name}.{k}"), *v)?;
+            }
+        }
+        for kind in KINDS {
+            let unit = if kind == ClearanceKind::RAngular { "rad" } else { "m" };
+            non_negative(file, &format!("clearance.{}", kind.name()), self.clearance.get(kind), unit)?;
+        }
+        let a = &self.analysis;
+        if a.modes.is_empty() {
+            return err("analysis.modes", "must list at least one of \"kinetostatic\", \"dynamic\"".into());
+        }
+        for (i, mode) in a.modes.iter().enumerate() {
+            if a.modes[..i].contains(mode) {
+                return err(&format!("analysis.modes.{i}"), format!("\"{}\" is listed twice", mode.name()));
+            }
+        }
+        for (key, v) in [
+            ("analysis.discontinuity_load_fraction", a.discontinuity_load_fraction),
+            ("analysis.indeterminate_load_fraction", a.indeterminate_load_fraction),
+            ("analysis.singular_cond", a.singular_cond),
+        ] {
+            finite(file, key, v)?;
+            if v <= 0.0 {
+                return err(key, format!("must be positive, got {v}"));
+            }
+        }
+        match (&self.grid, &self.trajectory) {
+            (Some(_), Some(_)) => {
+                return err("", "has both [grid] and [trajectory]; a job samples exactly one of them".into());
+            }
+            (None, None) => {
+                return err("", "has neither [grid] nor [trajectory]; add one to say which poses to analyse".into());
+            }
+            (Some(g), None) => {
+                if a.modes.contains(&Mode::Dynamic) {
+                    return err(
+                        "analysis.modes",
+                        "\"dynamic\" needs a [trajectory] (a grid has no velocities); use \"kinetostatic\"".into(),
+                    );
+                }
+                for (key, r) in [("grid.z", &g.z), ("grid.psi", &g.psi), ("grid.theta", &g.theta)] {
+                    range(file, key, r)?;
+                }
+            }
+            (None, Some(t)) => {
+                range(file, "trajectory.time", &t.time)?;
+                for (key, input) in [("trajectory.z", &t.z), ("trajectory.psi", &t.psi), ("trajectory.theta", &t.theta)] {
+                    match input {
+                        InputSpec::Constant(v) => finite(file, key, *v)?,
+                        InputSpec::Harmonics { offset, harmonics } => {
+                            finite(file, &format!("{key}.offset"), *offset)?;
+                            for (i, h) in harmonics.iter().enumerate() {
+                                let k = format!("{key}.harmonics.{i}");
+                                finite(file, &format!("{k}.amplitude"), h.amplitude)?;
+                                finite(file, &format!("{k}.phase"), h.phase)?;
+                                finite(file, &format!("{k}.period"), h.period)?;
+                                if h.period <= 0.0 {
+                                    return err(&format!("{k}.period"), format!("must be a positive time in s, got {}", h.period));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for (i, s) in self.sweep.iter().enumerate() {
+            if s.values.is_empty() {
+                return err(&format!("sweep.{i}.values"), "must list at least one value".into());
+            }
+            for (k, v) in s.values.iter().enumerate() {
+                finite(file, &format!("sweep.{i}.values.{k}"), *v)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn finite(file: &str, key: &str, v: f64) -> Result<(), JobError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(JobError::new(file, key, format!("must be a finite number, got {v}")))
+    }
+}
+
+fn non_negative(file: &str, key: &str, v: f64, unit: &str) -> Result<(), JobError> {
+    finite(file, key, v)?;
+    if v < 0.0 {
+        return Err(JobError::new(file, key, format!("must be zero or positive ({unit}), got {v}")));
+    }
+    Ok(())
+}
+
+fn range(file: &str, key: &str, r: &RangeSpec) -> Result<(), JobError> {
+    match *r {
+        RangeSpec::Value(v) => finite(file, key, v),
+        RangeSpec::Range { start, stop, n } => {
+            finite(file, &format!("{key}.start"), start)?;
+            finite(file, &format!("{key}.stop"), stop)?;
+            if n == 0 {
+                return Err(JobError::new(file, format!("{key}.n"), "must be at least 1"));
+            }
+            if n > 1 && start == stop {
+                return Err(JobError::new(
+                    file,
+                    key,
+                    format!("has n = {n} but start = stop = {start}; give a scalar or distinct ends"),
+                ));
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Turns a TOML parse or type error into a one- or two-line message with the line.
+fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> JobError {
+    let message = e.message().trim().to_string();
+    let location = e.span().map(|span| {
+        let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+        format!("line {line}: ")
+    });
+    JobError::new(file, "", format!("{}{}", location.unwrap_or_default(), message))
+}

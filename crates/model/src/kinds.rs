@@ -1,0 +1,44 @@
+//! The four clearance kinds of MODEL.md §5.
+
+/// One kind of joint clearance. Kinds are independent and superpose (MODEL.md §5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ClearanceKind {
+    /// Radial clearance of the spherical joint S_j (m).
+    SRadial,
+    /// Radial clearance of the revolute joint R_j (m).
+    RRadial,
+    /// Axial clearance of the revolute joint R_j (m).
+    RAxial,
+    /// Angular clearance of the revolute joint R_j (rad).
+    RAngular,
+}
+
+/// All kinds, in the order used for per-kind arrays everywhere in the engine.
+pub const KINDS: [ClearanceKind; 4] = [
+    ClearanceKind::SRadial,
+    ClearanceKind::RRadial,
+    ClearanceKind::RAxial,
+    ClearanceKind::RAngular,
+];
+
+impl ClearanceKind {
+    /// The name used in job files and output columns (`s_radial`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::SRadial => "s_radial",
+            Self::RRadial => "r_radial",
+            Self::RAxial => "r_axial",
+            Self::RAngular => "r_angular",
+        }
+    }
+
+    /// Index into per-kind arrays (the order of [`KINDS`]).
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Parses a kind name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        KINDS.into_iter().find(|k| k.name() == name)
+    }
+}

@@ -1,0 +1,41 @@
+//! # clearance-model
+//!
+//! The typed, validated description of one `clearance` job: the 3-PRS mechanism,
+//! its masses and loads, the clearance magnitudes, the analysis options and the
+//! samples (a workspace grid or a trajectory). A job file (TOML, see
+//! `shared/INTERFACE.md`) is exactly one [`JobSpec`]; [`JobSpec::from_toml_str`]
+//! parses, applies defaults (the paper's prototype) and validates it, and
+//! [`JobSpec::variants`] expands its `[[sweep]]` tables into concrete jobs.
+//!
+//! Symbols follow `shared/MODEL.md`: base radius `R_b`, platform radius `r_p`,
+//! leg length `L`, limb angles `α_j = 0°, 120°, 240°`.
+//!
+//! ```
+//! use clearance_model::JobSpec;
+//! let job = JobSpec::from_toml_str(
+//!     "[grid]\nz = 2.05\npsi = { start = -0.5, stop = 0.5, n = 3 }\ntheta = 0.0\n",
+//!     "example.toml",
+//! ).unwrap();
+//! assert_eq!(job.mechanism.leg_length, 1.0);
+//! assert_eq!(job.sample_count(), 3);
+//! ```
+
+mod error;
+mod job;
+mod kinds;
+mod sweep;
+
+pub use error::JobError;
+pub use job::{
+    AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, MassSpec,
+    MechanismSpec, Mode, PointMass, RangeSpec, SamplesSpec, SweepSpec, TrajectorySpec,
+};
+pub use kinds::{ClearanceKind, KINDS};
+pub use sweep::Variant;
+
+/// Angles of the three limbs about `z` (MODEL.md §1), in radians.
+pub const LIMB_ANGLES: [f64; 3] = [
+    0.0,
+    2.0 * std::f64::consts::PI / 3.0,
+    4.0 * std::f64::consts::PI / 3.0,
+];

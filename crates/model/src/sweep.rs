@@ -1,0 +1,97 @@
+//! `[[sweep]]`: the cartesian product of swept parameters is the list of variants.
+
+use crate::error::JobError;
+use crate::job::JobSpec;
+
+/// One concrete job of a sweep: its index `K` (the `variant=K` partition), the
+/// swept values that made it, and the job with those values set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Variant {
+    pub index: u64,
+    pub params: Vec<(String, f64)>,
+    pub job: JobSpec,
+}
+
+impl JobSpec {
+    /// Number of variants: the product of the sweeps' lengths (1 without sweeps).
+    pub fn variant_count(&self) -> u64 {
+        self.sweep.iter().map(|s| s.values.len() as u64).product()
+    }
+
+    /// Expands the sweeps. Variant `K` enumerates the product row-major, the first
+    /// `[[sweep]]` slowest. Each variant is validated as a job of its own.
+    pub fn variants(&self, file: &str) -> Result<Vec<Variant>, JobError> {
+        let count = self.variant_count();
+        let mut base = self.clone();
+        base.sweep.clear();
+        let table = toml::Table::try_from(&base).expect("a job always serialises");
+        // Check every path once, against the job after defaults.
+        for (i, s) in self.sweep.iter().enumerate() {
+            let mut probe = table.clone();
+            set_path(&mut probe, &s.param, 0.0).map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
+        }
+        let mut out = Vec::with_capacity(count as usize);
+        for index in 0..count {
+            let mut rest = index;
+            let mut params = vec![(String::new(), 0.0); self.sweep.len()];
+            for (i, s) in self.sweep.iter().enumerate().rev() {
+                let n = s.values.len() as u64;
+                params[i] = (s.param.clone(), s.values[(rest % n) as usize]);
+                rest /= n;
+            }
+            let mut t = table.clone();
+            for (i, (path, v)) in params.iter().enumerate() {
+                set_path(&mut t, path, *v).map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
+            }
+            let job: JobSpec = t.try_into().map_err(|e: toml::de::Error| {
+                JobError::new(file, "sweep", format!("variant {index}: {}", e.message().trim()))
+            })?;
+            job.validate(file).map_err(|mut e| {
+                let what = params.iter().map(|(p, v)| format!("{p} = {v}")).collect::<Vec<_>>().join(", ");
+                e.reason = format!("{} (in the sweep variant {index}: {what})", e.reason);
+                e
+            })?;
+            out.push(Variant { index, params, job });
+        }
+        Ok(out)
+    }
+}
+
+/// Sets the number at a dotted path (`mass.points.0.mass`); the path must exist
+/// and hold a number.
+fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {
+    let parts: Vec<&str> = path.split('.').collect();
+    if path.is_empty() || parts.iter().any(|p| p.is_empty()) {
+        return Err(format!("\"{path}\" is not a dotted path such as \"mass.platform\""));
+    }
+    if parts[0] == "sweep" || parts[0] == "name" {
+        return Err(format!("\"{path}\" cannot be swept"));
+    }
+    let mut node: &mut toml::Value = table
+        .get_mut(parts[0])
+        .ok_or_else(|| format!("\"{path}\": the job has no key \"{}\"", parts[0]))?;
+    for (depth, part) in parts.iter().enumerate().skip(1) {
+        let here = parts[..depth].join(".");
+        node = match node {
+            toml::Value::Table(t) => t
+                .get_mut(*part)
+                .ok_or_else(|| format!("\"{path}\": \"{here}\" has no key \"{part}\""))?,
+            toml::Value::Array(a) => {
+                let i: usize = part
+                    .parse()
+                    .map_err(|_| format!("\"{path}\": \"{here}\" is a list; index it with a number, not \"{part}\""))?;
+                let len = a.len();
+                a.get_mut(i)
+                    .ok_or_else(|| format!("\"{path}\": \"{here}\" has {len} entries, no index {i}"))?
+            }
+            _ => return Err(format!("\"{path}\": \"{here}\" is a value, not a table")),
+        };
+    }
+    match node {
+        toml::Value::Float(_) | toml::Value::Integer(_) => {
+            *node = toml::Value::Float(value);
+            Ok(())
+        }
+        _ => Err(format!("\"{path}\" is not a number (a table, list, string or flag cannot be swept)")),
+    }
+}

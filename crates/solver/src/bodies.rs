@@ -1,0 +1,137 @@
+//! The moving bodies (MODEL.md §3) and the loads on them, in the form the
+//! equilibrium needs: a composite platform and three slender legs.
+
+use clearance_kinematics::{Geometry, Motion, Posture};
+use clearance_model::JobSpec;
+use nalgebra::{Matrix3, Vector3};
+
+/// The platform with its point masses as one rigid body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MassModel {
+    /// Total platform mass `m` (platform plus point masses), kg.
+    pub platform_mass: f64,
+    /// Composite centre of mass `c'` in platform coordinates (from P).
+    pub com_local: Vector3<f64>,
+    /// Inertia about the composite centre of mass, platform axes.
+    pub inertia_local: Matrix3<f64>,
+    /// Mass of each leg, kg.
+    pub leg_mass: f64,
+    /// `m_leg·L²/12`, the leg's inertia across its axis.
+    pub leg_inertia: f64,
+}
+
+fn point_inertia(m: f64, d: &Vector3<f64>) -> Matrix3<f64> {
+    m * (Matrix3::identity() * d.norm_squared() - d * d.transpose())
+}
+
+impl MassModel {
+    pub fn from_job(job: &JobSpec) -> Self {
+        let ms = &job.mass;
+        let r = job.mechanism.platform_radius;
+        let own = match ms.platform_inertia {
+            Some(i) => Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2])),
+            None => {
+                let m = ms.platform;
+                Matrix3::from_diagonal(&Vector3::new(m * r * r / 4.0, m * r * r / 4.0, m * r * r / 2.0))
+            }
+        };
+        let total = ms.platform + ms.points.iter().map(|p| p.mass).sum::<f64>();
+        let moment: Vector3<f64> = ms.points.iter().map(|p| p.mass * Vector3::from(p.at)).sum();
+        let com_local = if total > 0.0 { moment / total } else { Vector3::zeros() };
+        // Parallel axes: the platform's own inertia is about P, its centre of mass.
+        let mut inertia_local = own + point_inertia(ms.platform, &com_local);
+        for p in &ms.points {
+            inertia_local += point_inertia(p.mass, &(Vector3::from(p.at) - com_local));
+        }
+        let l = job.mechanism.leg_length;
+        Self {
+            platform_mass: total,
+            com_local,
+            inertia_local,
+            leg_mass: ms.leg,
+            leg_inertia: ms.leg * l * l / 12.0,
+        }
+    }
+}
+
+/// The external wrench on the platform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Load {
+    pub force: Vector3<f64>,
+    pub moment: Vector3<f64>,
+    /// Application point of the force, platform coordinates.
+    pub at_local: Vector3<f64>,
+}
+
+/// Everything about the posture's motion that the equilibrium needs, world frame.
+/// Zero in kinetostatics.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Inertial {
+    pub omega: Vector3<f64>,
+    pub omega_dot: Vector3<f64>,
+    /// Acceleration of the composite centre of mass C.
+    pub com_acc: Vector3<f64>,
+    pub leg_omega: [Vector3<f64>; 3],
+    pub leg_omega_dot: [Vector3<f64>; 3],
+    pub leg_com_acc: [Vector3<f64>; 3],
+}
+
+impl Inertial {
+    /// From the exact motion of a trajectory sample.
+    pub fn from_motion(pose: &Posture, motion: &Motion, mass: &MassModel) -> Self {
+        let c = pose.rot * mass.com_local;
+        let w = motion.omega;
+        let com_acc = motion.p_ddot + motion.omega_dot.cross(&c) + w.cross(&w.cross(&c));
+        Self {
+            omega: w,
+            omega_dot: motion.omega_dot,
+            com_acc,
+            leg_omega: motion.leg_omega,
+            leg_omega_dot: motion.leg_omega_dot,
+            leg_com_acc: motion.leg_com_acc,
+        }
+    }
+}
+
+/// Leg inertia about its centre of mass in world axes: `m·L²/12·(I − e·eᵀ)`.
+pub fn leg_inertia_world(mass: &MassModel, e: &Vector3<f64>) -> Matrix3<f64> {
+    mass.leg_inertia * (Matrix3::identity() - e * e.transpose())
+}
+
+/// The model of one job that every pose shares.
+#[derive(Clone, Debug)]
+pub struct Model {
+    pub geometry: Geometry,
+    pub mass: MassModel,
+    pub gravity: Vector3<f64>,
+    pub load: Load,
+    /// Clearance magnitudes in the order of `clearance_model::KINDS`.
+    pub clearance: [f64; 4],
+    /// `W`, the weight of all moving bodies (N).
+    pub weight: f64,
+    /// Loads at or below this make a take-up indeterminate (N or N·m).
+    pub indeterminate_floor: f64,
+    pub singular_cond: f64,
+    pub exact: bool,
+}
+
+impl Model {
+    pub fn from_job(job: &JobSpec) -> Self {
+        let weight = job.weight();
+        Self {
+            geometry: Geometry::from_spec(&job.mechanism),
+            mass: MassModel::from_job(job),
+            gravity: Vector3::from(job.mechanism.gravity),
+            load: Load {
+                force: Vector3::from(job.load.force),
+                moment: Vector3::from(job.load.moment),
+                at_local: Vector3::from(job.load.at),
+            },
+            clearance: job.clearance.as_array(),
+            weight,
+            indeterminate_floor: job.analysis.indeterminate_load_fraction * weight,
+            singular_cond: job.analysis.singular_cond,
+            exact: job.analysis.exact,
+        }
+    }
+}

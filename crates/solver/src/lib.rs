@@ -1,0 +1,50 @@
+//! # clearance-solver
+//!
+//! The physics of one pose, after its nominal kinematics (`clearance-kinematics`):
+//!
+//! 1. [`equilibrium`]: Newton-Euler joint reactions, the 24 × 24 system `A·w = b`
+//!    (MODEL.md §4), with gravity, point masses, an external wrench and, in dynamics,
+//!    inertial terms. Solved by faer's partial-pivoting LU ([`LuSolver`]).
+//! 2. [`takeup`]: how each clearance is taken up under those reactions (MODEL.md §5),
+//!    with the contact margins.
+//! 3. [`error_system`]: the 12 × 12 loop-closure system `J_P·Δq_P = J_Cl·Δq_Cl`
+//!    (MODEL.md §6), one right-hand side per clearance kind, giving the pose error
+//!    `ΔΓ = [Δα; Δp]` and its Euler-angle form.
+//! 4. [`exact`]: the same take-up applied as finite offsets to the nonlinear closure
+//!    (MODEL.md §7).
+//!
+//! [`solve_pose`] runs them in order; a bad pose becomes a [`Status`], never a panic.
+//!
+//! Symbols: `A` the equilibrium matrix, `w` the reactions, `b` the known loads;
+//! `J_P` the passive-joint screw matrix, `Δq_P` the passive joint motions, `J_Cl·Δq_Cl`
+//! the clearance twists; `κ₁` the 1-norm condition number.
+//!
+//! ```
+//! use clearance_grid::SampleSource;
+//! use clearance_model::{JobSpec, Mode};
+//! use clearance_solver::{Model, Workspace, solve_pose, Status};
+//! let job = JobSpec::from_toml_str(
+//!     "[clearance]\ns_radial = 1e-4\n[grid]\nz = 2.05\npsi = 0.1\ntheta = 0.2\n", "j.toml").unwrap();
+//! let model = Model::from_job(&job);
+//! let sample = SampleSource::new(&job).sample(0);
+//! let r = solve_pose(&model, &sample, Mode::Kinetostatic, &mut Workspace::new());
+//! assert_eq!(r.status, Status::Ok);
+//! assert!(r.total.dp.z < 0.0); // under its own weight the platform sags
+//! ```
+
+#![allow(non_snake_case)]
+
+pub mod bodies;
+pub mod equilibrium;
+pub mod error_system;
+pub mod exact;
+mod linalg;
+mod pose;
+pub mod takeup;
+
+pub use bodies::{Inertial, Load, MassModel, Model};
+pub use equilibrium::JointReactions;
+pub use error_system::PoseError;
+pub use linalg::LuSolver;
+pub use pose::{PoseResult, Status, Workspace, solve_pose};
+pub use takeup::{Margins, TakeUp};

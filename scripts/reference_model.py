@@ -1,0 +1,801 @@
+"""Independent, vectorised NumPy reference of the clearance pose pipeline.
+
+Follows ../../shared/MODEL.md (physics), ../../shared/INTERFACE.md (job keys and
+`poses` column names) and ../docs/conventions.md (sampling, status, nulls,
+condition numbers).  Written without looking at the Rust engine.
+
+Everything is batched over poses: arrays have a leading sample axis N; the
+24x24 equilibrium systems, the 12x12 loop-closure systems and the 9x9 Newton
+steps of the exact mode are solved as stacks with ``np.linalg.solve``.
+
+Time derivatives (dynamic mode) use forward-mode automatic differentiation
+with second-order Taylor jets (:class:`Jet`): every kinematic quantity carries
+its value, first and second time derivative, propagated exactly (round-off
+only) from the analytic derivatives of the harmonic inputs.
+
+Usage::
+
+    import tomllib, reference_model as rm
+    job = tomllib.load(open("job.toml", "rb"))
+    cols = rm.compute(job)          # dict: column name -> np.ndarray
+    cols["err_x"], cols["status"], cols["mode"], cols["sample"]
+
+NaN marks the cells the engine writes as null (string columns use None).
+Importing this module has no side effects.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+
+__all__ = [
+    "Jet", "KINDS", "COMPONENTS", "DEFAULTS", "normalize_job", "sample_inputs",
+    "parasitic", "kinematics", "equilibrium_system", "take_up", "loop_system",
+    "euler_errors", "exact_errors", "compute", "column_names", "kappa1",
+]
+
+KINDS = ("s_radial", "r_radial", "r_axial", "r_angular")
+COMPONENTS = ("x", "y", "z", "rx", "ry", "rz", "phi", "psi", "theta")
+
+ALPHA = np.array([0.0, 2.0 * np.pi / 3.0, 4.0 * np.pi / 3.0])
+XJ = np.stack([np.cos(ALPHA), np.sin(ALPHA), np.zeros(3)], axis=-1)   # (3 limbs, xyz)
+YJ = np.stack([-np.sin(ALPHA), np.cos(ALPHA), np.zeros(3)], axis=-1)
+EZ = np.array([0.0, 0.0, 1.0])
+I3 = np.eye(3)
+
+DEFAULTS = {
+    "mechanism": {"base_radius": 0.18, "platform_radius": 0.36, "leg_length": 1.0,
+                  "gravity": [0.0, 0.0, -9.81]},
+    "mass": {"platform": 9.8, "leg": 3.0, "points": []},
+    "load": {"force": [0.0, 0.0, 0.0], "moment": [0.0, 0.0, 0.0], "at": [0.0, 0.0, 0.0]},
+    # The paper gives no clearance values; a missing clearance is rigid (0).
+    "clearance": {"s_radial": 0.0, "r_radial": 0.0, "r_axial": 0.0, "r_angular": 0.0},
+    "analysis": {"modes": ["kinetostatic"], "exact": False,
+                 "discontinuity_load_fraction": 0.05, "singular_cond": 1e8,
+                 "indeterminate_load_fraction": 1e-9},
+}
+
+
+# --------------------------------------------------------------------------
+# Second-order forward-mode AD: value, d/dt, d2/dt2
+# --------------------------------------------------------------------------
+class Jet:
+    """Truncated Taylor jet (v, v', v'') of an array-valued function of time."""
+
+    __slots__ = ("v", "d", "dd")
+    __array_priority__ = 1000.0
+
+    def __init__(self, v, d=None, dd=None):
+        self.v = np.asarray(v, dtype=float)
+        self.d = np.zeros_like(self.v) if d is None else np.asarray(d, dtype=float)
+        self.dd = np.zeros_like(self.v) if dd is None else np.asarray(dd, dtype=float)
+
+    # bilinear operations: (ab)' = a'b + ab', (ab)'' = a''b + 2a'b' + ab''
+    @staticmethod
+    def _bilinear(f, a, b):
+        if not isinstance(a, Jet):
+            return Jet(f(a, b.v), f(a, b.d), f(a, b.dd))
+        if not isinstance(b, Jet):
+            return Jet(f(a.v, b), f(a.d, b), f(a.dd, b))
+        return Jet(f(a.v, b.v), f(a.d, b.v) + f(a.v, b.d),
+                   f(a.dd, b.v) + 2.0 * f(a.d, b.d) + f(a.v, b.dd))
+
+    def __add__(self, o):
+        if isinstance(o, Jet):
+            return Jet(self.v + o.v, self.d + o.d, self.dd + o.dd)
+        v = self.v + o
+        return Jet(v, np.broadcast_to(self.d, v.shape), np.broadcast_to(self.dd, v.shape))
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        return Jet(-self.v, -self.d, -self.dd)
+
+    def __sub__(self, o):
+        return self + (-o)
+
+    def __rsub__(self, o):
+        return (-self) + o
+
+    def __mul__(self, o):
+        return Jet._bilinear(np.multiply, self, o)
+
+    def __rmul__(self, o):
+        return Jet._bilinear(np.multiply, o, self)
+
+    def __matmul__(self, o):
+        return Jet._bilinear(np.matmul, self, o)
+
+    def __rmatmul__(self, o):
+        return Jet._bilinear(np.matmul, o, self)
+
+    def __truediv__(self, o):
+        if isinstance(o, Jet):
+            return self * _chain(o, 1.0 / o.v, -1.0 / o.v ** 2, 2.0 / o.v ** 3)
+        return Jet(self.v / o, self.d / o, self.dd / o)
+
+    def __rtruediv__(self, o):
+        return o * _chain(self, 1.0 / self.v, -1.0 / self.v ** 2, 2.0 / self.v ** 3)
+
+    def __getitem__(self, idx):
+        return Jet(self.v[idx], self.d[idx], self.dd[idx])
+
+    def sum(self, axis):
+        return Jet(self.v.sum(axis), self.d.sum(axis), self.dd.sum(axis))
+
+    def swapaxes(self, a, b):
+        return Jet(self.v.swapaxes(a, b), self.d.swapaxes(a, b), self.dd.swapaxes(a, b))
+
+    def expand(self, axis):
+        return Jet(np.expand_dims(self.v, axis), np.expand_dims(self.d, axis),
+                   np.expand_dims(self.dd, axis))
+
+
+def _chain(x: Jet, f0, f1, f2) -> Jet:
+    """g(x) with g, g', g'' evaluated at x.v."""
+    return Jet(f0, f1 * x.d, f2 * x.d ** 2 + f1 * x.dd)
+
+
+def _val(x):
+    return x.v if isinstance(x, Jet) else x
+
+
+def jsin(x):
+    if isinstance(x, Jet):
+        s, c = np.sin(x.v), np.cos(x.v)
+        return _chain(x, s, c, -s)
+    return np.sin(x)
+
+
+def jcos(x):
+    if isinstance(x, Jet):
+        s, c = np.sin(x.v), np.cos(x.v)
+        return _chain(x, c, -s, -c)
+    return np.cos(x)
+
+
+def jsqrt(x):
+    if isinstance(x, Jet):
+        r = np.sqrt(x.v)
+        return _chain(x, r, 0.5 / r, -0.25 / (r * x.v))
+    return np.sqrt(x)
+
+
+def jatan2(y, x):
+    if not (isinstance(y, Jet) or isinstance(x, Jet)):
+        return np.arctan2(y, x)
+    y = y if isinstance(y, Jet) else Jet(y)
+    x = x if isinstance(x, Jet) else Jet(x)
+    den = x.v ** 2 + y.v ** 2
+    num = x.v * y.d - y.v * x.d
+    num_d = x.v * y.dd - y.v * x.dd
+    den_d = 2.0 * (x.v * x.d + y.v * y.d)
+    return Jet(np.arctan2(y.v, x.v), num / den, (num_d * den - num * den_d) / den ** 2)
+
+
+def jstack(items, axis):
+    if not any(isinstance(i, Jet) for i in items):
+        return np.stack(np.broadcast_arrays(*items), axis=axis)
+    shape = np.broadcast_shapes(*[np.shape(_val(i)) for i in items])
+    vs, ds, dds = [], [], []
+    for i in items:
+        if isinstance(i, Jet):
+            vs.append(np.broadcast_to(i.v, shape)); ds.append(np.broadcast_to(i.d, shape))
+            dds.append(np.broadcast_to(i.dd, shape))
+        else:
+            vs.append(np.broadcast_to(np.asarray(i, float), shape))
+            ds.append(np.zeros(shape)); dds.append(np.zeros(shape))
+    return Jet(np.stack(vs, axis), np.stack(ds, axis), np.stack(dds, axis))
+
+
+def jcross(a, b):
+    if isinstance(a, Jet) or isinstance(b, Jet):
+        return Jet._bilinear(np.cross, a, b)
+    return np.cross(a, b)
+
+
+# --------------------------------------------------------------------------
+# Small linear-algebra helpers
+# --------------------------------------------------------------------------
+def skew(r):
+    """skew(r) @ f == r x f; r (...,3) -> (...,3,3)."""
+    z = np.zeros(r.shape[:-1])
+    return np.stack([np.stack([z, -r[..., 2], r[..., 1]], -1),
+                     np.stack([r[..., 2], z, -r[..., 0]], -1),
+                     np.stack([-r[..., 1], r[..., 0], z], -1)], -2)
+
+
+def vee(S):
+    """Axial vector of the skew part of S (...,3,3)."""
+    return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0],
+                           S[..., 1, 0] - S[..., 0, 1]], -1)
+
+
+def norm1(M):
+    """Matrix 1-norm (max column abs sum) of a stack (...,n,n)."""
+    return np.abs(M).sum(axis=-2).max(axis=-1)
+
+
+def _inv_stack(M):
+    """Batched inverse; exactly singular members get +inf."""
+    try:
+        return np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        out = np.empty_like(M)
+        for k in range(M.shape[0]):   # rare fallback only
+            try:
+                out[k] = np.linalg.inv(M[k])
+            except np.linalg.LinAlgError:
+                out[k] = np.inf
+        return out
+
+
+def kappa1(M):
+    """Exact 1-norm condition number ||M||_1 * ||M^-1||_1 of a stack."""
+    with np.errstate(all="ignore"):
+        return norm1(M) * norm1(_inv_stack(M))
+
+
+def _solve_stack(M, rhs):
+    try:
+        return np.linalg.solve(M, rhs)
+    except np.linalg.LinAlgError:
+        out = np.full(rhs.shape, np.nan)
+        for k in range(M.shape[0]):   # rare fallback only
+            try:
+                out[k] = np.linalg.solve(M[k], rhs[k])
+            except np.linalg.LinAlgError:
+                pass
+        return out
+
+
+def rot_exp(v):
+    """Rodrigues: rotation matrices exp([v]x) for v (...,3), accurate for tiny |v|."""
+    th = np.linalg.norm(v, axis=-1)
+    small = th < 1e-4
+    ths = np.where(small, 1.0, th)
+    a = np.where(small, 1.0 - th ** 2 / 6.0 + th ** 4 / 120.0, np.sin(ths) / ths)
+    b = np.where(small, 0.5 - th ** 2 / 24.0 + th ** 4 / 720.0,
+                 2.0 * np.sin(0.5 * ths) ** 2 / ths ** 2)
+    K = skew(v)
+    return I3 + a[..., None, None] * K + b[..., None, None] * (K @ K)
+
+
+def rot_log(Rm):
+    """Rotation vector of R (...,3,3) (angle < pi), accurate for tiny angles."""
+    s_vec = vee(Rm)                                  # sin(th) * axis
+    s = np.linalg.norm(s_vec, axis=-1)
+    c = 0.5 * (np.trace(Rm, axis1=-2, axis2=-1) - 1.0)
+    th = np.arctan2(s, c)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = np.where(s > 1e-300, th / np.where(s > 1e-300, s, 1.0), 1.0)
+    return f[..., None] * s_vec
+
+
+# --------------------------------------------------------------------------
+# Job handling and sampling
+# --------------------------------------------------------------------------
+def _merge(base, over):
+    out = copy.deepcopy(base)
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = _merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def normalize_job(job: dict) -> dict:
+    """Job dict (from tomllib) with defaults filled in and derived quantities."""
+    j = _merge(DEFAULTS, job)
+    if ("grid" in j) == ("trajectory" in j):
+        raise ValueError("exactly one of [grid] or [trajectory] is required")
+    mech, mass, load = j["mechanism"], j["mass"], j["load"]
+    P = {
+        "Rb": float(mech["base_radius"]), "rp": float(mech["platform_radius"]),
+        "L": float(mech["leg_length"]), "g": np.array(mech["gravity"], float),
+        "m_plat": float(mass["platform"]), "m_leg": float(mass["leg"]),
+        "f_ext": np.array(load["force"], float), "m_ext": np.array(load["moment"], float),
+        "at_ext": np.array(load["at"], float),
+        "clear": {k: float(j["clearance"][k]) for k in KINDS},
+        "modes": list(j["analysis"]["modes"]), "exact": bool(j["analysis"]["exact"]),
+        "singular_cond": float(j["analysis"]["singular_cond"]),
+        "indet_frac": float(j["analysis"]["indeterminate_load_fraction"]),
+        "trajectory": "trajectory" in j,
+    }
+    if not P["trajectory"] and "dynamic" in P["modes"]:
+        raise ValueError("dynamic mode is only valid on trajectories")
+    for m in P["modes"]:
+        if m not in ("kinetostatic", "dynamic"):
+            raise ValueError(f"unknown mode {m!r}")
+    rp, mp = P["rp"], P["m_plat"]
+    if "platform_inertia" in mass:
+        I_own = np.diag(np.array(mass["platform_inertia"], float))
+    else:
+        I_own = np.diag([mp * rp ** 2 / 4.0, mp * rp ** 2 / 4.0, mp * rp ** 2 / 2.0])
+    pm = np.array([float(pt["mass"]) for pt in mass["points"]], float)
+    pa = np.array([pt["at"] for pt in mass["points"]], float).reshape(-1, 3)
+    m_tot = mp + pm.sum()
+    c_loc = (pm[:, None] * pa).sum(0) / m_tot            # platform's own CoM is at P
+    I_P = I_own.copy()
+    for mk, ak in zip(pm, pa):                            # parallel axis, about P
+        I_P += mk * (ak @ ak * I3 - np.outer(ak, ak))
+    I_C = I_P - m_tot * (c_loc @ c_loc * I3 - np.outer(c_loc, c_loc))
+    P.update(m_body=m_tot, c_loc=c_loc, I_C_loc=I_C,
+             W=(m_tot + 3.0 * P["m_leg"]) * float(np.linalg.norm(P["g"])))
+    P["job"] = j
+    return P
+
+
+def _grid_axis(spec):
+    if isinstance(spec, dict):
+        start, stop, n = float(spec["start"]), float(spec["stop"]), int(spec["n"])
+        if n == 1:
+            return np.array([start])
+        i = np.arange(n, dtype=float)
+        return start + (stop - start) * i / (n - 1)
+    return np.array([float(spec)])
+
+
+def _harmonic(spec, t):
+    """value, 1st and 2nd time derivative of offset + sum A sin(2 pi t / T + phase)."""
+    if not isinstance(spec, dict):
+        c = float(spec)
+        return np.full_like(t, c), np.zeros_like(t), np.zeros_like(t)
+    v = np.full_like(t, float(spec.get("offset", 0.0)))
+    d = np.zeros_like(t)
+    dd = np.zeros_like(t)
+    for h in spec.get("harmonics", []):
+        A, T, ph = float(h["amplitude"]), float(h["period"]), float(h.get("phase", 0.0))
+        w = 2.0 * np.pi / T
+        arg = 2.0 * np.pi * t / T + ph
+        v = v + A * np.sin(arg)
+        d = d + A * w * np.cos(arg)
+        dd = dd - A * w * w * np.sin(arg)
+    return v, d, dd
+
+
+def sample_inputs(P_or_job) -> dict:
+    """Samples of the job: dict with t (NaN on grids), z, psi, theta and, on
+    trajectories, Jets zj, psij, thetaj carrying exact time derivatives."""
+    P = P_or_job if "job" in P_or_job else normalize_job(P_or_job)
+    j = P["job"]
+    if "grid" in j:
+        g = j["grid"]
+        zs, ps, ts = _grid_axis(g.get("z", 0.0)), _grid_axis(g.get("psi", 0.0)), \
+            _grid_axis(g.get("theta", 0.0))
+        Z, PS, TH = np.meshgrid(zs, ps, ts, indexing="ij")     # row-major (z, psi, theta)
+        n = Z.size
+        return {"t": np.full(n, np.nan), "z": Z.ravel(), "psi": PS.ravel(),
+                "theta": TH.ravel()}
+    tr = j["trajectory"]
+    t = _grid_axis(tr["time"])
+    out = {"t": t}
+    for key in ("z", "psi", "theta"):
+        v, d, dd = _harmonic(tr.get(key, 0.0), t)
+        out[key] = v
+        out[key + "j"] = Jet(v, d, dd)
+    return out
+
+
+# --------------------------------------------------------------------------
+# Nominal kinematics (MODEL.md section 2)
+# --------------------------------------------------------------------------
+def parasitic(z, psi, theta, rp):
+    """Closed forms: returns x, y, phi (works on arrays or Jets)."""
+    sps, cps, sth, cth = jsin(psi), jcos(psi), jsin(theta), jcos(theta)
+    phi = jatan2(sps * sth, cps + cth)
+    sph, cph = jsin(phi), jcos(phi)
+    y = -rp * cps * sph
+    x = 0.5 * rp * (cth * cph - cph * cps + sps * sth * sph)
+    return x, y, phi
+
+
+def _rot(axis, c, s):
+    one, zero = 1.0, 0.0
+    if axis == "x":
+        rows = [[one, zero, zero], [zero, c, -s], [zero, s, c]]
+    elif axis == "y":
+        rows = [[c, zero, s], [zero, one, zero], [-s, zero, c]]
+    else:
+        rows = [[c, -s, zero], [s, c, zero], [zero, zero, one]]
+    return jstack([jstack(r, -1) for r in rows], -2)
+
+
+def kinematics(P, z, psi, theta):
+    """Nominal pose of every body; inputs arrays (N,) or Jets of shape (N,).
+
+    Returns a dict; entries are Jets when the inputs are Jets."""
+    rp, Rb, L = P["rp"], P["Rb"], P["L"]
+    x, y, phi = parasitic(z, psi, theta, rp)
+    Rm = (_rot("y", jcos(theta), jsin(theta)) @ _rot("x", jcos(psi), jsin(psi))) \
+        @ _rot("z", jcos(phi), jsin(phi))                                  # (N,3,3)
+    p = jstack([x, y, z], -1)                                              # (N,3)
+    ap = rp * XJ                                                           # a'_j (3,3)
+    A = (Rm @ ap.T).swapaxes(-1, -2) + p.expand(-2) if isinstance(p, Jet) \
+        else (Rm @ ap.T).swapaxes(-1, -2) + p[:, None, :]                  # (N,3 limbs,3)
+    rho = (A * XJ).sum(-1)
+    h = A[..., 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = L * L - (rho - Rb) * (rho - Rb)
+        q = h - jsqrt(s)
+    reach = np.all(_val(s) >= 0.0, axis=-1)
+    qe = q.expand(-1) if isinstance(q, Jet) else q[..., None]
+    B = qe * EZ + Rb * XJ
+    e = (A - B) / L
+    C = p + Rm @ P["c_loc"]
+    E = p + Rm @ P["at_ext"]
+    return {"x": x, "y": y, "phi": phi, "R": Rm, "p": p, "A": A, "B": B, "q": q, "e": e,
+            "C": C, "E": E, "reach": reach}
+
+
+def motion(kin, P):
+    """Velocities/accelerations needed by Newton-Euler, from the Jets in kin."""
+    Rj, ej = kin["R"], kin["e"]
+    Rt = Rj.v.swapaxes(-1, -2)
+    omega = vee(Rj.d @ Rt)                      # R' R^T = [w]x
+    domega = vee(Rj.dd @ Rt)                    # skew part of R'' R^T = [w']x
+    w_leg = np.cross(ej.v, ej.d)                # e x e'
+    dw_leg = np.cross(ej.v, ej.dd)              # e x e''
+    a_G = 0.5 * (kin["A"].dd + kin["B"].dd)
+    return {"omega": omega, "domega": domega, "w_leg": w_leg, "dw_leg": dw_leg,
+            "a_G": a_G, "a_C": kin["C"].dd}
+
+
+# --------------------------------------------------------------------------
+# Equilibrium A w = b (MODEL.md section 4)
+# unknowns per limb j (offset 8j): f_R (3), mu1, mu2, f_S (3)
+# rows: leg j forces 6j..6j+2, leg j moments 6j+3..6j+5, platform forces 18..20,
+#       platform moments about C 21..23
+# --------------------------------------------------------------------------
+def equilibrium_matrix(P, A, B, C):
+    N = A.shape[0]
+    M = np.zeros((N, 24, 24))
+    G = 0.5 * (A + B)
+    for j in range(3):
+        r, c = 6 * j, 8 * j
+        M[:, r:r + 3, c:c + 3] = I3
+        M[:, r:r + 3, c + 5:c + 8] = -I3
+        M[:, r + 3:r + 6, c + 3] = XJ[j]
+        M[:, r + 3:r + 6, c + 4] = EZ
+        M[:, r + 3:r + 6, c:c + 3] = skew(B[:, j] - G[:, j])
+        M[:, r + 3:r + 6, c + 5:c + 8] = -skew(A[:, j] - G[:, j])
+        M[:, 18:21, c + 5:c + 8] = I3
+        M[:, 21:24, c + 5:c + 8] = skew(A[:, j] - C)
+    return M
+
+
+def equilibrium_rhs(P, kin_v, mot=None):
+    """b for kinetostatics (mot None) or dynamics."""
+    A, B, C, E, Rm, e = (kin_v[k] for k in ("A", "B", "C", "E", "R", "e"))
+    N = A.shape[0]
+    g, ml, m = P["g"], P["m_leg"], P["m_body"]
+    b = np.zeros((N, 24))
+    Ileg = ml * P["L"] ** 2 / 12.0 * (I3 - e[..., :, None] * e[..., None, :])  # (N,3,3,3)
+    for j in range(3):
+        r = 6 * j
+        b[:, r:r + 3] = -ml * g
+        if mot is not None:
+            b[:, r:r + 3] += ml * mot["a_G"][:, j]
+            wj, dwj = mot["w_leg"][:, j], mot["dw_leg"][:, j]
+            Iw = np.einsum("nab,nb->na", Ileg[:, j], wj)
+            b[:, r + 3:r + 6] = np.einsum("nab,nb->na", Ileg[:, j], dwj) + np.cross(wj, Iw)
+    b[:, 18:21] = -m * g - P["f_ext"]
+    b[:, 21:24] = -np.cross(E - C, P["f_ext"]) - P["m_ext"]
+    if mot is not None:
+        b[:, 18:21] += m * mot["a_C"]
+        I_w = Rm @ P["I_C_loc"] @ Rm.swapaxes(-1, -2)
+        w, dw = mot["omega"], mot["domega"]
+        b[:, 21:24] += np.einsum("nab,nb->na", I_w, dw) + \
+            np.cross(w, np.einsum("nab,nb->na", I_w, w))
+    return b
+
+
+def equilibrium_system(P, kin_v, mot=None):
+    return equilibrium_matrix(P, kin_v["A"], kin_v["B"], kin_v["C"]), \
+        equilibrium_rhs(P, kin_v, mot)
+
+
+def unpack_reactions(w):
+    """w (N,24) -> f_R (N,3,3), m_R (N,3,3), f_S (N,3,3), indexed [n, limb, xyz]."""
+    W = w.reshape(w.shape[0], 3, 8)
+    fR, mu1, mu2, fS = W[..., 0:3], W[..., 3], W[..., 4], W[..., 5:8]
+    mR = mu1[..., None] * XJ + mu2[..., None] * EZ
+    return fR, mR, fS
+
+
+# --------------------------------------------------------------------------
+# Take-up (MODEL.md section 5)
+# --------------------------------------------------------------------------
+def take_up(P, fR, mR, fS):
+    """Per kind: displacement (N,3,3) and margin (N,3), plus the floor.
+
+    Displacements are world vectors: s_radial -> S translation of the platform
+    relative to the leg, r_radial / r_axial -> R translation of the leg
+    relative to the slider, r_angular -> R rotation vector."""
+    fy = (fR * YJ).sum(-1)
+    fperp = fR - fy[..., None] * YJ
+    margins = {"s_radial": np.linalg.norm(fS, axis=-1),
+               "r_radial": np.linalg.norm(fperp, axis=-1),
+               "r_axial": np.abs(fy),
+               "r_angular": np.linalg.norm(mR, axis=-1)}
+    floor = P["indet_frac"] * P["W"]
+    disp, indet = {}, {}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for k in KINDS:
+            c = P["clear"][k]
+            mg = margins[k]
+            bad = mg <= floor
+            if c == 0.0:
+                disp[k] = np.zeros_like(fR)
+                indet[k] = np.zeros(fR.shape[0], bool)
+                continue
+            safe = np.where(bad, 1.0, mg)[..., None]
+            if k == "s_radial":
+                d = -c * fS / safe
+            elif k == "r_radial":
+                d = -c * fperp / safe
+            elif k == "r_axial":
+                d = -c * np.sign(fy)[..., None] * YJ
+            else:
+                d = -c * mR / safe
+            disp[k] = np.where(bad[..., None], 0.0, d)
+            indet[k] = np.any(bad, axis=-1)
+    return disp, margins, indet
+
+
+# --------------------------------------------------------------------------
+# Error kinematics (MODEL.md section 6): J_P dq_P = J_Cl dq_Cl, 12 x 12
+# passive unknowns per limb (offset 4j): R rotation about y_j, S rotations about
+# world x, y, z through A_j.  Rows: twist of limb 2 - limb 1, limb 3 - limb 1.
+# --------------------------------------------------------------------------
+def passive_screws(p, A, B):
+    """(N, 3 limbs, 6, 4) screws [w; v_P] of the passive joints of each limb."""
+    N = p.shape[0]
+    S = np.zeros((N, 3, 6, 4))
+    for j in range(3):
+        S[:, j, 0:3, 0] = YJ[j]
+        S[:, j, 3:6, 0] = np.cross(B[:, j] - p, YJ[j])
+        for k in range(3):
+            S[:, j, k, 1 + k] = 1.0
+            S[:, j, 3:6, 1 + k] = np.cross(A[:, j] - p, I3[k])
+    return S
+
+
+def loop_matrix(S):
+    N = S.shape[0]
+    J = np.zeros((N, 12, 12))
+    for l in range(2):
+        J[:, 6 * l:6 * l + 6, 4 * (l + 1):4 * (l + 1) + 4] = S[:, l + 1]
+        J[:, 6 * l:6 * l + 6, 0:4] = -S[:, 0]
+    return J
+
+
+def clearance_twists(kind, d, p, B):
+    """Twist [w; v_P] (N,3,6) of the clearance freedoms of each limb for one kind."""
+    T = np.zeros(d.shape[:-1] + (6,))
+    if kind == "r_angular":
+        T[..., 0:3] = d
+        T[..., 3:6] = np.cross(B - p[:, None, :], d)
+    else:
+        T[..., 3:6] = d
+    return T
+
+
+def loop_system(S, Tcl):
+    """J_P and right-hand sides J_Cl dq_Cl for clearance twists Tcl (N,3,6,K)."""
+    J = loop_matrix(S)
+    rhs = np.concatenate([Tcl[:, 0] - Tcl[:, 1], Tcl[:, 0] - Tcl[:, 2]], axis=1)  # (N,12,K)
+    return J, rhs
+
+
+def pose_error(S, Tcl, dqP):
+    """Delta Gamma = [d_alpha; d_p] from limb 1: passive + clearance twists."""
+    return np.einsum("nak,nkc->nac", S[:, 0], dqP[:, 0:4]) + Tcl[:, 0]
+
+
+def euler_matrix(psi, theta):
+    """Columns [y, Ry(theta) x, Ry(theta) Rx(psi) z] -> unknowns (dTheta, dPsi, dPhi)."""
+    sps, cps, sth, cth = np.sin(psi), np.cos(psi), np.sin(theta), np.cos(theta)
+    z0 = np.zeros_like(psi)
+    c_y = np.stack([z0, z0 + 1.0, z0], -1)
+    c_x = np.stack([cth, z0, -sth], -1)
+    c_z = np.stack([cps * sth, -sps, cps * cth], -1)
+    return np.stack([c_y, c_x, c_z], -1)
+
+
+def euler_errors(psi, theta, dalpha):
+    """(dPhi, dPsi, dTheta) for dalpha (N,3,K) -> (N,3,K) ordered phi, psi, theta."""
+    sol = np.linalg.solve(euler_matrix(psi, theta), dalpha)      # rows: dTheta, dPsi, dPhi
+    return sol[:, ::-1]
+
+
+# --------------------------------------------------------------------------
+# Exact error (MODEL.md section 7)
+# --------------------------------------------------------------------------
+def exact_errors(P, kin_v, dB, dth, dA, tol=1e-13, max_iter=30):
+    """Newton on (platform rotation increment, p', phi_j), all poses at once.
+
+    dB, dth, dA: (N,3,3) R translation, R rotation vector, S translation.
+    Returns (N,6) [log(R' R^T), p' - p] (NaN where Newton fails) and converged mask."""
+    Rm, p, B, e, L = kin_v["R"], kin_v["p"], kin_v["B"], kin_v["e"], P["L"]
+    N = p.shape[0]
+    ap = P["rp"] * XJ
+    Rth = rot_exp(dth)                                   # (N,3,3 limbs..) -> (N,3,3,3)
+    yxe = np.cross(YJ, e)
+    Rc, pc, phi = Rm.copy(), p.copy(), np.zeros((N, 3))
+    conv = np.zeros(N, bool)
+    scale = L
+
+    def residual(Rc, pc, phi):
+        leg = np.cos(phi)[..., None] * e + np.sin(phi)[..., None] * yxe
+        Aleg = B + dB + L * np.einsum("njab,njb->nja", Rth, leg)
+        Ap = pc[:, None, :] + np.einsum("nab,jb->nja", Rc, ap)
+        return Ap - Aleg - dA, leg
+
+    for _ in range(max_iter):
+        F, leg = residual(Rc, pc, phi)
+        J = np.zeros((N, 3, 3, 9))
+        RA = np.einsum("nab,jb->nja", Rc, ap)
+        dleg = np.cos(phi)[..., None] * yxe - np.sin(phi)[..., None] * e   # d leg / d phi
+        for j in range(3):
+            J[:, j, :, 0:3] = -skew(RA[:, j])
+            J[:, j, :, 3:6] = I3
+            J[:, j, :, 6 + j] = -L * np.einsum("nab,nb->na", Rth[:, j], dleg[:, j])
+        step = _solve_stack(J.reshape(N, 9, 9), -F.reshape(N, 9, 1))[..., 0]
+        Rc = rot_exp(step[:, 0:3]) @ Rc
+        pc = pc + step[:, 3:6]
+        phi = phi + step[:, 6:9]
+        if np.all(~np.all(np.isfinite(step), -1) | (np.abs(step).max(-1) <= 1e-15 * scale)):
+            break
+    F, _ = residual(Rc, pc, phi)
+    res = np.abs(F).reshape(N, 9).max(-1)
+    conv = np.isfinite(res) & (res <= tol * scale)
+    out = np.concatenate([rot_log(Rc @ Rm.swapaxes(-1, -2)), pc - p], axis=-1)
+    out[~conv] = np.nan
+    return out, conv
+
+
+# --------------------------------------------------------------------------
+# Full pipeline
+# --------------------------------------------------------------------------
+def column_names(job_or_P, columns="full") -> list:
+    P = job_or_P if "job" in job_or_P else normalize_job(job_or_P)
+    names = ["variant", "mode", "sample", "t", "z", "psi", "theta", "status"]
+    names += [f"err_{c}" for c in COMPONENTS]
+    if columns in ("standard", "full"):
+        names += [f"err_{k}_{c}" for k in KINDS for c in COMPONENTS]
+        names += ["x", "y", "phi", "q1", "q2", "q3"]
+        for j in (1, 2, 3):
+            names += [f"margin_r{j}_radial", f"margin_r{j}_axial",
+                      f"margin_r{j}_angular", f"margin_s{j}"]
+    if columns == "full":
+        for j in (1, 2, 3):
+            names += [f"f_r{j}_{a}" for a in "xyz"] + [f"m_r{j}_{a}" for a in "xyz"] + \
+                [f"f_s{j}_{a}" for a in "xyz"]
+        names += ["cond_a", "cond_jp"]
+    if P["exact"]:
+        names += [f"exact_err_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")]
+    return names
+
+
+def _compute_chunk(P, smp, sl, modes):
+    z, psi, theta = smp["z"][sl], smp["psi"][sl], smp["theta"][sl]
+    N = z.size
+    dyn = "dynamic" in modes
+    if dyn:
+        kj = kinematics(P, smp["zj"][sl], smp["psij"][sl], smp["thetaj"][sl])
+        kin = {k: (v.v if isinstance(v, Jet) else v) for k, v in kj.items()}
+        mot = motion(kj, P)
+    else:
+        kin = kinematics(P, z, psi, theta)
+    reach = kin["reach"]
+    # unreachable poses: substitute a harmless posture so the stacks stay solvable
+    good = reach
+    kin_s = dict(kin)
+    if not np.all(good):
+        ref = kinematics(P, np.full(N, 2.0 * P["L"]), np.zeros(N), np.zeros(N))
+        for k in ("A", "B", "C", "E", "R", "e", "p"):
+            m = good.reshape((N,) + (1,) * (kin[k].ndim - 1))
+            kin_s[k] = np.where(m, kin[k], ref[k])
+    Amat = equilibrium_matrix(P, kin_s["A"], kin_s["B"], kin_s["C"])
+    bs = [equilibrium_rhs(P, kin_s, mot if m == "dynamic" else None) for m in modes]
+    wsol = _solve_stack(Amat, np.stack(bs, -1))                  # (N,24,M)
+    cond_a = kappa1(Amat)
+    S = passive_screws(kin_s["p"], kin_s["A"], kin_s["B"])
+    JP = loop_matrix(S)
+    cond_jp = kappa1(JP)
+    singular = ~((cond_a <= P["singular_cond"]) & (cond_jp <= P["singular_cond"]))
+
+    out = {}
+    for mi, mode in enumerate(modes):
+        fR, mR, fS = unpack_reactions(wsol[..., mi])
+        disp, margins, indet = take_up(P, fR, mR, fS)
+        Tcl = np.stack([clearance_twists(k, disp[k], kin_s["p"], kin_s["B"]) for k in KINDS],
+                       -1)                                                 # (N,3,6,4)
+        _, rhs = loop_system(S, Tcl)
+        dqP = _solve_stack(JP, rhs)
+        G = pose_error(S, Tcl, dqP)                                        # (N,6,4)
+        eul = euler_errors(psi, theta, G[:, 0:3])                          # (N,3,4)
+        per = np.concatenate([G[:, 3:6], G[:, 0:3], eul], axis=1)          # (N,9,4) in COMPONENTS order
+        any_indet = np.zeros(N, bool)
+        for k in KINDS:
+            any_indet |= indet[k]
+        status = np.where(~reach, "unreachable",
+                          np.where(singular, "near_singular",
+                                   np.where(any_indet, "indeterminate_contact", "ok")))
+        ok = status == "ok"
+        full_rows = ok | (status == "indeterminate_contact")
+        cols = {"mode": np.full(N, mode, dtype=object),
+                "sample": np.arange(sl.start, sl.start + N, dtype=np.uint64)}
+        cols["t"], cols["z"], cols["psi"], cols["theta"] = smp["t"][sl], z, psi, theta
+        cols["x"], cols["y"], cols["phi"] = kin["x"], kin["y"], kin["phi"]
+        cols["status"] = status.astype(object)
+        qrow = reach & (singular | full_rows)
+        for j in range(3):
+            cols[f"q{j + 1}"] = np.where(qrow, kin["q"][:, j], np.nan)
+        cols["cond_a"] = np.where(qrow, cond_a, np.nan)
+        cols["cond_jp"] = np.where(qrow, cond_jp, np.nan)
+        tot = per.sum(-1)
+        for ci, c in enumerate(COMPONENTS):
+            cols[f"err_{c}"] = np.where(ok, tot[:, ci], np.nan)
+            for ki, k in enumerate(KINDS):
+                cols[f"err_{k}_{c}"] = np.where(full_rows & ~indet[k], per[:, ci, ki], np.nan)
+        for j in range(3):
+            for a_i, a in enumerate("xyz"):
+                cols[f"f_r{j + 1}_{a}"] = np.where(full_rows, fR[:, j, a_i], np.nan)
+                cols[f"m_r{j + 1}_{a}"] = np.where(full_rows, mR[:, j, a_i], np.nan)
+                cols[f"f_s{j + 1}_{a}"] = np.where(full_rows, fS[:, j, a_i], np.nan)
+            cols[f"margin_r{j + 1}_radial"] = np.where(full_rows, margins["r_radial"][:, j], np.nan)
+            cols[f"margin_r{j + 1}_axial"] = np.where(full_rows, margins["r_axial"][:, j], np.nan)
+            cols[f"margin_r{j + 1}_angular"] = np.where(full_rows, margins["r_angular"][:, j], np.nan)
+            cols[f"margin_s{j + 1}"] = np.where(full_rows, margins["s_radial"][:, j], np.nan)
+        if P["exact"]:
+            ex = np.full((N, 6), np.nan)
+            if np.any(ok):
+                dB = disp["r_radial"] + disp["r_axial"]
+                ex_ok, _ = exact_errors(P, {k: kin_s[k][ok] for k in kin_s},
+                                        dB[ok], disp["r_angular"][ok], disp["s_radial"][ok])
+                ex[ok] = ex_ok
+            for ci, c in enumerate(("rx", "ry", "rz", "x", "y", "z")):
+                cols[f"exact_err_{c}"] = ex[:, ci]
+        out[mode] = cols
+    return out
+
+
+def compute(job: dict, columns: str = "full", chunk: int = 4096) -> dict:
+    """All `poses` rows of variant 0: dict column -> array (modes concatenated
+    in the job's order; NaN/None where the engine writes null)."""
+    P = job if "job" in job else normalize_job(job)
+    smp = sample_inputs(P)
+    n = smp["z"].size
+    modes = P["modes"]
+    parts = {m: [] for m in modes}
+    for s0 in range(0, n, chunk):
+        sl = slice(s0, min(n, s0 + chunk))
+        res = _compute_chunk(P, smp, sl, modes)
+        for m in modes:
+            res[m]["sample"] = np.arange(sl.start, sl.stop, dtype=np.uint64)
+            parts[m].append(res[m])
+    names = column_names(P, columns)
+    out = {}
+    for name in names:
+        if name == "variant":
+            continue
+        out[name] = np.concatenate([c[name] for m in modes for c in parts[m]])
+    out["variant"] = np.zeros(out["sample"].size, dtype=np.int64)
+    return {k: out[k] for k in names}
+
+
+def pose_arrays(job: dict, z, psi, theta, mode="kinetostatic", zj=None, psij=None,
+                thetaj=None):
+    """Low-level access for tests: everything for explicit input arrays."""
+    P = job if "job" in job else normalize_job(job)
+    z, psi, theta = (np.atleast_1d(np.asarray(a, float)) for a in (z, psi, theta))
+    smp = {"t": np.full(z.size, np.nan), "z": z, "psi": psi, "theta": theta}
+    if mode == "dynamic":
+        smp.update(zj=zj, psij=psij, thetaj=thetaj)
+    return _compute_chunk(P, smp, slice(0, z.size), [mode])[mode]

@@ -1,0 +1,440 @@
+"""Self-tests of scripts/reference_model.py that need no engine.
+
+    python3 -m pytest scripts/test_reference_model.py -q
+
+Each test checks the reference against something computed another way
+(numerical root solve, virtual work, power balance, a second error formulation,
+the exact nonlinear closure, finite differences) or against the null/status
+rules of docs/conventions.md.
+"""
+
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import reference_model as rm  # noqa: E402
+
+ALL4 = {"s_radial": 1e-4, "r_radial": 1e-4, "r_axial": 1e-4, "r_angular": 1e-4}
+RNG = np.random.default_rng(12345)
+
+# A non-symmetric, loaded variant of the prototype used by several tests.
+LOADED = {
+    "mechanism": {"base_radius": 0.21, "platform_radius": 0.33, "leg_length": 1.1,
+                  "gravity": [0.3, -0.2, -9.7]},
+    "mass": {"platform": 11.0, "leg": 2.5, "platform_inertia": [0.4, 0.5, 0.8],
+             "points": [{"mass": 7.0, "at": [0.05, -0.1, 0.6]},
+                        {"mass": 2.0, "at": [-0.2, 0.1, -0.3]}]},
+    "load": {"force": [5.0, -3.0, -20.0], "moment": [1.0, 2.0, -0.5], "at": [0.1, 0.05, 0.2]},
+    "clearance": {"s_radial": 2e-4, "r_radial": 5e-5, "r_axial": 1e-4, "r_angular": 3e-4},
+    "grid": {"z": 2.0, "psi": 0.1, "theta": 0.2},      # unused by pose_arrays
+}
+
+
+def random_inputs(n, span=0.5):
+    return (RNG.uniform(1.6, 2.4, n), RNG.uniform(-span, span, n), RNG.uniform(-span, span, n))
+
+
+def rot(axis, a):
+    c, s = np.cos(a), np.sin(a)
+    if axis == "x":
+        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == "y":
+        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def richardson(f, h=1e-3):
+    """d/dh f(h) at 0 by central differences + one Richardson step (O(h^4))."""
+    d1 = (f(h) - f(-h)) / (2 * h)
+    d2 = (f(h / 2) - f(-h / 2)) / h
+    return (4 * d2 - d1) / 3
+
+
+def with_job(base, **sections):
+    job = {k: (dict(v) if isinstance(v, dict) else v) for k, v in base.items()}
+    for k, v in sections.items():
+        job[k] = v
+    if "trajectory" in sections:
+        job.pop("grid", None)
+    return job
+
+
+# --------------------------------------------------------------------------
+# kinematics
+# --------------------------------------------------------------------------
+def test_parasitic_closed_forms_equal_numerical_root_solve():
+    """X, Y, Phi of MODEL.md s.2 vs Newton on A_j . y_j = 0 (own matrices), 1e-13."""
+    rp = 0.36
+    z, psi, th = random_inputs(200, span=0.8)
+    x, y, phi = rm.parasitic(z, psi, th, rp)
+    for k in range(z.size):
+        u = np.zeros(3)                                  # X, Y, Phi
+        for _ in range(50):
+            def cons(u):
+                R = rot("y", th[k]) @ rot("x", psi[k]) @ rot("z", u[2])
+                p = np.array([u[0], u[1], z[k]])
+                return np.array([(p + R @ (rp * np.array([np.cos(a), np.sin(a), 0.0])))
+                                 @ np.array([-np.sin(a), np.cos(a), 0.0])
+                                 for a in (0.0, 2 * np.pi / 3, 4 * np.pi / 3)])
+            F = cons(u)
+            J = np.column_stack([(cons(u + 1e-7 * e) - cons(u - 1e-7 * e)) / 2e-7
+                                 for e in np.eye(3)])
+            du = np.linalg.solve(J, -F)
+            u = u + du
+            if np.abs(du).max() < 1e-16:
+                break
+        assert np.abs(cons(u)).max() < 1e-15
+        np.testing.assert_allclose([x[k], y[k], phi[k]], u, rtol=0, atol=1e-13)
+
+
+def test_leg_length_and_plane_constraints():
+    P = rm.normalize_job(LOADED)
+    kin = rm.kinematics(P, *random_inputs(500))
+    assert kin["reach"].all()
+    np.testing.assert_allclose(np.linalg.norm(kin["A"] - kin["B"], axis=-1), P["L"],
+                               rtol=0, atol=1e-14)
+    np.testing.assert_allclose((kin["A"] * rm.YJ).sum(-1), 0.0, atol=1e-15)
+    np.testing.assert_allclose((kin["B"] * rm.YJ).sum(-1), 0.0, atol=1e-15)
+    # slider below the platform
+    assert np.all(kin["q"] < kin["A"][..., 2])
+
+
+def test_jet_derivatives_match_finite_differences():
+    """Exact (AD) velocities/accelerations vs Richardson finite differences, 1e-8 rel."""
+    traj = {"offset": 0.1, "harmonics": [{"amplitude": 0.3, "period": 2.0, "phase": 0.4},
+                                         {"amplitude": 0.1, "period": 0.7, "phase": -1.0}]}
+    zs = {"offset": 2.0, "harmonics": [{"amplitude": 0.15, "period": 1.3, "phase": 0.2}]}
+    ps = {"offset": -0.05, "harmonics": [{"amplitude": 0.25, "period": 1.7, "phase": 2.0}]}
+    P = rm.normalize_job(LOADED)
+    t0 = np.linspace(0.0, 3.0, 13)
+
+    def kin_at(t):
+        z, dz, ddz = rm._harmonic(zs, t)
+        p_, dp_, ddp_ = rm._harmonic(ps, t)
+        th, dth, ddth = rm._harmonic(traj, t)
+        return rm.kinematics(P, rm.Jet(z, dz, ddz), rm.Jet(p_, dp_, ddp_),
+                             rm.Jet(th, dth, ddth))
+
+    kj = kin_at(t0)
+    for key in ("x", "y", "phi", "q", "A", "B", "C", "e", "R"):
+        d_fd = richardson(lambda h: kin_at(t0 + h)[key].v)
+        dd_fd = richardson(lambda h: kin_at(t0 + h)[key].d)
+        sc = max(1.0, np.abs(kj[key].d).max())
+        np.testing.assert_allclose(kj[key].d, d_fd, rtol=0, atol=1e-8 * sc, err_msg=key)
+        sc = max(1.0, np.abs(kj[key].dd).max())
+        np.testing.assert_allclose(kj[key].dd, dd_fd, rtol=0, atol=1e-8 * sc, err_msg=key)
+    # platform angular velocity vs the Euler-rate formula
+    mot = rm.motion(kj, P)
+    z, dz, _ = rm._harmonic(zs, t0)
+    psi, dpsi, _ = rm._harmonic(ps, t0)
+    th, dth, _ = rm._harmonic(traj, t0)
+    for k in range(t0.size):
+        Ry, Rx = rot("y", th[k]), rot("x", psi[k])
+        w = dth[k] * np.array([0, 1.0, 0]) + dpsi[k] * Ry[:, 0] + kj["phi"].d[k] * (Ry @ Rx)[:, 2]
+        np.testing.assert_allclose(mot["omega"][k], w, rtol=0, atol=1e-14)
+    # legs rotate about y_j only
+    np.testing.assert_allclose(np.cross(mot["w_leg"], rm.YJ), 0.0, atol=1e-14)
+
+
+def test_sampling_conventions():
+    job = {"grid": {"z": {"start": 1.9, "stop": 2.1, "n": 3}, "psi": {"start": -0.4, "stop": 0.4, "n": 5},
+                    "theta": {"start": -0.3, "stop": 0.5, "n": 4}}}
+    s = rm.sample_inputs(job)
+    assert s["z"].size == 60
+    k = (2 * 5 + 3) * 4 + 1
+    assert s["z"][k] == 2.1 and s["psi"][k] == -0.4 + 0.8 * 3 / 4 and s["theta"][k] == -0.3 + 0.8 * 1 / 3
+    assert s["psi"][2 * 4] == 0.0                      # symmetric range: exact 0 in the middle
+    assert np.isnan(s["t"]).all()
+    s1 = rm.sample_inputs({"grid": {"z": 2.0, "psi": {"start": 0.2, "stop": 0.9, "n": 1}, "theta": 0.0}})
+    assert s1["psi"].tolist() == [0.2]
+    tj = {"trajectory": {"time": {"start": 1.0, "stop": 2.0, "n": 11}, "z": 2.05, "psi": 0.0,
+                         "theta": {"offset": 0.1, "harmonics": [{"amplitude": 0.5, "period": 5.0, "phase": 0.3}]}}}
+    s = rm.sample_inputs(tj)
+    np.testing.assert_allclose(s["theta"], 0.1 + 0.5 * np.sin(2 * np.pi * s["t"] / 5 + 0.3), atol=1e-16)
+    np.testing.assert_allclose(s["thetaj"].d, 0.5 * 2 * np.pi / 5 * np.cos(2 * np.pi * s["t"] / 5 + 0.3), atol=1e-15)
+
+
+# --------------------------------------------------------------------------
+# reactions
+# --------------------------------------------------------------------------
+def test_default_platform_inertia_is_thin_disc():
+    P = rm.normalize_job({"grid": {"z": 2.0}})
+    np.testing.assert_allclose(P["I_C_loc"], np.diag([9.8 * 0.36 ** 2 / 4, 9.8 * 0.36 ** 2 / 4,
+                                                     9.8 * 0.36 ** 2 / 2]), rtol=1e-15)
+    assert P["W"] == pytest.approx((9.8 + 9.0) * 9.81, rel=1e-15)
+
+
+def test_equilibrium_residual_and_cond():
+    P = rm.normalize_job(LOADED)
+    kin = rm.kinematics(P, *random_inputs(300))
+    M, b = rm.equilibrium_system(P, kin)
+    w = np.linalg.solve(M, b[..., None])[..., 0]
+    res = np.einsum("nij,nj->ni", M, w) - b
+    assert np.abs(res).max() <= 1e-12 * np.abs(b).max()
+    ka = rm.kappa1(M)
+    for k in range(0, 300, 37):
+        assert abs(ka[k] - np.linalg.cond(M[k], 1)) <= 1e-12 * ka[k]
+    # kappa_1 is invariant to row/column permutations (conventions.md)
+    perm_r, perm_c = RNG.permutation(24), RNG.permutation(24)
+    np.testing.assert_allclose(rm.kappa1(M[:, perm_r][:, :, perm_c]), ka, rtol=1e-12)
+    # the R couple has no component along the joint axis
+    fR, mR, fS = rm.unpack_reactions(w)
+    np.testing.assert_allclose((mR * rm.YJ).sum(-1), 0.0, atol=1e-15)
+
+
+def test_statics_satisfy_virtual_work():
+    """sum tau_j dq_j + dW_gravity + dW_ext = 0 for every IK-allowed virtual motion,
+    tau_j = f_Rj . z; displacements by Richardson differences. Tolerance 1e-9 of the
+    sum of the magnitudes of the terms."""
+    P = rm.normalize_job(LOADED)
+    z0, psi0, th0 = random_inputs(40)
+    cols = rm.pose_arrays(P, z0, psi0, th0)
+    tau = np.stack([cols[f"f_r{j}_z"] for j in (1, 2, 3)], -1)
+    g, ml, m = P["g"], P["m_leg"], P["m_body"]
+    kin0 = rm.kinematics(P, z0, psi0, th0)
+    for direction in np.eye(3):
+        def geo(h):
+            k = rm.kinematics(P, z0 + h * direction[0], psi0 + h * direction[1],
+                              th0 + h * direction[2])
+            G = 0.5 * (k["A"] + k["B"])
+            return np.concatenate([k["q"], G.reshape(-1, 9), k["C"], k["E"],
+                                   k["R"].reshape(-1, 9)], -1)
+        d = richardson(geo)
+        dq, dG, dC, dE = d[:, 0:3], d[:, 3:12].reshape(-1, 3, 3), d[:, 12:15], d[:, 15:18]
+        dR = d[:, 18:27].reshape(-1, 3, 3)
+        dalpha = rm.vee(dR @ kin0["R"].swapaxes(-1, -2))
+        terms = np.concatenate([tau * dq, ml * (dG @ g), (m * dC @ g)[:, None],
+                                (dE @ P["f_ext"])[:, None], (dalpha @ P["m_ext"])[:, None]], -1)
+        total = terms.sum(-1)
+        assert np.all(np.abs(total) <= 1e-9 * np.abs(terms).sum(-1)), np.abs(total).max()
+
+
+def test_dynamics_satisfy_power_balance():
+    """Dynamic reactions: sum tau_j qdot_j + P_gravity + P_ext = dT/dt (all bodies),
+    tolerance 1e-10 of the sum of the magnitudes of the terms."""
+    job = with_job(LOADED, clearance={"s_radial": 0.0}, analysis={"modes": ["dynamic"]},
+                   trajectory={"time": {"start": 0.0, "stop": 4.0, "n": 41},
+                               "z": {"offset": 2.0, "harmonics": [{"amplitude": 0.2, "period": 1.1, "phase": 0.1}]},
+                               "psi": {"offset": 0.05, "harmonics": [{"amplitude": 0.3, "period": 1.4, "phase": 1.0}]},
+                               "theta": {"offset": -0.1, "harmonics": [{"amplitude": 0.35, "period": 0.9, "phase": 0.0},
+                                                                      {"amplitude": 0.1, "period": 0.5, "phase": 2.0}]}})
+    P = rm.normalize_job(job)
+    cols = rm.compute(P)
+    assert (cols["status"] == "ok").all()
+    s = rm.sample_inputs(P)
+    kj = rm.kinematics(P, s["zj"], s["psij"], s["thetaj"])
+    mot = rm.motion(kj, P)
+    tau = np.stack([cols[f"f_r{j}_z"] for j in (1, 2, 3)], -1)
+    ml, m, g, L = P["m_leg"], P["m_body"], P["g"], P["L"]
+    vG = 0.5 * (kj["A"].d + kj["B"].d)
+    e = kj["e"].v
+    Ileg = ml * L ** 2 / 12 * (np.eye(3) - e[..., :, None] * e[..., None, :])
+    Rm = kj["R"].v
+    # the platform as its own parts: the body about P plus particles (no parallel axis)
+    I_own = Rm @ np.diag(job["mass"]["platform_inertia"]) @ Rm.swapaxes(-1, -2)
+    mp = job["mass"]["platform"]
+    pts = [(pt["mass"], kj["p"] + kj["R"] @ np.array(pt["at"], float)) for pt in job["mass"]["points"]]
+    p_act = (tau * kj["q"].d).sum(-1)
+    p_grav = ml * (vG @ g).sum(-1) + mp * kj["p"].d @ g + sum(mk * r.d @ g for mk, r in pts)
+    p_ext = kj["E"].d @ P["f_ext"] + mot["omega"] @ P["m_ext"]
+    dT = (ml * (vG * mot["a_G"]).sum((-1, -2))
+          + np.einsum("nja,njab,njb->n", mot["w_leg"], Ileg, mot["dw_leg"])
+          + mp * (kj["p"].d * kj["p"].dd).sum(-1)
+          + np.einsum("na,nab,nb->n", mot["omega"], I_own, mot["domega"])
+          + sum(mk * (r.d * r.dd).sum(-1) for mk, r in pts))
+    scale = np.abs(tau * kj["q"].d).sum(-1) + np.abs(p_grav) + np.abs(p_ext) + np.abs(dT)
+    assert np.all(np.abs(p_act + p_grav + p_ext - dT) <= 1e-10 * scale)
+    # kinetostatics differ from dynamics on this fast trajectory
+    kin_cols = rm.compute(with_job(job, analysis={"modes": ["kinetostatic"]}))
+    assert np.abs(kin_cols["f_r1_z"] - cols["f_r1_z"]).max() > 1.0
+
+
+# --------------------------------------------------------------------------
+# error kinematics
+# --------------------------------------------------------------------------
+def _six_by_six_errors(P, kin, disp):
+    """Independent linear error: unknown platform twist (dalpha, dp); per limb the
+    point A_j may only move (relative to the clearance motion c_j) along y_j x e_j."""
+    A, B, p, e = kin["A"], kin["B"], kin["p"], kin["e"]
+    N = p.shape[0]
+    c = disp["r_radial"] + disp["r_axial"] + disp["s_radial"] + \
+        np.cross(disp["r_angular"], A - B)
+    M = np.zeros((N, 6, 6))
+    rhs = np.zeros((N, 6))
+    for j in range(3):
+        for r, n in enumerate((e[:, j], np.broadcast_to(rm.YJ[j], (N, 3)))):
+            # (dp + dalpha x (A - p)) . n = c . n
+            M[:, 2 * j + r, 0:3] = np.cross(A[:, j] - p, n)
+            M[:, 2 * j + r, 3:6] = n
+            rhs[:, 2 * j + r] = (c[:, j] * n).sum(-1)
+    return np.linalg.solve(M, rhs[..., None])[..., 0]
+
+
+def test_loop_formulation_matches_six_by_six():
+    P = rm.normalize_job(LOADED)
+    z, psi, th = random_inputs(300)
+    cols = rm.pose_arrays(P, z, psi, th)
+    kin = rm.kinematics(P, z, psi, th)
+    for kind in rm.KINDS:
+        Pk = rm.normalize_job(with_job(LOADED, clearance={k: (LOADED["clearance"][k] if k == kind else 0.0)
+                                                          for k in rm.KINDS}))
+        c1 = rm.pose_arrays(Pk, z, psi, th)
+        fR = np.stack([np.stack([c1[f"f_r{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+        mR = np.stack([np.stack([c1[f"m_r{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+        fS = np.stack([np.stack([c1[f"f_s{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+        disp, _, indet = rm.take_up(Pk, fR, mR, fS)
+        assert not indet[kind].any()
+        ref = _six_by_six_errors(Pk, kin, disp)
+        ours = np.stack([cols[f"err_{kind}_{c}"] for c in ("rx", "ry", "rz", "x", "y", "z")], -1)
+        sc = np.abs(ref).max()
+        np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-11 * sc, err_msg=kind)
+        # total of a one-kind job equals that kind's column
+        np.testing.assert_allclose(c1["err_x"], c1[f"err_{kind}_x"], rtol=0, atol=0)
+    # superposition: total = sum of kinds
+    for c in rm.COMPONENTS:
+        np.testing.assert_allclose(cols[f"err_{c}"], sum(cols[f"err_{k}_{c}"] for k in rm.KINDS),
+                                   rtol=1e-13, atol=1e-20)
+
+
+def test_euler_errors_reconstruct_dalpha():
+    z, psi, th = random_inputs(100)
+    cols = rm.pose_arrays(LOADED, z, psi, th)
+    for k in range(0, 100, 9):
+        Ry, Rx = rot("y", th[k]), rot("x", psi[k])
+        da = cols["err_theta"][k] * np.array([0, 1.0, 0]) + cols["err_psi"][k] * Ry[:, 0] + \
+            cols["err_phi"][k] * (Ry @ Rx)[:, 2]
+        np.testing.assert_allclose(da, [cols["err_rx"][k], cols["err_ry"][k], cols["err_rz"][k]],
+                                   rtol=0, atol=1e-17)
+
+
+def test_take_up_directions_and_sag():
+    """Gravity only, S clearance only: the platform sags (MODEL.md s.5); the
+    displacement opposes the load; margins are the load magnitudes."""
+    job = {"clearance": {"s_radial": 1e-4}, "grid": {"z": 2.05, "psi": {"start": -0.4, "stop": 0.4, "n": 9},
+                                                     "theta": {"start": -0.4, "stop": 0.4, "n": 9}}}
+    c = rm.compute(job)
+    assert (c["status"] == "ok").all() and (c["err_z"] < 0).all()
+    mid = 4 * 9 + 4                                           # level pose
+    assert abs(c["err_x"][mid]) < 1e-18 and abs(c["err_y"][mid]) < 1e-18
+    for j in (1, 2, 3):
+        fS = np.stack([c[f"f_s{j}_{a}"] for a in "xyz"], -1)
+        np.testing.assert_allclose(np.linalg.norm(fS, axis=-1), c[f"margin_s{j}"], rtol=1e-15)
+    # take_up itself
+    P = rm.normalize_job(LOADED)
+    fR = RNG.normal(size=(5, 3, 3)); mR = RNG.normal(size=(5, 3, 3)); fS = RNG.normal(size=(5, 3, 3))
+    disp, marg, _ = rm.take_up(P, fR, mR, fS)
+    fy = (fR * rm.YJ).sum(-1)
+    np.testing.assert_allclose(disp["r_axial"], -1e-4 * np.sign(fy)[..., None] * rm.YJ)
+    np.testing.assert_allclose((disp["r_radial"] * rm.YJ).sum(-1), 0, atol=1e-20)
+    np.testing.assert_allclose(np.linalg.norm(disp["r_radial"], axis=-1), 5e-5)
+    assert ((disp["r_radial"] * fR).sum(-1) < 0).all() and ((disp["s_radial"] * fS).sum(-1) < 0).all()
+    np.testing.assert_allclose(disp["r_angular"], -3e-4 * mR / np.linalg.norm(mR, axis=-1)[..., None])
+    np.testing.assert_allclose(marg["r_axial"], np.abs(fy))
+
+
+@pytest.mark.parametrize("job", [LOADED, {"clearance": ALL4, "grid": {"z": 2.05}}])
+def test_linear_error_equals_exact_to_second_order(job):
+    """|exact - linear| shrinks like clearance^2 and is ~ clearance/size relative."""
+    z, psi, th = random_inputs(60, span=0.4)
+    psi = np.where(np.abs(psi) < 0.02, 0.1, psi)             # stay off the indeterminate line
+    base = job.get("clearance", ALL4)
+    diffs = []
+    for eps in (1e-2, 1e-3, 1e-4):
+        vmax = max(base.values())
+        jb = with_job(job, clearance={k: v / vmax * eps for k, v in base.items()},
+                      analysis={"exact": True})
+        c = rm.pose_arrays(jb, z, psi, th)
+        assert (c["status"] == "ok").all()
+        lin = np.stack([c[f"err_{k}"] for k in ("x", "y", "z", "rx", "ry", "rz")], -1)
+        ex = np.stack([c[f"exact_err_{k}"] for k in ("x", "y", "z", "rx", "ry", "rz")], -1)
+        assert np.isfinite(ex).all()
+        d = np.abs(ex - lin).max(-1)
+        diffs.append(d)
+        assert np.all(d <= 20 * eps * np.abs(lin).max(-1))   # relative diff ~ clearance/size
+    r1, r2 = diffs[0] / diffs[1], diffs[1] / diffs[2]
+    assert np.median(r1) > 60 and np.median(r1) < 160, np.median(r1)
+    assert np.median(r2) > 60 and np.median(r2) < 160, np.median(r2)
+
+
+def test_exact_mode_rigid_is_zero():
+    c = rm.pose_arrays(with_job(LOADED, clearance={}, analysis={"exact": True}), *random_inputs(10))
+    for k in ("x", "y", "z", "rx", "ry", "rz"):
+        assert np.abs(c[f"exact_err_{k}"]).max() < 1e-15
+
+
+# --------------------------------------------------------------------------
+# status and null rules (docs/conventions.md)
+# --------------------------------------------------------------------------
+ALWAYS = {"variant", "mode", "sample", "z", "psi", "theta", "status", "x", "y", "phi"}
+
+
+def _nulls(cols, row):
+    return {k for k, v in cols.items() if v.dtype != object and k not in ("sample", "variant")
+            and np.isnan(v[row])}
+
+
+def test_unreachable_rows_carry_only_identity_inputs_parasitics():
+    job = {"mechanism": {"base_radius": 0.5, "platform_radius": 0.12, "leg_length": 0.4},
+           "clearance": ALL4, "analysis": {"exact": True},
+           "grid": {"z": 0.6, "psi": {"start": 0.05, "stop": 0.6, "n": 5}, "theta": {"start": 0.05, "stop": 0.7, "n": 5}}}
+    c = rm.compute(job)
+    st = c["status"]
+    assert (st == "unreachable").any() and (st != "unreachable").any()
+    for row in np.flatnonzero(st == "unreachable"):
+        assert _nulls(c, row) == set(c) - ALWAYS
+    assert np.isnan(c["t"]).all()
+
+
+def test_near_singular_rows_carry_q_and_cond():
+    c = rm.compute({"clearance": ALL4, "analysis": {"singular_cond": 40.0},
+                    "grid": {"z": 2.05, "psi": {"start": 0.1, "stop": 0.5, "n": 3}, "theta": 0.2}})
+    ns = np.flatnonzero(c["status"] == "near_singular")
+    assert ns.size and (c["status"] != "near_singular").any()
+    keep = ALWAYS | {"q1", "q2", "q3", "cond_a", "cond_jp"}
+    for row in ns:
+        assert _nulls(c, row) == set(c) - keep
+        assert max(c["cond_a"][row], c["cond_jp"][row]) > 40.0
+
+
+def test_indeterminate_contact_on_symmetry_plane():
+    """Psi = 0: limb 1's axial load and R couple are exactly zero (planar load on the
+    symmetry plane) -> r_axial and r_angular indeterminate; their per-kind columns and
+    the totals are null, the other kinds and all loads are reported."""
+    job = {"clearance": ALL4, "analysis": {"exact": True},
+           "grid": {"z": 2.05, "psi": {"start": -0.2, "stop": 0.2, "n": 3}, "theta": {"start": -0.3, "stop": 0.3, "n": 3}}}
+    c = rm.compute(job)
+    st = c["status"]
+    assert (st[3:6] == "indeterminate_contact").all() and (st[:3] == "ok").all() and (st[6:] == "ok").all()
+    P = rm.normalize_job(job)
+    for row in range(3, 6):
+        assert c["margin_r1_axial"][row] <= 1e-9 * P["W"]
+        assert c["margin_r1_angular"][row] <= 1e-9 * P["W"]
+        null = {f"err_{x}" for x in rm.COMPONENTS} | {f"err_r_axial_{x}" for x in rm.COMPONENTS} | \
+            {f"err_r_angular_{x}" for x in rm.COMPONENTS} | \
+            {f"exact_err_{x}" for x in ("x", "y", "z", "rx", "ry", "rz")}
+        assert _nulls(c, row) == null | {"t"}
+    # a rigid kind is never indeterminate and its errors are exactly 0
+    c2 = rm.compute(with_job(job, clearance={"s_radial": 1e-4, "r_radial": 1e-4}))
+    assert (c2["status"] == "ok").all()
+    assert all((c2[f"err_r_axial_{x}"] == 0.0).all() for x in rm.COMPONENTS)
+    assert all((c2[f"err_r_angular_{x}"] == 0.0).all() for x in rm.COMPONENTS)
+
+
+def test_paper_kinetostatic_switch_with_30kg():
+    """MODEL.md s.8: 30 kg one metre above puts limb 1's r_radial load minimum near
+    Theta = -0.28 at Psi = 0, Z = 2.05, and f_perp swings round there."""
+    job = {"mass": {"points": [{"mass": 30.0, "at": [0.0, 0.0, 1.0]}]}, "clearance": {"r_radial": 1e-4},
+           "grid": {"z": 2.05, "psi": 0.0, "theta": {"start": -0.5, "stop": 0.5, "n": 501}}}
+    c = rm.compute(job)
+    i = int(np.argmin(c["margin_r1_radial"]))
+    assert -0.30 < c["theta"][i] < -0.26
+    assert c["margin_r1_radial"][i] < 0.05 * rm.normalize_job(job)["W"]
+    m = c["margin_r1_radial"]
+    lo = i - np.argmax(m[i::-1] >= 2 * m[i])                # where |f_perp| is back to 2x min
+    hi = i + np.argmax(m[i:] >= 2 * m[i])
+    f = np.stack([c["f_r1_x"], c["f_r1_z"]], -1)             # limb 1: f_perp is (x, z)
+    cosang = f[lo] @ f[hi] / np.linalg.norm(f[lo]) / np.linalg.norm(f[hi])
+    assert lo < i < hi and cosang < 0.0                      # turns by more than 90 degrees
