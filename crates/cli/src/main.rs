@@ -1,1 +1,174 @@
-fn main() {}
+//! `clearance`: pose errors of a 3-PRS robot due to joint clearances, from a job
+//! file to a Parquet dataset. See README.md and shared/INTERFACE.md.
+
+mod bench;
+mod check;
+mod progress;
+mod run;
+mod status;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use clearance_model::{JobError, JobSpec};
+use clearance_parquet::ColumnSet;
+
+#[derive(Parser)]
+#[command(name = "clearance", version, about = "Pose error of a 3-PRS parallel robot due to joint clearances")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a job into an output directory of Parquet files.
+    Run {
+        /// The job file (TOML).
+        job: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Compute shard I of N (0-based), e.g. `--shard 3/8`.
+        #[arg(long, value_parser = parse_shard)]
+        shard: Option<(u64, u64)>,
+        /// The shard count N when the shard index comes from JOB_COMPLETION_INDEX (Kubernetes).
+        #[arg(long)]
+        shard_count: Option<u64>,
+        /// Finish an interrupted run: keep complete part files, compute the rest.
+        #[arg(long, conflicts_with = "overwrite")]
+        resume: bool,
+        /// Replace an earlier run in the output directory.
+        #[arg(long)]
+        overwrite: bool,
+        /// Column set: minimal, standard or full.
+        #[arg(long, default_value = "standard", value_parser = parse_columns)]
+        columns: ColumnSet,
+        /// Samples per part file.
+        #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u64).range(1..))]
+        chunk_size: u64,
+        /// No progress output.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Validate a job and print the expanded plan.
+    Check {
+        job: PathBuf,
+        /// Skip the short timing run behind the time estimate.
+        #[arg(long)]
+        no_timing: bool,
+    },
+    /// Is the run in DIR (or every shard of it) complete? Exit 0 if so.
+    Status { dir: PathBuf },
+    /// Solver and end-to-end throughput, poses/s.
+    Bench {
+        /// Poses per measurement.
+        #[arg(long, default_value_t = 400_000)]
+        poses: u64,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+}
+
+fn parse_shard(s: &str) -> Result<(u64, u64), String> {
+    let (i, n) = s.split_once('/').ok_or("expected I/N, e.g. 0/4")?;
+    let i: u64 = i.trim().parse().map_err(|_| format!("shard index `{i}` is not a whole number"))?;
+    let n: u64 = n.trim().parse().map_err(|_| format!("shard count `{n}` is not a whole number"))?;
+    if n == 0 || i >= n {
+        return Err(format!("shard {i}/{n}: need 0 <= I < N"));
+    }
+    Ok((i, n))
+}
+
+fn parse_columns(s: &str) -> Result<ColumnSet, String> {
+    ColumnSet::parse(s).ok_or_else(|| format!("unknown column set `{s}`; use minimal, standard or full"))
+}
+
+/// The shard from the flag, or from the scheduler's environment.
+fn resolve_shard(flag: Option<(u64, u64)>, count: Option<u64>) -> Result<Option<(u64, u64)>, String> {
+    if flag.is_some() {
+        return Ok(flag);
+    }
+    let var = |k: &str| std::env::var(k).ok().filter(|v| !v.is_empty());
+    if let (Some(i), Some(n)) = (var("SLURM_ARRAY_TASK_ID"), var("SLURM_ARRAY_TASK_COUNT")) {
+        return parse_shard(&format!("{i}/{n}")).map(Some).map_err(|e| format!("SLURM_ARRAY_TASK_ID/COUNT: {e}"));
+    }
+    if let Some(i) = var("JOB_COMPLETION_INDEX") {
+        let n = count.ok_or("JOB_COMPLETION_INDEX is set: give the number of shards with --shard-count N")?;
+        return parse_shard(&format!("{i}/{n}")).map(Some).map_err(|e| format!("JOB_COMPLETION_INDEX: {e}"));
+    }
+    if count.is_some() {
+        return Err("--shard-count needs JOB_COMPLETION_INDEX (or use --shard I/N)".into());
+    }
+    Ok(None)
+}
+
+fn init_threads(threads: Option<usize>) -> anyhow::Result<()> {
+    if let Some(n) = threads {
+        rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global()?;
+    }
+    Ok(())
+}
+
+fn load_job(path: &std::path::Path) -> Result<JobSpec, JobError> {
+    JobSpec::from_path(path)
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run { job, out, threads, shard, shard_count, resume, overwrite, columns, chunk_size, quiet } => {
+            let spec = match load_job(&job) {
+                Ok(s) => s,
+                Err(e) => return usage(e),
+            };
+            let shard = match resolve_shard(shard, shard_count) {
+                Ok(s) => s,
+                Err(e) => return usage(e),
+            };
+            let opts = run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, quiet };
+            init_threads(threads).and_then(|_| run::run(&spec, &job.display().to_string(), &opts)).map(|r| {
+                if !quiet {
+                    eprintln!(
+                        "computed {} of {} poses in {:.2} s{}; output in {}",
+                        r.computed,
+                        r.total,
+                        r.seconds,
+                        if r.complete { "" } else { " (other shards still to finish)" },
+                        opts.out.display()
+                    );
+                }
+            })
+        }
+        Command::Check { job, no_timing } => match load_job(&job) {
+            Ok(spec) => check::check(&spec, &job.display().to_string(), !no_timing),
+            Err(e) => return usage(e),
+        },
+        Command::Status { dir } => return status::status(&dir),
+        Command::Bench { poses, json, threads } => init_threads(threads).and_then(|_| bench::bench(poses, json)),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<run::UsageError>().is_some() || e.downcast_ref::<JobError>().is_some() => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn usage(e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(2)
+}

@@ -1,1 +1,28 @@
-//! stub
+//! # clearance-parquet
+//!
+//! The output of a run as Arrow record batches and Parquet files
+//! (`shared/INTERFACE.md`, "Output directory"):
+//!
+//! - [`PoseSchema`]: the `poses` columns of a column set (`minimal`, `standard`,
+//!   `full`), each with its unit in the field metadata, and the rules that turn a
+//!   [`PoseResult`](clearance_solver::PoseResult) into nulls where its status
+//!   cannot fill a column (docs/conventions.md). No NaN is ever written: a value
+//!   that is not finite is null.
+//! - [`write_parquet`]: one file written under a temporary name and renamed when
+//!   complete, with the job and engine version in the key-value metadata.
+//!
+//! ```
+//! use clearance_parquet::{ColumnSet, PoseSchema};
+//! let schema = PoseSchema::new(ColumnSet::Minimal, false);
+//! assert!(schema.names().any(|n| n == "err_theta"));
+//! assert!(!schema.names().any(|n| n == "q1"));
+//! ```
+
+mod schema;
+mod writer;
+
+pub use schema::{ColumnSet, PoseSchema};
+pub use writer::{ParquetError, WriteOptions, write_parquet};
+
+/// The engine version written into every file's metadata.
+pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

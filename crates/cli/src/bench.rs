@@ -1,0 +1,76 @@
+//! `clearance bench`: solver and end-to-end throughput on this machine.
+
+use std::time::Instant;
+
+use anyhow::Result;
+use clearance_grid::SampleSource;
+use clearance_model::{JobSpec, Mode};
+use clearance_parquet::ColumnSet;
+use clearance_solver::{Model, Workspace, solve_pose};
+use rayon::prelude::*;
+
+use crate::run::{RunOptions, run};
+
+/// The benchmark job: the paper's prototype at Z = 2.05 over Ψ, Θ ∈ [−0.5, 0.5],
+/// all four clearance kinds, kinetostatics.
+pub fn bench_job(poses: u64) -> JobSpec {
+    let side = ((poses as f64).sqrt().ceil() as u64).max(2);
+    let text = format!(
+        "name = \"bench\"\n[clearance]\ns_radial = 1e-4\nr_radial = 1e-4\nr_axial = 1e-4\nr_angular = 1e-4\n\
+         [grid]\nz = 2.05\npsi = {{ start = -0.5, stop = 0.5, n = {side} }}\ntheta = {{ start = -0.5, stop = 0.5, n = {side} }}\n"
+    );
+    JobSpec::from_toml_str(&text, "bench.toml").expect("the bench job is valid")
+}
+
+/// Kinetostatic pose → reactions → take-up → error, all kinds, no I/O. Returns poses/s.
+pub fn kernel_rate(job: &JobSpec) -> f64 {
+    let model = Model::from_job(job);
+    let source = SampleSource::new(job);
+    let n = source.len();
+    let start = Instant::now();
+    let checksum: f64 = (0..n)
+        .into_par_iter()
+        .map_init(Workspace::new, |ws, i| {
+            let r = solve_pose(&model, &source.sample(i), Mode::Kinetostatic, ws);
+            r.errors[0].dp.z + r.errors[3].dalpha.x
+        })
+        .sum();
+    let secs = start.elapsed().as_secs_f64();
+    std::hint::black_box(checksum);
+    n as f64 / secs
+}
+
+pub fn bench(poses: u64, json: bool) -> Result<()> {
+    let job = bench_job(poses);
+    let n = job.sample_count();
+    let threads = rayon::current_num_threads();
+    kernel_rate(&bench_job(10_000)); // warm up
+    let kernel = kernel_rate(&job);
+    let dir = std::env::temp_dir().join(format!("clearance-bench-{}", std::process::id()));
+    let opts = RunOptions {
+        out: dir.clone(),
+        columns: ColumnSet::Standard,
+        shard: None,
+        resume: false,
+        overwrite: false,
+        chunk_size: 65536,
+        quiet: true,
+    };
+    let _ = std::fs::remove_dir_all(&dir);
+    let start = Instant::now();
+    let report = run(&job, "bench.toml", &opts);
+    let secs = start.elapsed().as_secs_f64();
+    let _ = std::fs::remove_dir_all(&dir);
+    report?;
+    let e2e = n as f64 / secs;
+    if json {
+        println!(
+            "{{\"kernel_poses_per_s\": {kernel:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"general\"}}"
+        );
+    } else {
+        println!("poses per measurement: {n}, threads: {threads}");
+        println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
+        println!("end to end (grid -> Parquet, standard):  {e2e:>12.0} poses/s");
+    }
+    Ok(())
+}

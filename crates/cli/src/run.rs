@@ -1,0 +1,241 @@
+//! `clearance run`: a job → a directory of Parquet files.
+//!
+//! The work is cut into units (variant, mode, chunk of samples), numbered in that
+//! order. A unit is one part file, `poses/variant=K/part-<mode>-<chunk>.parquet`,
+//! written under a temporary name and renamed when complete, so a unit either
+//! exists whole or not at all: `--resume` skips the units that exist and a shard
+//! `I/N` computes the units whose number is `I` modulo `N`. Within a unit, poses
+//! are spread over the rayon pool; the part files are encoded on a writer thread
+//! while the next unit computes.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::sync_channel;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clearance_grid::{SampleSource, chunks};
+use clearance_model::{JobSpec, Mode, Variant};
+use clearance_parquet::{ColumnSet, ENGINE_VERSION, PoseSchema, WriteOptions, write_parquet};
+use clearance_solver::{Model, Workspace, solve_pose};
+use rayon::prelude::*;
+
+use crate::progress::Progress;
+
+/// How to run a job.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    pub out: PathBuf,
+    pub columns: ColumnSet,
+    /// `(I, N)`: compute only shard I of N.
+    pub shard: Option<(u64, u64)>,
+    pub resume: bool,
+    pub overwrite: bool,
+    /// Samples per part file.
+    pub chunk_size: u64,
+    pub quiet: bool,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default)]
+pub struct RunReport {
+    /// Poses this invocation computed (resumed and other shards' units excluded).
+    pub computed: u64,
+    /// Poses of the whole job.
+    pub total: u64,
+    pub seconds: f64,
+    pub complete: bool,
+}
+
+/// A usage problem with the output directory: exit code 2, nothing written.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+/// One part file's worth of work.
+#[derive(Clone, Debug)]
+struct Unit {
+    number: u64,
+    variant: u64,
+    mode: Mode,
+    chunk: u64,
+    range: std::ops::Range<u64>,
+}
+
+fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
+    let n = job.sample_count();
+    let mut out = Vec::new();
+    for variant in 0..job.variant_count() {
+        for &mode in &job.analysis.modes {
+            for (chunk, range) in chunks(n, chunk_size).enumerate() {
+                out.push(Unit { number: out.len() as u64, variant, mode, chunk: chunk as u64, range });
+            }
+        }
+    }
+    out
+}
+
+pub fn part_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
+    out.join("poses").join(format!("variant={variant}")).join(format!("part-{}-{chunk:06}.parquet", mode.name()))
+}
+
+/// The files a run owns, removed by `--overwrite`.
+const RUN_FILES: [&str; 4] = ["job.toml", "discontinuities.parquet", "summary.parquet", "_SUCCESS"];
+
+fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
+    let entries: Vec<_> = match std::fs::read_dir(out) {
+        Ok(rd) => rd.filter_map(|e| e.ok()).collect(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+        Err(e) => return Err(e).with_context(|| format!("cannot read the output directory {}", out.display())),
+    };
+    if !entries.is_empty() {
+        let existing = std::fs::read_to_string(out.join("job.toml")).ok();
+        let same_job = existing.as_deref() == Some(job_toml);
+        if opts.overwrite {
+            if existing.is_none() {
+                bail!(UsageError(format!(
+                    "{} is not empty and holds no clearance run (no job.toml); refusing to overwrite it",
+                    out.display()
+                )));
+            }
+            for name in RUN_FILES {
+                let _ = std::fs::remove_file(out.join(name));
+            }
+            for e in &entries {
+                let name = e.file_name().to_string_lossy().into_owned();
+                if name.starts_with("_SUCCESS.shard-") {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+            if out.join("poses").exists() {
+                std::fs::remove_dir_all(out.join("poses"))
+                    .with_context(|| format!("cannot remove {}", out.join("poses").display()))?;
+            }
+        } else if opts.resume || opts.shard.is_some() {
+            if !same_job {
+                bail!(UsageError(format!(
+                    "{} holds {}; use --overwrite to replace it, or another --out",
+                    out.display(),
+                    if existing.is_some() { "a different job" } else { "files that are not a clearance run" }
+                )));
+            }
+        } else {
+            bail!(UsageError(format!(
+                "{} is not empty; pass --resume to finish it, --overwrite to replace it, or choose another --out",
+                out.display()
+            )));
+        }
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create the output directory {}", out.display()))?;
+    write_atomic(&out.join("job.toml"), job_toml.as_bytes())
+}
+
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_file_name(format!(
+        ".{}.tmp-{}",
+        path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        std::process::id()
+    ));
+    std::fs::write(&tmp, bytes)
+        .and_then(|_| std::fs::rename(&tmp, path))
+        .with_context(|| format!("cannot write {}", path.display()))
+        .inspect_err(|_| {
+            let _ = std::fs::remove_file(&tmp);
+        })
+}
+
+fn success_name(shard: Option<(u64, u64)>) -> String {
+    match shard {
+        None => "_SUCCESS".to_string(),
+        Some((i, n)) => format!("_SUCCESS.shard-{i}-of-{n}"),
+    }
+}
+
+/// Runs `job` into `opts.out`.
+pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
+    let variants: Vec<Variant> = job.variants(job_file)?;
+    let job_toml = job.to_toml_string();
+    prepare_dir(&opts.out, &job_toml, opts)?;
+
+    let all = units(job, opts.chunk_size);
+    let mine: Vec<Unit> = all
+        .into_iter()
+        .filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i))
+        .collect();
+    let todo: Vec<Unit> = mine
+        .iter()
+        .filter(|u| !(opts.resume && part_path(&opts.out, u.variant, u.mode, u.chunk).exists()))
+        .cloned()
+        .collect();
+    let mine_poses: u64 = mine.iter().map(|u| u.range.end - u.range.start).sum();
+    let todo_poses: u64 = todo.iter().map(|u| u.range.end - u.range.start).sum();
+    let total = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
+
+    let schema = PoseSchema::new(opts.columns, job.analysis.exact);
+    let write_opts = WriteOptions {
+        metadata: vec![
+            ("clearance.job".into(), job_toml.clone()),
+            ("clearance.version".into(), ENGINE_VERSION.into()),
+            ("clearance.columns".into(), opts.columns.name().into()),
+        ],
+        row_group_rows: opts.chunk_size as usize,
+    };
+    let models: Vec<(Model, SampleSource)> =
+        variants.iter().map(|v| (Model::from_job(&v.job), SampleSource::new(&v.job))).collect();
+
+    let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
+    let start = Instant::now();
+    let mut done = mine_poses - todo_poses;
+    std::thread::scope(|scope| -> Result<()> {
+        let (tx, rx) = sync_channel::<(PathBuf, arrow::record_batch::RecordBatch, Vec<(String, String)>)>(1);
+        let schema_ref = schema.schema();
+        let write_opts = &write_opts;
+        let writer = scope.spawn(move || -> Result<()> {
+            for (path, batch, extra) in rx {
+                if let Some(dir) = path.parent() {
+                    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+                }
+                write_parquet(&path, schema_ref.clone(), &[batch], write_opts, &extra)?;
+            }
+            Ok(())
+        });
+        for unit in &todo {
+            let (model, source) = &models[unit.variant as usize];
+            let variant = &variants[unit.variant as usize];
+            progress.set_message(format!("variant {} {}", unit.variant, unit.mode.name()));
+            let rows: Vec<_> = (unit.range.start..unit.range.end)
+                .into_par_iter()
+                .map_init(Workspace::new, |ws, i| {
+                    let s = source.sample(i);
+                    (s, solve_pose(model, &s, unit.mode, ws))
+                })
+                .collect();
+            let batch = schema.batch(unit.mode, &rows);
+            let extra = vec![
+                ("clearance.variant".to_string(), unit.variant.to_string()),
+                (
+                    "clearance.params".to_string(),
+                    variant.params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(","),
+                ),
+            ];
+            if tx.send((part_path(&opts.out, unit.variant, unit.mode, unit.chunk), batch, extra)).is_err() {
+                break; // the writer failed; its error is reported below
+            }
+            let n = unit.range.end - unit.range.start;
+            done += n;
+            progress.advance(n, done);
+        }
+        drop(tx);
+        writer.join().expect("the writer thread does not panic")
+    })?;
+    progress.finish();
+
+    write_atomic(&opts.out.join(success_name(opts.shard)), b"")?;
+    let complete = match opts.shard {
+        None => true,
+        Some((_, n)) => (0..n).all(|i| opts.out.join(success_name(Some((i, n)))).exists()),
+    };
+    if complete && opts.shard.is_some() {
+        write_atomic(&opts.out.join("_SUCCESS"), b"")?;
+    }
+    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })
+}

@@ -1,0 +1,85 @@
+//! Parquet files that appear under their final name only when complete.
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use arrow::record_batch::RecordBatch;
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::metadata::KeyValue;
+use parquet::file::properties::WriterProperties;
+use parquet::schema::types::ColumnPath;
+
+/// A file that could not be written. The temporary file is removed.
+#[derive(Debug, thiserror::Error)]
+pub enum ParquetError {
+    #[error("cannot write {path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("cannot encode {path}: {source}")]
+    Encode { path: PathBuf, source: parquet::errors::ParquetError },
+}
+
+/// Settings shared by every file of a run.
+#[derive(Clone, Debug)]
+pub struct WriteOptions {
+    /// Key-value metadata for every file (job, engine version, variant...).
+    pub metadata: Vec<(String, String)>,
+    /// Rows per row group.
+    pub row_group_rows: usize,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        Self { metadata: Vec::new(), row_group_rows: 128 * 1024 }
+    }
+}
+
+fn properties(opts: &WriteOptions, extra: &[(String, String)]) -> WriterProperties {
+    let kv = opts
+        .metadata
+        .iter()
+        .chain(extra)
+        .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
+        .collect();
+    // Floats rarely repeat, so dictionaries only cost time; the two string
+    // columns repeat a handful of values and keep theirs.
+    WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).expect("level 1 is valid")))
+        .set_dictionary_enabled(false)
+        .set_column_dictionary_enabled(ColumnPath::from("mode"), true)
+        .set_column_dictionary_enabled(ColumnPath::from("status"), true)
+        .set_column_dictionary_enabled(ColumnPath::from("kind"), true)
+        .set_max_row_group_row_count(Some(opts.row_group_rows))
+        .set_key_value_metadata(Some(kv))
+        .build()
+}
+
+/// Writes `batches` to `path` via a temporary sibling and an atomic rename.
+/// `extra` metadata is added to the run-wide metadata for this file only.
+pub fn write_parquet(
+    path: &Path,
+    schema: arrow::datatypes::SchemaRef,
+    batches: &[RecordBatch],
+    opts: &WriteOptions,
+    extra: &[(String, String)],
+) -> Result<(), ParquetError> {
+    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
+        let enc = |source| ParquetError::Encode { path: path.to_path_buf(), source };
+        let file = File::create(&tmp).map_err(io)?;
+        let mut writer = ArrowWriter::try_new(file, schema, Some(properties(opts, extra))).map_err(enc)?;
+        for b in batches {
+            writer.write(b).map_err(enc)?;
+        }
+        let file = writer.into_inner().map_err(enc)?;
+        file.sync_all().map_err(io)?;
+        drop(file);
+        std::fs::rename(&tmp, path).map_err(io)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}

@@ -1,0 +1,491 @@
+#!/usr/bin/env python3
+"""Cross-check the engine's `poses` output against scripts/reference_model.py.
+
+    python3 scripts/crosscheck_reference.py [--jobs N] [--seed S] [--bin PATH] [--keep DIR]
+
+For each of N random (seeded) jobs around the paper's prototype this writes the
+job as TOML, runs ``clearance run JOB --out DIR --columns full``, reads
+``DIR/poses/variant=0/*.parquet`` (``variant`` comes from the Hive path),
+joins engine and reference rows on (mode, sample) and compares every column
+the reference knows.
+
+Comparison rule (per cell, both sides non-null):
+
+    |a - b| <= tol_row * max(|a|, |b|, S_c)
+
+  tol_row = max(tol_mode, 100 * eps * kappa_row)
+      tol_mode  = 1e-9 for kinetostatic rows, 1e-6 for dynamic rows
+      kappa_row = max(cond_a, cond_jp) of that row from the reference (0 if
+                  unknown); eps = 2.22e-16.  The allowance only matters for
+                  kappa > 4.5e4, i.e. near unreachable/singular postures where
+                  both implementations lose kappa*eps to round-off.
+  S_c = max(M_c, 1e-3 * M_g): M_c is the largest |reference value| of column c
+      in that job and mode, M_g the largest M_c over the column's unit group
+      (lengths, angles, time, position errors, rotation errors, forces,
+      couples; cond_a and cond_jp are their own groups).  So each column is
+      judged relative to its own magnitude, and a column that is essentially
+      zero throughout (e.g. y on a Psi = 0 path) is judged against 1e-3 of its
+      group's magnitude instead of pure relative error.
+
+Exact requirements: the same set of (mode, sample) rows, identical `status`
+strings, a null exactly where the reference has NaN (and nowhere else), no NaN
+stored in the engine's files, every expected column present.  A job fails on
+any violation or on a non-zero exit code of the engine.
+
+Prints a per-column worst-error table (worst normalised error |a-b|/max(|a|,|b|,S_c)
+over all jobs, with where it happened), one line per job and finally
+``N passed, M failed``; the exit code is 1 if any job failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import reference_model as rm  # noqa: E402
+
+REPO = os.path.dirname(HERE)
+EPS = np.finfo(float).eps
+TOL = {"kinetostatic": 1e-9, "dynamic": 1e-6}
+GROUP_FLOOR = 1e-3
+COND_ALLOWANCE = 100.0
+
+
+# --------------------------------------------------------------------------
+# random jobs
+# --------------------------------------------------------------------------
+def _r(rng, lo, hi):
+    return float(rng.uniform(lo, hi))
+
+
+def _logu(rng, lo_exp, hi_exp):
+    return float(10.0 ** rng.uniform(lo_exp, hi_exp))
+
+
+def _range(rng, span, n_lo, n_hi, centred_odd=False):
+    if centred_odd:                      # symmetric range with an odd count: hits exactly 0
+        a = _r(rng, 0.1, span)
+        n = int(rng.integers(n_lo // 2, n_hi // 2 + 1)) * 2 + 1
+        return {"start": -a, "stop": a, "n": n}
+    a, b = sorted(rng.uniform(-span, span, 2))
+    if b - a < 0.05:
+        b = a + 0.05
+    return {"start": float(a), "stop": float(b), "n": int(rng.integers(n_lo, n_hi + 1))}
+
+
+def _harmonics(rng, offset_span, amp_total, T_lo, T_hi):
+    k = int(rng.integers(1, 3))
+    amps = rng.dirichlet(np.ones(k)) * _r(rng, 0.3, 1.0) * amp_total
+    return {"offset": _r(rng, -offset_span, offset_span),
+            "harmonics": [{"amplitude": float(a), "period": _r(rng, T_lo, T_hi),
+                           "phase": _r(rng, -math.pi, math.pi)} for a in amps]}
+
+
+def random_job(rng, index):
+    """A sane job around the prototype; returns (job dict, tag)."""
+    edge = rng.random() < 0.12          # geometry with an unreachable region
+    job = {"name": f"xcheck_{index:03d}"}
+    if edge:
+        Rb = _r(rng, 0.45, 0.55)
+        rp = _r(rng, 0.10, 0.15)
+        L = (Rb - rp) * _r(rng, 1.03, 1.06)
+    else:
+        Rb, rp, L = _r(rng, 0.12, 0.26), _r(rng, 0.28, 0.45), _r(rng, 0.8, 1.3)
+    mech = {"base_radius": Rb, "platform_radius": rp, "leg_length": L}
+    if rng.random() < 0.3:
+        mech["gravity"] = [_r(rng, -1.0, 1.0), _r(rng, -1.0, 1.0), _r(rng, -10.5, -9.0)]
+    job["mechanism"] = mech
+    mass = {"platform": _r(rng, 5.0, 15.0), "leg": _r(rng, 1.5, 4.5)}
+    if rng.random() < 0.4:
+        m = mass["platform"]
+        mass["platform_inertia"] = [m * rp ** 2 / 4 * _r(rng, 0.5, 1.5),
+                                    m * rp ** 2 / 4 * _r(rng, 0.5, 1.5),
+                                    m * rp ** 2 / 2 * _r(rng, 0.5, 1.5)]
+    npts = int(rng.integers(0, 3))
+    pts = []
+    for _ in range(npts):
+        pts.append({"mass": _r(rng, 0.5, 30.0),
+                    "at": [_r(rng, -0.2, 0.2), _r(rng, -0.2, 0.2), _r(rng, -1.0, 1.0)]})
+    if rng.random() < 0.15:               # the paper's mass + counterweight
+        m = _r(rng, 5.0, 30.0)
+        pts = [{"mass": m, "at": [0.0, 0.0, 1.0]}, {"mass": m, "at": [0.0, 0.0, -1.0]}]
+    mass["points"] = pts
+    job["mass"] = mass
+    if rng.random() < 0.6:
+        job["load"] = {"force": [float(v) for v in rng.normal(0, 15, 3)],
+                       "moment": [float(v) for v in rng.normal(0, 3, 3)],
+                       "at": [_r(rng, -0.2, 0.2), _r(rng, -0.2, 0.2), _r(rng, -0.2, 0.3)]}
+    cl = {"s_radial": _logu(rng, -5.0, -3.5), "r_radial": _logu(rng, -5.5, -4.0),
+          "r_axial": _logu(rng, -6.0, -4.0), "r_angular": _logu(rng, -5.0, -3.0)}
+    for k in list(cl):
+        if rng.random() < 0.15:
+            cl[k] = 0.0
+    job["clearance"] = cl
+    analysis = {"exact": bool(rng.random() < 0.5)}
+    if rng.random() < 0.2:
+        analysis["discontinuity_load_fraction"] = _r(rng, 0.01, 0.1)
+    traj = rng.random() < 0.5
+    span = 0.6 if edge else 0.45
+    if traj:
+        analysis["modes"] = [["kinetostatic", "dynamic"], ["dynamic"], ["kinetostatic"]][
+            int(rng.choice(3, p=[0.7, 0.15, 0.15]))]
+        t0 = _r(rng, 0.0, 2.0)
+        tr = {"time": {"start": t0, "stop": t0 + _r(rng, 1.0, 5.0), "n": int(rng.integers(101, 601))}}
+        zc = _r(rng, 1.4, 2.5) * L
+        tr["z"] = zc if rng.random() < 0.5 else \
+            dict(_harmonics(rng, 0.0, 0.15 * L, 1.5, 6.0), offset=zc)
+        for key in ("psi", "theta"):
+            c = rng.random()
+            if c < 0.15:
+                tr[key] = 0.0
+            else:
+                tr[key] = _harmonics(rng, 0.1, span - 0.1, 1.5, 6.0)
+        job["trajectory"] = tr
+    else:
+        analysis["modes"] = ["kinetostatic"]
+        g = {"z": _r(rng, 1.4, 2.5) * L}
+        if rng.random() < 0.2:
+            z0 = g["z"]
+            g["z"] = {"start": z0, "stop": z0 + _r(rng, 0.05, 0.3), "n": int(rng.integers(2, 4))}
+        g["psi"] = _range(rng, span, 5, 21, centred_odd=rng.random() < 0.5)
+        g["theta"] = _range(rng, span, 5, 21, centred_odd=rng.random() < 0.2)
+        job["grid"] = g
+    sym = rng.random() < 0.35
+    if sym:
+        # mirror-symmetric about the x-z plane (limb 1's plane): on Psi = 0 limb 1's
+        # axial load and R couple vanish -> indeterminate_contact rows
+        job["mechanism"].pop("gravity", None)
+        for pt in job["mass"]["points"]:
+            pt["at"][1] = 0.0
+        if "load" in job:
+            job["load"]["force"][1] = 0.0
+            job["load"]["moment"][0] = job["load"]["moment"][2] = 0.0
+            job["load"]["at"][1] = 0.0
+        if traj and rng.random() < 0.5:
+            job["trajectory"]["psi"] = 0.0
+        if not traj:
+            job["grid"]["psi"] = _range(rng, span, 5, 21, centred_odd=True)
+    job["analysis"] = analysis
+    tag = ("edge " if edge else "") + ("sym " if sym else "") + ("trajectory " + "+".join(analysis["modes"]) if traj else "grid")
+    if analysis["exact"]:
+        tag += " exact"
+    return job, tag
+
+
+def maybe_add_thresholds(rng, job, ref_cols):
+    """Sometimes set analysis.singular_cond between the job's condition numbers so
+    that near_singular rows occur (docs/conventions.md)."""
+    if rng.random() >= 0.15:
+        return False
+    kap = np.fmax(ref_cols["cond_a"], ref_cols["cond_jp"])
+    kap = kap[np.isfinite(kap)]
+    if kap.size < 4:
+        return False
+    job["analysis"]["singular_cond"] = float(np.quantile(kap, 0.7))
+    return True
+
+
+# --------------------------------------------------------------------------
+# TOML writer (the subset the job format needs)
+# --------------------------------------------------------------------------
+def _tv(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError("non-finite value")
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_tv(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_tv(x) for x in v) + "]"
+    raise TypeError(type(v))
+
+
+def to_toml(job):
+    lines = []
+    for k, v in job.items():
+        if not isinstance(v, dict):
+            lines.append(f"{k} = {_tv(v)}")
+    for k, v in job.items():
+        if isinstance(v, dict):
+            lines.append("")
+            lines.append(f"[{k}]")
+            for kk, vv in v.items():
+                lines.append(f"{kk} = {_tv(vv)}")
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------
+# comparison
+# --------------------------------------------------------------------------
+def group_of(col):
+    if col in ("cond_a", "cond_jp", "t"):
+        return col
+    if col in ("z", "x", "y", "q1", "q2", "q3"):
+        return "length"
+    if col in ("psi", "theta", "phi"):
+        return "angle"
+    if col.startswith("err_") or col.startswith("exact_err_"):
+        comp = col.rsplit("_", 1)[1]
+        return "err_len" if comp in ("x", "y", "z") else "err_ang"
+    if col.startswith("m_r") or col.endswith("_angular"):
+        return "couple"
+    if col.startswith(("f_r", "f_s", "margin_")):
+        return "force"
+    return None
+
+
+def read_engine(out_dir):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    files = sorted(glob.glob(os.path.join(out_dir, "poses", "variant=0", "*.parquet")))
+    if not files:
+        raise RuntimeError(f"no parquet files in {out_dir}/poses/variant=0/")
+    tables = [pq.ParquetFile(f).read() for f in files]
+    tbl = pa.concat_tables(tables, promote_options="permissive")
+    cols = {}
+    for name in tbl.column_names:
+        arr = tbl.column(name).combine_chunks()
+        null = arr.is_null().to_numpy(zero_copy_only=False)
+        if pa.types.is_string(arr.type) or pa.types.is_large_string(arr.type) or \
+                pa.types.is_dictionary(arr.type):
+            cols[name] = (np.array(arr.to_pylist(), dtype=object), null, False)
+        else:
+            vals = arr.cast(pa.float64()).to_numpy(zero_copy_only=False).astype(float)
+            nan_stored = np.isnan(vals) & ~null
+            vals = np.where(null, np.nan, vals)
+            cols[name] = (vals, null, nan_stored)
+    return cols, len(files)
+
+
+class Stats:
+    """Worst normalised error per column, separately for kinetostatic and dynamic rows."""
+
+    def __init__(self):
+        self.cols = {}
+
+    def add(self, col, mode, ne, tol, where, n_bad, n_null, n_cmp):
+        w = self.cols.setdefault(col, {"kinetostatic": [-1.0, 0.0, ""], "dynamic": [-1.0, 0.0, ""],
+                                       "bad": 0, "null": 0, "n": 0})
+        cur = w[mode]
+        if n_cmp and (cur[0] < 0 or ne / tol > cur[0] / cur[1]):
+            w[mode] = [ne, tol, where]
+        w["bad"] += n_bad
+        w["null"] += n_null
+        w["n"] += n_cmp
+
+def compare(ref, eng, job_label, stats, P):
+    """Returns a list of failure strings."""
+    fails = []
+    expected = [c for c in ref if c != "variant"]
+    missing = [c for c in expected if c not in eng]
+    if missing:
+        fails.append(f"missing columns: {', '.join(missing[:8])}" + (" ..." if len(missing) > 8 else ""))
+    if "variant" in eng:
+        fails.append("a `variant` column is stored inside the files (must come from the Hive path)")
+    for c, (_, _, nan_stored) in eng.items():
+        if nan_stored is not False and nan_stored.any():
+            fails.append(f"{c}: {int(nan_stored.sum())} NaN values stored (must be null)")
+    if "mode" not in eng or "sample" not in eng:
+        return fails + ["no mode/sample columns; cannot join"]
+    ekey = {(m, int(s)): i for i, (m, s) in enumerate(zip(eng["mode"][0], eng["sample"][0]))}
+    rkeys = list(zip(ref["mode"], ref["sample"].astype(np.int64)))
+    ri = np.array([i for i, k in enumerate(rkeys) if (k[0], int(k[1])) in ekey], dtype=int)
+    ei = np.array([ekey[(rkeys[i][0], int(rkeys[i][1]))] for i in ri], dtype=int)
+    if ri.size != len(rkeys) or len(ekey) != len(rkeys):
+        fails.append(f"rows: reference {len(rkeys)}, engine {len(ekey)}, matched {ri.size}")
+    if ri.size == 0:
+        return fails
+    rs, es = ref["status"][ri], eng["status"][0][ei] if "status" in eng else None
+    if es is not None:
+        bad = rs != es
+        if bad.any():
+            pairs = {}
+            for a, b in zip(rs[bad], es[bad]):
+                pairs[(a, b)] = pairs.get((a, b), 0) + 1
+            fails.append("status mismatches (reference -> engine): " +
+                         ", ".join(f"{a}->{b} x{n}" for (a, b), n in pairs.items()))
+    modes = ref["mode"][ri]
+    samples = ref["sample"][ri]
+    tol = np.where(modes == "dynamic", TOL["dynamic"], TOL["kinetostatic"])
+    kap = np.fmax(np.nan_to_num(ref["cond_a"][ri]), np.nan_to_num(ref["cond_jp"][ri]))
+    tol = np.maximum(tol, COND_ALLOWANCE * EPS * kap)
+    # column scales per mode
+    num_cols = [c for c in expected if c in eng and c not in ("mode", "status", "sample")]
+    scale = {}
+    for m in np.unique(modes):
+        sel = modes == m
+        mc = {c: (np.nanmax(np.abs(ref[c][ri][sel])) if np.isfinite(ref[c][ri][sel]).any() else 0.0)
+              for c in num_cols}
+        mg = {}
+        for c, v in mc.items():
+            mg[group_of(c)] = max(mg.get(group_of(c), 0.0), v)
+        for c in num_cols:
+            scale[(m, c)] = max(mc[c], GROUP_FLOOR * mg[group_of(c)])
+    S_all = {c: np.array([scale[(m, c)] for m in modes]) for c in num_cols}
+    if "sample" in eng:
+        if not np.array_equal(eng["sample"][0][ei].astype(np.int64), samples.astype(np.int64)):
+            fails.append("sample join error")
+    for c in num_cols:
+        a = ref[c][ri]
+        b, bnull, _ = eng[c]
+        b, bnull = b[ei], bnull[ei]
+        anull = np.isnan(a)
+        nullmis = anull != bnull
+        both = ~anull & ~bnull
+        d = np.abs(a - b)
+        den = np.maximum(np.maximum(np.abs(a), np.abs(b)), S_all[c])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ne = np.where(both, np.where(den > 0, d / den, np.where(d > 0, np.inf, 0.0)), 0.0)
+        badv = both & ~(ne <= tol)
+        for m in ("kinetostatic", "dynamic"):
+            sel = both & (modes == m)
+            if not sel.any():
+                stats.add(c, m, 0.0, 1.0, "", 0, 0, 0)
+                continue
+            k = int(np.argmax(np.where(sel, ne / tol, -1.0)))
+            stats.add(c, m, float(ne[k]), float(tol[k]), f"{job_label} {m[:3]} #{int(samples[k])}",
+                      int((badv & sel).sum()), int((nullmis & (modes == m)).sum()), int(sel.sum()))
+        if badv.any():
+            k = int(np.flatnonzero(badv)[np.argmax(ne[badv] / tol[badv])])
+            fails.append(f"{c}: {int(badv.sum())} values off, worst {ne[k]:.2e} > {tol[k]:.1e} "
+                         f"({modes[k]} #{int(samples[k])}: ref {a[k]:.17g} engine {b[k]:.17g})")
+        if nullmis.any():
+            k = int(np.flatnonzero(nullmis)[0])
+            fails.append(f"{c}: {int(nullmis.sum())} null mismatches (first {modes[k]} #{int(samples[k])}: "
+                         f"ref {'null' if anull[k] else a[k]}, engine {'null' if bnull[k] else b[k]}, "
+                         f"status {rs[k]}/{es[k] if es is not None else '?'})")
+    return fails
+
+
+def print_table(stats):
+    """Worst |a-b|/max(|a|,|b|,S_c) per column; tolerance 1e-9 (kin) / 1e-6 (dyn)."""
+    print("worst normalised error |a-b|/max(|a|,|b|,S_c) per column "
+          f"(tolerance {TOL['kinetostatic']:.0e} kinetostatic, {TOL['dynamic']:.0e} dynamic; "
+          "'!' = column with failures)")
+    print(f"  {'column':<24}{'kinetostatic':>13}{'dynamic':>11}{'bad':>6}{'null!=':>8}{'compared':>10}"
+          "  worst (err/tol) at")
+    for c, w in stats.cols.items():
+        flag = "!" if (w["bad"] or w["null"]) else " "
+        k, d = w["kinetostatic"], w["dynamic"]
+        fk = f"{k[0]:.2e}" if k[0] >= 0 else "-"
+        fd = f"{d[0]:.2e}" if d[0] >= 0 else "-"
+        rk = k[0] / k[1] if k[0] >= 0 else -1
+        rd = d[0] / d[1] if d[0] >= 0 else -1
+        where = k[2] if rk >= rd else d[2]
+        print(f"{flag} {c:<24}{fk:>13}{fd:>11}{w['bad']:>6}{w['null']:>8}{w['n']:>10}  {where}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--jobs", type=int, default=20)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--bin", default=os.path.join(REPO, "target", "release", "clearance"))
+    ap.add_argument("--keep", default=None, help="keep job files and outputs in this directory")
+    ap.add_argument("--threads", type=int, default=None, help="pass --threads N to the engine")
+    ap.add_argument("--timeout", type=float, default=900.0, help="seconds per engine run")
+    ap.add_argument("--reference-only", action="store_true",
+                    help="generate the jobs and run only the reference (no engine)")
+    args = ap.parse_args(argv)
+
+    binary = args.bin if os.path.isabs(args.bin) else os.path.join(REPO, args.bin)
+    if not args.reference_only and not os.access(binary, os.X_OK):
+        print(f"engine binary not found or not executable: {binary}", file=sys.stderr)
+        return 2
+    if args.keep:
+        os.makedirs(args.keep, exist_ok=True)
+        work = os.path.abspath(args.keep)
+    else:
+        work = tempfile.mkdtemp(prefix="clearance-xcheck-")
+    rng = np.random.default_rng(args.seed)
+    stats = Stats()
+    passed = failed = 0
+    lines = []
+    try:
+        for i in range(args.jobs):
+            job, tag = random_job(rng, i)
+            # round-trip through TOML so both sides read the very same numbers
+            job = tomllib.loads(to_toml(job))
+            t0 = time.time()
+            ref = rm.compute(job)
+            if maybe_add_thresholds(rng, job, ref):
+                tag += " singular_cond"
+                ref = rm.compute(job)
+            t_ref = time.time() - t0
+            text = to_toml(job)
+            job = tomllib.loads(text)
+            path = os.path.join(work, f"job_{i:03d}.toml")
+            with open(path, "w") as f:
+                f.write(text)
+            nst = {s: int((ref["status"] == s).sum()) for s in np.unique(ref["status"])}
+            label = f"job {i:03d}"
+            info = f"{tag}, {ref['sample'].size} rows {nst}"
+            if args.reference_only:
+                lines.append(f"{label} REF-ONLY ({info}; reference {t_ref:.2f}s)")
+                continue
+            out = os.path.join(work, f"out_{i:03d}")
+            if os.path.exists(out):
+                shutil.rmtree(out)
+            cmd = [binary, "run", path, "--out", out, "--columns", "full"]
+            if args.threads:
+                cmd += ["--threads", str(args.threads)]
+            t0 = time.time()
+            try:
+                pr = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
+                rc, err = pr.returncode, pr.stderr.strip()
+            except subprocess.TimeoutExpired:
+                rc, err = -1, f"timed out after {args.timeout}s"
+            t_eng = time.time() - t0
+            fails = []
+            if rc != 0:
+                fails.append(f"engine exit {rc}: {err.splitlines()[-1] if err else ''}")
+            else:
+                try:
+                    eng, nfiles = read_engine(out)
+                    fails += compare(ref, eng, label, stats, rm.normalize_job(job))
+                except Exception as exc:  # report, do not crash the whole run
+                    fails.append(f"reading/comparing failed: {type(exc).__name__}: {exc}")
+            if fails:
+                failed += 1
+                lines.append(f"{label} FAIL ({info}; engine {t_eng:.2f}s)")
+                lines += [f"    {f}" for f in fails[:25]]
+                if len(fails) > 25:
+                    lines.append(f"    ... {len(fails) - 25} more")
+            else:
+                passed += 1
+                lines.append(f"{label} pass ({info}; engine {t_eng:.2f}s, reference {t_ref:.2f}s)")
+    finally:
+        if not args.keep:
+            shutil.rmtree(work, ignore_errors=True)
+    if stats.cols:
+        print_table(stats)
+        print()
+    print("\n".join(lines))
+    if args.keep:
+        print(f"jobs and outputs kept in {work}")
+    if args.reference_only:
+        print(f"{args.jobs} generated (reference only)")
+        return 0
+    print(f"{passed} passed, {failed} failed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
