@@ -438,3 +438,16 @@ def test_paper_kinetostatic_switch_with_30kg():
     f = np.stack([c["f_r1_x"], c["f_r1_z"]], -1)             # limb 1: f_perp is (x, z)
     cosang = f[lo] @ f[hi] / np.linalg.norm(f[lo]) / np.linalg.norm(f[hi])
     assert lo < i < hi and cosang < 0.0                      # turns by more than 90 degrees
+
+
+def test_crosscheck_job_generator_round_trips_through_toml():
+    """The cross-check's random jobs are valid for the reference and survive TOML."""
+    import tomllib
+    import crosscheck_reference as xc
+    rng = np.random.default_rng(7)
+    for i in range(12):
+        job, _ = xc.random_job(rng, i)
+        assert tomllib.loads(xc.to_toml(job)) == job
+        cols = rm.compute(job)
+        assert set(np.unique(cols["status"])) <= {"ok", "unreachable", "near_singular",
+                                                   "indeterminate_contact"}

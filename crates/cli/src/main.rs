@@ -123,6 +123,13 @@ fn load_job(path: &std::path::Path) -> Result<JobSpec, JobError> {
 }
 
 fn main() -> ExitCode {
+    // Die quietly like other Unix tools when the reader of stdout goes away
+    // (`clearance check JOB | head`), instead of panicking on a broken pipe.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of one signal before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run { job, out, threads, shard, shard_count, resume, overwrite, columns, chunk_size, quiet } => {
