@@ -69,7 +69,11 @@ impl SampleSource {
     /// Sample `i` (`i < len()`).
     #[track_caller]
     pub fn sample(&self, i: u64) -> Sample {
-        assert!(i < self.len(), "sample index {i} out of range 0..{}", self.len());
+        assert!(
+            i < self.len(),
+            "sample index {i} out of range 0..{}",
+            self.len()
+        );
         match self {
             SampleSource::Grid(g) => {
                 let (nps, nth) = (g.psi.len(), g.theta.len());
@@ -77,11 +81,23 @@ impl SampleSource {
                 let ips = (i / nth) % nps;
                 let iz = i / (nth * nps);
                 let c = |r: &RangeSpec, k: u64| [r.value(k), 0.0, 0.0];
-                Sample { index: i, t: None, z: c(&g.z, iz), psi: c(&g.psi, ips), theta: c(&g.theta, ith) }
+                Sample {
+                    index: i,
+                    t: None,
+                    z: c(&g.z, iz),
+                    psi: c(&g.psi, ips),
+                    theta: c(&g.theta, ith),
+                }
             }
             SampleSource::Trajectory(tr) => {
                 let t = tr.time.value(i);
-                Sample { index: i, t: Some(t), z: tr.z.eval(t), psi: tr.psi.eval(t), theta: tr.theta.eval(t) }
+                Sample {
+                    index: i,
+                    t: Some(t),
+                    z: tr.z.eval(t),
+                    psi: tr.psi.eval(t),
+                    theta: tr.theta.eval(t),
+                }
             }
         }
     }
@@ -114,7 +130,9 @@ mod tests {
 
     #[test]
     fn grid_is_row_major_and_hits_range_ends_exactly() {
-        let j = job("[grid]\nz = { start = 2.0, stop = 2.1, n = 2 }\npsi = { start = -0.5, stop = 0.5, n = 201 }\ntheta = { start = -0.5, stop = 0.5, n = 3 }\n");
+        let j = job(
+            "[grid]\nz = { start = 2.0, stop = 2.1, n = 2 }\npsi = { start = -0.5, stop = 0.5, n = 201 }\ntheta = { start = -0.5, stop = 0.5, n = 3 }\n",
+        );
         let s = SampleSource::new(&j);
         assert_eq!(s.len(), 2 * 201 * 3);
         let mid = s.sample(100 * 3 + 1);
@@ -125,7 +143,9 @@ mod tests {
 
     #[test]
     fn trajectory_rates_match_finite_differences() {
-        let j = job("[analysis]\nmodes=[\"dynamic\"]\n[trajectory]\ntime = { start = 0.0, stop = 5.0, n = 11 }\nz = 2.0\npsi = { offset = 0.1, harmonics = [{ amplitude = 0.2, period = 3.0, phase = 0.4 }] }\ntheta = { harmonics = [{ amplitude = 0.5, period = 5.0 }, { amplitude = 0.1, period = 1.0 }] }\n");
+        let j = job(
+            "[analysis]\nmodes=[\"dynamic\"]\n[trajectory]\ntime = { start = 0.0, stop = 5.0, n = 11 }\nz = 2.0\npsi = { offset = 0.1, harmonics = [{ amplitude = 0.2, period = 3.0, phase = 0.4 }] }\ntheta = { harmonics = [{ amplitude = 0.5, period = 5.0 }, { amplitude = 0.1, period = 1.0 }] }\n",
+        );
         let TrajectorySpec { theta, .. } = j.trajectory.clone().unwrap();
         for t in [0.3, 1.7, 4.2] {
             let h = 1e-4;

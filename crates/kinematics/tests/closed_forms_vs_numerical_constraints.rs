@@ -27,7 +27,10 @@ fn solve_constraints(geom: &Geometry, psi: f64, theta: f64) -> Vector3<f64> {
             dn[k] -= h;
             (residual(&up)[i] - residual(&dn)[i]) / (2.0 * h)
         });
-        let step = jac.lu().solve(&(-f)).expect("constraint Jacobian is regular");
+        let step = jac
+            .lu()
+            .solve(&(-f))
+            .expect("constraint Jacobian is regular");
         u += step;
         if step.amax() < 1e-15 {
             break;
@@ -44,15 +47,26 @@ fn closed_forms_match_numerical_solution() {
         let geom = Geometry::new(rng.random_range(0.05..0.4), rp, rng.random_range(0.8..1.5));
         let (psi, theta) = (rng.random_range(-0.7..0.7), rng.random_range(-0.7..0.7));
         let z = rng.random_range(1.5..2.5);
-        let Ok(pose) = inverse_kinematics(&geom, z, psi, theta) else { continue };
+        let Ok(pose) = inverse_kinematics(&geom, z, psi, theta) else {
+            continue;
+        };
         let num = solve_constraints(&geom, psi, theta);
         // Tolerance: round-off of the constraint residual, scaled by r_p.
-        assert!((pose.x - num.x).abs() < 1e-13 * rp.max(1.0), "X at ({psi}, {theta})");
-        assert!((pose.y - num.y).abs() < 1e-13 * rp.max(1.0), "Y at ({psi}, {theta})");
+        assert!(
+            (pose.x - num.x).abs() < 1e-13 * rp.max(1.0),
+            "X at ({psi}, {theta})"
+        );
+        assert!(
+            (pose.y - num.y).abs() < 1e-13 * rp.max(1.0),
+            "Y at ({psi}, {theta})"
+        );
         assert!((pose.phi - num.z).abs() < 1e-12, "Φ at ({psi}, {theta})");
         for j in 0..3 {
             let leg = (pose.a[j] - pose.b[j]).norm();
-            assert!((leg - geom.leg_length).abs() < 1e-13, "leg {j} length {leg}");
+            assert!(
+                (leg - geom.leg_length).abs() < 1e-13,
+                "leg {j} length {leg}"
+            );
             assert!(pose.b[j].z < pose.a[j].z, "slider below the platform");
         }
     }

@@ -32,12 +32,20 @@ impl MassModel {
             Some(i) => Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2])),
             None => {
                 let m = ms.platform;
-                Matrix3::from_diagonal(&Vector3::new(m * r * r / 4.0, m * r * r / 4.0, m * r * r / 2.0))
+                Matrix3::from_diagonal(&Vector3::new(
+                    m * r * r / 4.0,
+                    m * r * r / 4.0,
+                    m * r * r / 2.0,
+                ))
             }
         };
         let total = ms.platform + ms.points.iter().map(|p| p.mass).sum::<f64>();
         let moment: Vector3<f64> = ms.points.iter().map(|p| p.mass * Vector3::from(p.at)).sum();
-        let com_local = if total > 0.0 { moment / total } else { Vector3::zeros() };
+        let com_local = if total > 0.0 {
+            moment / total
+        } else {
+            Vector3::zeros()
+        };
         // Parallel axes: the platform's own inertia is about P, its centre of mass.
         let mut inertia_local = own + point_inertia(ms.platform, &com_local);
         for p in &ms.points {

@@ -30,7 +30,11 @@ impl PoseError {
     fn from_twist(t: &Vector6<f64>, euler_inv: &nalgebra::Matrix3<f64>) -> Self {
         let dalpha = Vector3::new(t[0], t[1], t[2]);
         let e = euler_inv * dalpha; // (ΔΘ, ΔΨ, ΔΦ)
-        Self { dalpha, dp: Vector3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
+        Self {
+            dalpha,
+            dp: Vector3::new(t[3], t[4], t[5]),
+            euler: [e[2], e[1], e[0]],
+        }
     }
 }
 
@@ -43,7 +47,12 @@ fn passive_screws(pose: &Posture, y: &Vector3<f64>, j: usize) -> [Vector6<f64>; 
     let rb = pose.b[j] - pose.p;
     let ra = pose.a[j] - pose.p;
     let s = |axis: Vector3<f64>, r: Vector3<f64>| twist(axis, r.cross(&axis));
-    [s(*y, rb), s(Vector3::x(), ra), s(Vector3::y(), ra), s(Vector3::z(), ra)]
+    [
+        s(*y, rb),
+        s(Vector3::x(), ra),
+        s(Vector3::y(), ra),
+        s(Vector3::z(), ra),
+    ]
 }
 
 /// The clearance twist `J_Cl·Δq_Cl` of limb j for each kind (order of `KINDS`).
@@ -59,7 +68,13 @@ fn clearance_twists(pose: &Posture, t: &TakeUp, j: usize) -> [Vector6<f64>; 4] {
 }
 
 /// Writes `J_P` (12 × 12) and the right-hand sides `J_Cl·Δq_Cl` (12 × 4, one column per kind).
-pub fn assemble(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, mut jp: MatMut<'_, f64>, mut rhs: MatMut<'_, f64>) {
+pub fn assemble(
+    pose: &Posture,
+    y: &[Vector3<f64>; 3],
+    take: &TakeUp,
+    mut jp: MatMut<'_, f64>,
+    mut rhs: MatMut<'_, f64>,
+) {
     jp.fill(0.0);
     let screws = [0, 1, 2].map(|j| passive_screws(pose, &y[j], j));
     let cl = [0, 1, 2].map(|j| clearance_twists(pose, take, j));
@@ -82,7 +97,12 @@ pub fn assemble(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, mut jp: Ma
 
 /// The per-kind errors from the solved passive motions (`dq`, 12 × 4): the twist
 /// of limb 1.
-pub fn errors_from(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, dq: &Mat<f64>) -> [PoseError; 4] {
+pub fn errors_from(
+    pose: &Posture,
+    y: &[Vector3<f64>; 3],
+    take: &TakeUp,
+    dq: &Mat<f64>,
+) -> [PoseError; 4] {
     let screws = passive_screws(pose, &y[0], 0);
     let cl = clearance_twists(pose, take, 0);
     let euler_inv = euler_rates_matrix(pose.psi, pose.theta)

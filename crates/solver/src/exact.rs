@@ -7,57 +7,142 @@
 //! p' + R'·a'_j = B_j + ΔB_j + L·Rot(Δθ_j)·Rot(y_j, φ_j)·e_j + ΔA_j
 //! ```
 //!
-//! solved by Newton from the nominal pose (`R' ← Exp(δ)·R'`, so the Jacobian of
-//! `R'·a'_j` in `δ` is `−[R'·a'_j]×`). The error is `(log(R'·Rᵀ), p' − p)`.
+//! solved by Newton from the nominal pose, with `R' = Exp(w)·R` (the Jacobian of
+//! `R'·a'_j` in `w` is `−[R'·a'_j]×·J_l(w)`). The error is `(log(R'·Rᵀ), p' − p) = (w, Δp)`.
 
 use clearance_kinematics::{Geometry, Posture};
-use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use crate::takeup::TakeUp;
 
+/// `Exp(w) − I`, with no cancellation for small `w`.
+fn exp_minus_identity(w: &Vector3<f64>) -> Matrix3<f64> {
+    let t2 = w.norm_squared();
+    let t = t2.sqrt();
+    // sin θ/θ and (1 − cos θ)/θ², by their series where the closed forms cancel.
+    let (a, b) = if t < 1e-4 {
+        (1.0 - t2 / 6.0, 0.5 - t2 / 24.0)
+    } else {
+        (t.sin() / t, (1.0 - t.cos()) / t2)
+    };
+    let k = w.cross_matrix();
+    a * k + b * k * k
+}
+
+/// The left Jacobian of SO(3): `d/dw Exp(w)·v = −[Exp(w)·v]×·J_l(w)`.
+fn left_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
+    let t2 = w.norm_squared();
+    let t = t2.sqrt();
+    let (b, c) = if t < 1e-4 {
+        (0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0)
+    } else {
+        ((1.0 - t.cos()) / t2, (t - t.sin()) / (t2 * t))
+    };
+    let k = w.cross_matrix();
+    Matrix3::identity() + b * k + c * k * k
+}
+
 /// The exact pose error `[Δα; Δp]`, or `None` when Newton does not converge.
+///
+/// The closure is solved in perturbation form: with `R' = Exp(w)·R`, `p' = p + Δp`
+/// and the nominal closure `p + R·a'_j = B_j + L·e_j` subtracted, every term of
+///
+/// ```text
+/// Δp + (Exp(w) − I)·R·a'_j − ΔB_j − ΔA_j − L·(Rot(Δθ_j)·Rot(y_j, φ_j) − I)·e_j = 0
+/// ```
+///
+/// is of the size of the clearances, so the error keeps full relative precision.
 pub fn exact_error(geom: &Geometry, pose: &Posture, take: &TakeUp) -> Option<[f64; 6]> {
     let l = geom.leg_length;
     let mut dp = Vector3::zeros();
-    let mut rot = pose.rot;
+    let mut w = Vector3::zeros();
     let mut phi = [0.0f64; 3];
-    let target_base: [Vector3<f64>; 3] =
-        [0, 1, 2].map(|j| pose.b[j] + take.r_radial[j] + take.r_axial[j] + take.s[j]);
-    let leg_rot: [Matrix3<f64>; 3] = [0, 1, 2].map(|j| Rotation3::new(take.r_angular[j]).into_inner());
-    let scale = l.max(geom.platform_radius);
-    // Once a step is small, one more quadratic step reaches round-off.
-    let mut polished = false;
-    for _ in 0..50 {
+    let offset: [Vector3<f64>; 3] =
+        [0, 1, 2].map(|j| take.r_radial[j] + take.r_axial[j] + take.s[j]);
+    let leg_tilt: [Matrix3<f64>; 3] = [0, 1, 2].map(|j| exp_minus_identity(&take.r_angular[j]));
+    let ra0: [Vector3<f64>; 3] = [0, 1, 2].map(|j| pose.rot * geom.a_local[j]);
+    let mut last_step = f64::INFINITY;
+    for _ in 0..30 {
         let mut res = SVector::<f64, 9>::zeros();
         let mut jac = SMatrix::<f64, 9, 9>::zeros();
+        let e_w = exp_minus_identity(&w);
+        let jl = left_jacobian(&w);
         for j in 0..3 {
-            let ra = rot * geom.a_local[j];
-            let leg_dir = Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(geom.y[j]), phi[j]) * pose.e[j];
-            let tip = target_base[j] + l * (leg_rot[j] * leg_dir);
-            let r = pose.p + dp + ra - tip;
-            let d_phi = -l * (leg_rot[j] * geom.y[j].cross(&leg_dir));
-            let skew = -ra.cross_matrix();
+            let ra = ra0[j] + e_w * ra0[j];
+            let m2 = exp_minus_identity(&(phi[j] * geom.y[j]));
+            let turn = leg_tilt[j] + m2 + leg_tilt[j] * m2;
+            let r = dp + e_w * ra0[j] - offset[j] - l * (turn * pose.e[j]);
+            let leg_dir = pose.e[j] + m2 * pose.e[j];
+            let d_phi = -l * ((Matrix3::identity() + leg_tilt[j]) * geom.y[j].cross(&leg_dir));
+            let d_w = -ra.cross_matrix() * jl;
             for i in 0..3 {
                 res[3 * j + i] = r[i];
                 jac[(3 * j + i, i)] = 1.0;
                 for k in 0..3 {
-                    jac[(3 * j + i, 3 + k)] = skew[(i, k)];
+                    jac[(3 * j + i, 3 + k)] = d_w[(i, k)];
                 }
                 jac[(3 * j + i, 6 + j)] = d_phi[i];
             }
         }
         let step = jac.lu().solve(&(-res))?;
         dp += Vector3::new(step[0], step[1], step[2]);
-        rot = Rotation3::new(Vector3::new(step[3], step[4], step[5])).into_inner() * rot;
+        w += Vector3::new(step[3], step[4], step[5]);
         for j in 0..3 {
             phi[j] += step[6 + j];
         }
-        if polished {
-            let dalpha = Rotation3::from_matrix_unchecked(rot * pose.rot.transpose()).scaled_axis();
-            let out = [dalpha.x, dalpha.y, dalpha.z, dp.x, dp.y, dp.z];
-            return out.iter().all(|v| v.is_finite()).then_some(out);
+        let size = dp
+            .amax()
+            .max(w.amax() * l)
+            .max(phi.iter().fold(0.0f64, |m, v| m.max(v.abs())) * l);
+        last_step = step.amax() / size.max(f64::MIN_POSITIVE);
+        if last_step <= 4.0 * f64::EPSILON {
+            break;
         }
-        polished = step.amax() <= 1e-9 * scale;
     }
-    None
+    let out = [w.x, w.y, w.z, dp.x, dp.y, dp.z];
+    (last_step <= 1e-10 && out.iter().all(|v| v.is_finite())).then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Rotation3;
+
+    /// `Exp(w) − I` against nalgebra's rotation at moderate angles, and its
+    /// off-diagonal entries against `[w]×` to full relative precision at tiny ones.
+    #[test]
+    fn exp_minus_identity_keeps_relative_precision() {
+        let axis = Vector3::new(0.3, -0.5, 0.8).normalize();
+        for &angle in &[0.01, 0.5, 3.0] {
+            let w = angle * axis;
+            let want = Rotation3::new(w).into_inner() - Matrix3::identity();
+            assert!((exp_minus_identity(&w) - want).amax() < 1e-15);
+        }
+        for &angle in &[1e-12, 1e-8, 3e-6, 9e-5, 1.1e-4] {
+            let w = angle * axis;
+            let got = exp_minus_identity(&w);
+            let k = w.cross_matrix();
+            let rel = (got - k - 0.5 * k * k).amax() / angle;
+            assert!(
+                rel < angle * angle + 4.0 * f64::EPSILON,
+                "angle {angle}: {rel}"
+            );
+        }
+    }
+
+    /// The left Jacobian is the derivative of `Exp(w)·v` (central differences).
+    #[test]
+    fn left_jacobian_is_the_derivative() {
+        let w = Vector3::new(0.2, -0.4, 0.3);
+        let v = Vector3::new(0.1, 0.7, -0.2);
+        let f = |w: Vector3<f64>| Rotation3::new(w) * v;
+        let analytic = -(f(w)).cross_matrix() * left_jacobian(&w);
+        let h = 1e-6;
+        for k in 0..3 {
+            let mut dw = Vector3::zeros();
+            dw[k] = h;
+            let fd = (f(w + dw) - f(w - dw)) / (2.0 * h);
+            assert!((fd - analytic.column(k)).amax() < 1e-9, "column {k}");
+        }
+    }
 }

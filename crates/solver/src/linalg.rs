@@ -46,13 +46,13 @@ impl LuSolver {
             norm = norm.max(s);
         }
         self.lu.copy_from(m);
-        let mut stack = MemStack::new(&mut self.buf);
+        let stack = MemStack::new(&mut self.buf);
         let (_, perm) = factor::lu_in_place(
             self.lu.as_mut(),
             &mut self.perm,
             &mut self.perm_inv,
             Par::Seq,
-            &mut stack,
+            stack,
             Default::default(),
         );
         for i in 0..n {
@@ -61,12 +61,26 @@ impl LuSolver {
                 return f64::INFINITY;
             }
         }
-        solve::solve_in_place(self.lu.as_ref(), self.lu.as_ref(), perm, rhs.as_mut(), Par::Seq, &mut stack);
+        solve::solve_in_place(
+            self.lu.as_ref(),
+            self.lu.as_ref(),
+            perm,
+            rhs.as_mut(),
+            Par::Seq,
+            stack,
+        );
         self.inv.fill(0.0);
         for i in 0..n {
             self.inv[(i, i)] = 1.0;
         }
-        solve::solve_in_place(self.lu.as_ref(), self.lu.as_ref(), perm, self.inv.as_mut(), Par::Seq, &mut stack);
+        solve::solve_in_place(
+            self.lu.as_ref(),
+            self.lu.as_ref(),
+            perm,
+            self.inv.as_mut(),
+            Par::Seq,
+            stack,
+        );
         let mut inv_norm = 0.0f64;
         for j in 0..n {
             let mut s = 0.0;
@@ -76,7 +90,11 @@ impl LuSolver {
             inv_norm = inv_norm.max(s);
         }
         let cond = norm * inv_norm;
-        if cond.is_finite() { cond } else { f64::INFINITY }
+        if cond.is_finite() {
+            cond
+        } else {
+            f64::INFINITY
+        }
     }
 }
 
@@ -93,7 +111,9 @@ mod tests {
         let n = 24;
         let mut lu = LuSolver::new(n, 4);
         for _ in 0..20 {
-            let m = Mat::from_fn(n, n, |i, j| rng.random_range(-1.0..1.0) + if i == j { 4.0 } else { 0.0 });
+            let m = Mat::from_fn(n, n, |i, j| {
+                rng.random_range(-1.0..1.0) + if i == j { 4.0 } else { 0.0 }
+            });
             let b = Mat::from_fn(n, 4, |_, _| rng.random_range(-1.0..1.0));
             let mut x = b.clone();
             let cond = lu.solve_with_cond(m.as_ref(), x.as_mut());
