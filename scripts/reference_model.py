@@ -34,7 +34,8 @@ import numpy as np
 __all__ = [
     "Jet", "KINDS", "COMPONENTS", "DEFAULTS", "normalize_job", "sample_inputs",
     "parasitic", "kinematics", "equilibrium_system", "take_up", "loop_system",
-    "euler_errors", "exact_errors", "compute", "column_names", "kappa1",
+    "euler_errors", "exact_errors", "exp_minus_identity", "same_branch", "compute",
+    "column_names", "kappa1",
 ]
 
 KINDS = ("s_radial", "r_radial", "r_axial", "r_angular")
@@ -45,6 +46,7 @@ XJ = np.stack([np.cos(ALPHA), np.sin(ALPHA), np.zeros(3)], axis=-1)   # (3 limbs
 YJ = np.stack([-np.sin(ALPHA), np.cos(ALPHA), np.zeros(3)], axis=-1)
 EZ = np.array([0.0, 0.0, 1.0])
 I3 = np.eye(3)
+EPS = np.finfo(float).eps
 
 DEFAULTS = {
     "mechanism": {"base_radius": 0.18, "platform_radius": 0.36, "leg_length": 1.0,
@@ -616,47 +618,102 @@ def euler_errors(psi, theta, dalpha):
 # --------------------------------------------------------------------------
 # Exact error (MODEL.md section 7)
 # --------------------------------------------------------------------------
-def exact_errors(P, kin_v, dB, dth, dA, tol=1e-13, max_iter=30):
-    """Newton on (platform rotation increment, p', phi_j), all poses at once.
+def exp_minus_identity(v):
+    """Exp([v]x) - I for v (...,3), free of cancellation: a [v]x + b [v]x^2 with
+    a = sin t / t and b = (1 - cos t) / t^2 = 2 sin^2(t/2) / t^2 (series when tiny)."""
+    th2 = (v * v).sum(-1)
+    th = np.sqrt(th2)
+    small = th < 1e-4
+    ths = np.where(small, 1.0, th)
+    a = np.where(small, 1.0 - th2 / 6.0 + th2 * th2 / 120.0, np.sin(ths) / ths)
+    h = np.where(small, 1.0, 0.5 * ths)
+    b = np.where(small, 0.5 - th2 / 24.0 + th2 * th2 / 720.0, 0.5 * (np.sin(h) / h) ** 2)
+    K = skew(v)
+    return a[..., None, None] * K + b[..., None, None] * (K @ K)
+
+
+def left_jacobian(v):
+    """J_l(v) of SO(3): d/dv Exp(v) u = -[Exp(v) u]x J_l(v)."""
+    th2 = (v * v).sum(-1)
+    th = np.sqrt(th2)
+    small = th < 1e-2
+    ths = np.where(small, 1.0, th)
+    b = np.where(small, 0.5 - th2 / 24.0 + th2 * th2 / 720.0,
+                 2.0 * np.sin(0.5 * ths) ** 2 / ths ** 2)
+    c = np.where(small, 1.0 / 6.0 - th2 / 120.0 + th2 * th2 / 5040.0,
+                 (ths - np.sin(ths)) / ths ** 3)
+    K = skew(v)
+    return I3 + b[..., None, None] * K + c[..., None, None] * (K @ K)
+
+
+def exact_errors(P, kin_v, dB, dth, dA, max_iter=30):
+    """Newton on the closure in perturbation form, all poses at once.
+
+    Unknowns: dp = p' - p, w with R' = Exp(w) R, and the leg angles phi_j.  With
+    the nominal closure p + R a'_j = B_j + L e_j subtracted, every term of
+
+        dp + (Exp(w) - I) R a'_j - dB_j - dA_j - L (Rot(dth_j) Rot(y_j, phi_j) - I) e_j = 0
+
+    is of the size of the clearances (no O(|p|) numbers are ever differenced), so
+    the result keeps full relative precision; the exact error is (w, dp).
 
     dB, dth, dA: (N,3,3) R translation, R rotation vector, S translation.
-    Returns (N,6) [log(R' R^T), p' - p] (NaN where Newton fails) and converged mask."""
-    Rm, p, B, e, L = kin_v["R"], kin_v["p"], kin_v["B"], kin_v["e"], P["L"]
-    N = p.shape[0]
-    ap = P["rp"] * XJ
-    Rth = rot_exp(dth)                                   # (N,3,3 limbs..) -> (N,3,3,3)
-    yxe = np.cross(YJ, e)
-    Rc, pc, phi = Rm.copy(), p.copy(), np.zeros((N, 3))
-    conv = np.zeros(N, bool)
-    scale = L
+    Returns (N,6) [w; dp] (NaN where Newton does not converge) and the converged mask."""
+    Rm, e, L = kin_v["R"], kin_v["e"], P["L"]
+    N = Rm.shape[0]
+    ra0 = np.einsum("nab,jb->nja", Rm, P["rp"] * XJ)                 # R a'_j (N,3,3)
+    off = dB + dA                                                     # (N,3,3)
+    tilt = exp_minus_identity(dth)                                    # Rot(dth_j) - I (N,3,3,3)
+    ytil = I3 + tilt                                                  # Rot(dth_j)
+    dp, w, phi = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 3))
 
-    def residual(Rc, pc, phi):
-        leg = np.cos(phi)[..., None] * e + np.sin(phi)[..., None] * yxe
-        Aleg = B + dB + L * np.einsum("njab,njb->nja", Rth, leg)
-        Ap = pc[:, None, :] + np.einsum("nab,jb->nja", Rc, ap)
-        return Ap - Aleg - dA, leg
+    def residual(dp, w, phi):
+        Ew = exp_minus_identity(w)                                    # (N,3,3)
+        M2 = exp_minus_identity(phi[..., None] * YJ)                  # (N,3,3,3)
+        turn = tilt + M2 + tilt @ M2                                  # Rot(dth)Rot(y,phi) - I
+        F = dp[:, None, :] + np.einsum("nab,njb->nja", Ew, ra0) - off \
+            - L * np.einsum("njab,njb->nja", turn, e)
+        return F, Ew, M2
 
+    # size of the unknowns, for the relative step test (0 on a rigid job)
+    def size(dp, w, phi):
+        return np.maximum(np.abs(dp).max(-1), L * np.maximum(np.abs(w).max(-1),
+                                                             np.abs(phi).max(-1)))
+
+    rel_step = np.full(N, np.inf)
     for _ in range(max_iter):
-        F, leg = residual(Rc, pc, phi)
+        F, Ew, M2 = residual(dp, w, phi)
+        ra = ra0 + np.einsum("nab,njb->nja", Ew, ra0)                 # R' a'_j
+        legdir = e + np.einsum("njab,njb->nja", M2, e)                # Rot(y_j, phi_j) e_j
+        dphi = -L * np.einsum("njab,njb->nja", ytil, np.cross(YJ, legdir))
+        dw = -skew(ra) @ left_jacobian(w)[:, None]                    # (N,3,3,3)
         J = np.zeros((N, 3, 3, 9))
-        RA = np.einsum("nab,jb->nja", Rc, ap)
-        dleg = np.cos(phi)[..., None] * yxe - np.sin(phi)[..., None] * e   # d leg / d phi
+        J[..., 0:3] = I3
+        J[..., 3:6] = dw
         for j in range(3):
-            J[:, j, :, 0:3] = -skew(RA[:, j])
-            J[:, j, :, 3:6] = I3
-            J[:, j, :, 6 + j] = -L * np.einsum("nab,nb->na", Rth[:, j], dleg[:, j])
+            J[:, j, :, 6 + j] = dphi[:, j]
         step = _solve_stack(J.reshape(N, 9, 9), -F.reshape(N, 9, 1))[..., 0]
-        Rc = rot_exp(step[:, 0:3]) @ Rc
-        pc = pc + step[:, 3:6]
-        phi = phi + step[:, 6:9]
-        if np.all(~np.all(np.isfinite(step), -1) | (np.abs(step).max(-1) <= 1e-15 * scale)):
+        dp, w, phi = dp + step[:, 0:3], w + step[:, 3:6], phi + step[:, 6:9]
+        sz = size(dp, w, phi)
+        smax = np.maximum(np.abs(step[:, 0:3]).max(-1), L * np.abs(step[:, 3:9]).max(-1))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rel_step = np.where(sz > 0, smax / np.where(sz > 0, sz, 1.0),
+                                np.where(smax == 0, 0.0, np.inf))
+        rel_step = np.where(np.isfinite(rel_step), rel_step, np.inf)
+        if np.all((rel_step <= 4.0 * EPS) | ~np.isfinite(step).all(-1)):
             break
-    F, _ = residual(Rc, pc, phi)
-    res = np.abs(F).reshape(N, 9).max(-1)
-    conv = np.isfinite(res) & (res <= tol * scale)
-    out = np.concatenate([rot_log(Rc @ Rm.swapaxes(-1, -2)), pc - p], axis=-1)
+    out = np.concatenate([w, dp], axis=-1)
+    conv = (rel_step <= 1e-10) & np.isfinite(out).all(-1)
     out[~conv] = np.nan
     return out, conv
+
+
+def same_branch(exact, linear):
+    """docs/conventions.md: an exact solution further from the linear error than the
+    linear error's own size (any of the six components) is another assembly branch."""
+    size = np.abs(linear).max(-1, keepdims=True)
+    with np.errstate(invalid="ignore"):
+        return np.all(np.abs(exact - linear) <= size, axis=-1)
 
 
 # --------------------------------------------------------------------------
@@ -760,6 +817,8 @@ def _compute_chunk(P, smp, sl, modes):
                 ex_ok, _ = exact_errors(P, {k: kin_s[k][ok] for k in kin_s},
                                         dB[ok], disp["r_angular"][ok], disp["s_radial"][ok])
                 ex[ok] = ex_ok
+                lin = tot[:, [3, 4, 5, 0, 1, 2]]                # [d_alpha; d_p]
+                ex[~same_branch(ex, lin)] = np.nan
             for ci, c in enumerate(("rx", "ry", "rz", "x", "y", "z")):
                 cols[f"exact_err_{c}"] = ex[:, ci]
         out[mode] = cols
