@@ -23,7 +23,9 @@ fn exp_minus_identity(w: &Vector3<f64>) -> Matrix3<f64> {
     let (a, b) = if t < 1e-4 {
         (1.0 - t2 / 6.0, 0.5 - t2 / 24.0)
     } else {
-        (t.sin() / t, (1.0 - t.cos()) / t2)
+        // 1 − cos θ = 2·sin²(θ/2): no cancellation at any angle.
+        let h = (0.5 * t).sin() / (0.5 * t);
+        (t.sin() / t, 0.5 * h * h)
     };
     let k = w.cross_matrix();
     a * k + b * k * k

@@ -1,0 +1,113 @@
+//! One-dimensional root and minimum refinement.
+
+/// Bisection of a sign change of `f` in `[a, b]` (`f(a)` and `f(b)` of opposite
+/// signs) until the bracket is at most `tol` wide; returns its midpoint.
+pub fn bisect(mut a: f64, mut b: f64, fa: f64, tol: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
+    let mut sa = fa.signum();
+    while (b - a).abs() > tol {
+        let m = 0.5 * (a + b);
+        let fm = f(m);
+        if fm == 0.0 {
+            return m;
+        }
+        if fm.signum() == sa {
+            a = m;
+            sa = fm.signum();
+        } else {
+            b = m;
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// Brent's bounded minimisation of `f` on `[a, b]` (golden section with parabolic
+/// steps), to an absolute tolerance `xtol` in x. Returns `(x, f(x))`.
+pub fn brent_min(a: f64, b: f64, xtol: f64, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    const GOLDEN: f64 = 0.381_966_011_250_105_1; // (3 − √5)/2
+    let (mut a, mut b) = if a < b { (a, b) } else { (b, a) };
+    let mut x = a + GOLDEN * (b - a);
+    let (mut w, mut v) = (x, x);
+    let mut fx = f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    let (mut d, mut e) = (0.0f64, 0.0f64);
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        let tol1 = 1e-12 * x.abs() + xtol / 3.0;
+        let tol2 = 2.0 * tol1;
+        if (x - m).abs() <= tol2 - 0.5 * (b - a) {
+            break;
+        }
+        let mut golden = true;
+        if e.abs() > tol1 {
+            // Parabola through (v, fv), (w, fw), (x, fx).
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            let e_old = e;
+            e = d;
+            if p.abs() < (0.5 * q * e_old).abs() && p > q * (a - x) && p < q * (b - x) {
+                d = p / q;
+                let u = x + d;
+                if u - a < tol2 || b - u < tol2 {
+                    d = if m >= x { tol1 } else { -tol1 };
+                }
+                golden = false;
+            }
+        }
+        if golden {
+            e = if x >= m { a - x } else { b - x };
+            d = GOLDEN * e;
+        }
+        let u = if d.abs() >= tol1 {
+            x + d
+        } else {
+            x + tol1.copysign(d)
+        };
+        let fu = f(u);
+        if fu <= fx {
+            if u >= x {
+                a = x;
+            } else {
+                b = x;
+            }
+            (v, fv, w, fw, x, fx) = (w, fw, x, fx, u, fu);
+        } else {
+            if u < x {
+                a = u;
+            } else {
+                b = u;
+            }
+            if fu <= fw || w == x {
+                (v, fv, w, fw) = (w, fw, u, fu);
+            } else if fu <= fv || v == x || v == w {
+                (v, fv) = (u, fu);
+            }
+        }
+    }
+    (x, fx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bisection_finds_the_root() {
+        let r = bisect(0.0, 2.0, -1.0, 1e-12, |x| x * x - 2.0);
+        assert!((r - 2f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn brent_finds_smooth_and_kinked_minima() {
+        let (x, _) = brent_min(0.0, 3.0, 1e-10, |x| (x - 1.234_567).powi(2) + 0.5);
+        assert!((x - 1.234_567).abs() < 1e-9);
+        // A load vector passing near zero: |f| has a sharp V.
+        let (x, fx) = brent_min(-1.0, 1.0, 1e-10, |x| ((x - 0.3141).powi(2) + 1e-14).sqrt());
+        assert!((x - 0.3141).abs() < 1e-9 && fx < 1e-6, "{x} {fx}");
+    }
+}
