@@ -19,11 +19,11 @@ Comparison rule (per cell, both sides non-null):
       unit group (lengths, angles, time, position errors, rotation errors,
       exact position errors, exact rotation errors, forces, couples; cond_a
       and cond_jp are their own groups), N_g the group's natural magnitude:
-      L (lengths), 1 rad (angles and exact rotation errors), max|Z| + r_p
-      (exact position errors, which are differences p' - p of O(|p|) numbers),
-      W = m_total*|g| (forces), W*L (couples), c_t + L*c_a (position errors),
-      c_a + c_t/L (rotation errors), c_t the largest translational and c_a the
-      angular clearance.  Each column is judged relative to its own magnitude;
+      L (lengths), 1 rad (angles), W = m_total*|g| (forces), W*L (couples),
+      c_t + L*c_a (position errors, linear and exact), c_a + c_t/L (rotation
+      errors, linear and exact; both sides solve the exact closure in
+      perturbation form, so exact errors carry full relative precision too),
+      c_t the largest translational and c_a the angular clearance.  Each column is judged relative to its own magnitude;
       a column that is essentially zero throughout (y on a Psi = 0 path, the R
       couples of a symmetric level pose) is judged against 1e-3 of its group's
       magnitude, or 1e-6 of the physical scale, not by the relative error of
@@ -274,14 +274,14 @@ def group_of(col):
     return None
 
 
-def physical_scale(P, zmax):
+def physical_scale(P):
     """Natural magnitude of each unit group for the job (see the module doc)."""
     c = P["clear"]
     trans = max(c["s_radial"], c["r_radial"], c["r_axial"])
     L = P["L"]
     return {"length": L, "angle": 1.0, "err_len": trans + L * c["r_angular"],
             "err_ang": c["r_angular"] + trans / L, "force": P["W"], "couple": P["W"] * L,
-            "exact_len": zmax + P["rp"], "exact_ang": 1.0}
+            "exact_len": trans + L * c["r_angular"], "exact_ang": c["r_angular"] + trans / L}
 
 
 # groups whose values come out of one linear solve together: (length-like, angle-like)
@@ -380,7 +380,6 @@ def compare(ref, eng, job_label, stats, P):
     # column scales per mode
     num_cols = [c for c in expected if c in eng and c not in ("mode", "status", "sample")]
     scale, fam = {}, {}
-    zmax = float(np.nanmax(np.abs(ref["z"])))
     for m in np.unique(modes):
         sel = modes == m
         mc = {c: (np.nanmax(np.abs(ref[c][ri][sel])) if np.isfinite(ref[c][ri][sel]).any() else 0.0)
@@ -388,7 +387,7 @@ def compare(ref, eng, job_label, stats, P):
         mg = {}
         for c, v in mc.items():
             mg[group_of(c)] = max(mg.get(group_of(c), 0.0), v)
-        phys = physical_scale(P, zmax)
+        phys = physical_scale(P)
         for c in num_cols:
             scale[(m, c)] = max(mc[c], GROUP_FLOOR * mg[group_of(c)],
                                 PHYS_FLOOR * phys.get(group_of(c), 0.0))

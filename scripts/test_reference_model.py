@@ -365,6 +365,129 @@ def test_exact_mode_rigid_is_zero():
         assert np.abs(c[f"exact_err_{k}"]).max() < 1e-15
 
 
+def test_exp_minus_identity_keeps_relative_precision():
+    """Exp(w) - I vs Rodrigues at large angles, and vs its Taylor series (exact to
+    round-off for |w| <= 1e-2) relative to |w| at small ones: no 1 - cos cancellation."""
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    for t in (0.05, 0.5, 3.0):
+        want = rm.rot_exp(t * axis) - np.eye(3)
+        assert np.abs(rm.exp_minus_identity(t * axis) - want).max() < 4e-16
+    for t in (1e-12, 1e-8, 3e-6, 9e-5, 1.1e-4, 1e-3, 1e-2):
+        w = t * axis
+        K = rm.skew(w)
+        want = (1 - t ** 2 / 6 + t ** 4 / 120) * K + (0.5 - t ** 2 / 24 + t ** 4 / 720) * K @ K
+        got = rm.exp_minus_identity(w)
+        assert np.abs(got - want).max() / t < 4 * np.finfo(float).eps, t
+
+
+def _mp_exact(P, z, psi, th, dB, dth, dA):
+    """50-digit solve of MODEL.md s.7 in world coordinates from the float inputs."""
+    mp = pytest.importorskip("mpmath")
+    mp.mp.dps = 50
+    rp, Rb, L = mp.mpf(P["rp"]), mp.mpf(P["Rb"]), mp.mpf(P["L"])
+    z, psi, th = mp.mpf(z), mp.mpf(psi), mp.mpf(th)
+
+    def expm(w):
+        t = mp.sqrt(sum(x ** 2 for x in w))
+        K = mp.matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+        return mp.eye(3) if t == 0 else mp.eye(3) + mp.sin(t) / t * K + (1 - mp.cos(t)) / t ** 2 * K * K
+
+    phi = mp.atan2(mp.sin(psi) * mp.sin(th), mp.cos(psi) + mp.cos(th))
+    p = mp.matrix([rp / 2 * (mp.cos(th) * mp.cos(phi) - mp.cos(phi) * mp.cos(psi)
+                             + mp.sin(psi) * mp.sin(th) * mp.sin(phi)),
+                   -rp * mp.cos(psi) * mp.sin(phi), z])
+    R = expm([0, th, 0]) * expm([psi, 0, 0]) * expm([0, 0, phi])
+    legs = []
+    for j in range(3):
+        a = 2 * mp.pi * j / 3
+        x, y = mp.matrix([mp.cos(a), mp.sin(a), 0]), mp.matrix([-mp.sin(a), mp.cos(a), 0])
+        al = rp * x
+        A = p + R * al
+        q = A[2] - mp.sqrt(L ** 2 - (A[0] * x[0] + A[1] * x[1] - Rb) ** 2)
+        B = Rb * x + mp.matrix([0, 0, q])
+        off = mp.matrix([mp.mpf(float(v)) for v in dB[j] + dA[j]])   # float sum, exact as given
+        legs.append((al, B + off, expm([mp.mpf(float(v)) for v in dth[j]]), y, (A - B) / L))
+
+    def F(*u):
+        Rp, out = expm(u[3:6]) * R, []
+        for j, (al, Bo, Rt, y, e) in enumerate(legs):
+            out += list(p + mp.matrix(u[0:3]) + Rp * al - Bo - L * Rt * expm(u[6 + j] * y) * e)
+        return out
+
+    u = mp.findroot(F, [mp.mpf(0)] * 9)
+    return np.array([float(u[k]) for k in (3, 4, 5, 0, 1, 2)])
+
+
+@pytest.mark.parametrize("clear", [
+    {"s_radial": 1.4e-5, "r_radial": 9.6e-5, "r_axial": 1.5e-6},          # tiny rotations
+    {"s_radial": 3e-4, "r_radial": 1e-3, "r_axial": 2e-5, "r_angular": 4e-4}])  # angles > 1e-4
+def test_exact_error_matches_50_digit_closure(clear):
+    """The perturbation form keeps full relative precision in every component (the
+    world-coordinate closure loses ~1e-15 m, i.e. ~1e-9 of a 5e-7 rad rotation)."""
+    P = rm.normalize_job(with_job(LOADED, clearance=clear))
+    rng = np.random.default_rng(37)
+    z, psi, th = rng.uniform(1.7, 2.3, 3), rng.uniform(-0.4, 0.4, 3), rng.uniform(-0.4, 0.4, 3)
+    kin = rm.kinematics(P, z, psi, th)
+    M, b = rm.equilibrium_system(P, kin)
+    w = np.linalg.solve(M, b[..., None])[..., 0]
+    disp, _, indet = rm.take_up(P, *rm.unpack_reactions(w))
+    assert not any(v.any() for v in indet.values())
+    dB, dth, dA = disp["r_radial"] + disp["r_axial"], disp["r_angular"], disp["s_radial"]
+    ex, conv = rm.exact_errors(P, kin, dB, dth, dA)
+    assert conv.all()
+    for n in range(3):
+        truth = _mp_exact(P, z[n], psi[n], th[n], dB[n], dth[n], dA[n])
+        err = np.abs(ex[n] - truth)
+        assert np.all(err <= 2e-13 * np.abs(truth) + 1e-16 * np.abs(truth).max()), err / np.abs(truth)
+
+
+def test_exact_null_when_newton_fails_or_lands_on_another_branch(monkeypatch):
+    """conventions.md: null if Newton does not converge, or if any component of
+    [d_alpha; d_p] is further from the linear error than max_k |linear_k|."""
+    # the branch rule itself, at the boundary
+    lin = np.array([[1e-6, -2e-6, 3e-7, 4e-5, -1e-5, 2e-6]])
+    size = np.abs(lin).max()
+    assert rm.same_branch(lin + 0.999 * size, lin).all()
+    for k in range(6):
+        far = lin.copy()
+        far[0, k] += 1.001 * size * (-1) ** k
+        assert not rm.same_branch(far, lin).any()
+    assert not rm.same_branch(np.full((1, 6), np.nan), lin).any()
+    # Newton cannot close the loop when a leg end is displaced by more than 2 L
+    P = rm.normalize_job(LOADED)
+    kin = rm.kinematics(P, np.array([2.0, 2.0]), np.array([0.1, 0.1]), np.array([0.2, 0.2]))
+    dB = np.zeros((2, 3, 3))
+    dB[1, 0] = [0.0, 0.0, 3.0 * P["L"]]
+    ex, conv = rm.exact_errors(P, kin, dB, np.zeros_like(dB), np.zeros_like(dB))
+    assert conv[0] and not conv[1]
+    assert np.isfinite(ex[0]).all() and np.isnan(ex[1]).all()
+    # in the pipeline: solutions moved off the linear error by 0.5 / 1.5 of its size
+    job = with_job(LOADED, analysis={"exact": True})
+    z, psi, th = random_inputs(8)
+    psi = np.where(np.abs(psi) < 0.05, 0.2, psi)
+    names = [f"exact_err_{c}" for c in ("rx", "ry", "rz", "x", "y", "z")]
+    c0 = rm.pose_arrays(job, z, psi, th)
+    assert (c0["status"] == "ok").all()
+    lin = np.stack([c0[f"err_{k}"] for k in ("rx", "ry", "rz", "x", "y", "z")], -1)
+    size = np.abs(lin).max(-1)
+    shift = np.where(np.arange(8) % 2 == 0, 0.5, 1.5) * size
+    real = rm.exact_errors
+
+    def moved(*a, **k):
+        out, conv = real(*a, **k)
+        out = out.copy()
+        out[:, 5] += shift                                    # dp_z
+        return out, conv
+
+    monkeypatch.setattr(rm, "exact_errors", moved)
+    c1 = rm.pose_arrays(job, z, psi, th)
+    ex0 = np.stack([c0[n] for n in names], -1)
+    ex1 = np.stack([c1[n] for n in names], -1)
+    assert np.isfinite(ex0).all()
+    np.testing.assert_array_equal(ex1[0::2, :5], ex0[0::2, :5])
+    assert np.isnan(ex1[1::2]).all()
+
+
 # --------------------------------------------------------------------------
 # status and null rules (docs/conventions.md)
 # --------------------------------------------------------------------------
