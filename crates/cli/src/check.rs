@@ -13,12 +13,7 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
     println!("job {} ({file}): valid", job.name());
     match job.samples() {
         SamplesSpec::Grid(g) => {
-            println!(
-                "samples: grid {} z × {} psi × {} theta = {n}",
-                g.z.len(),
-                g.psi.len(),
-                g.theta.len()
-            )
+            println!("samples: grid {} z × {} psi × {} theta = {n}", g.z.len(), g.psi.len(), g.theta.len())
         }
         SamplesSpec::Trajectory(t) => println!("samples: trajectory of {} times", t.time.len()),
     }
@@ -26,15 +21,7 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
     println!("variants: {}", variants.len());
     for v in variants.iter().take(20) {
         let params: Vec<String> = v.params.iter().map(|(p, x)| format!("{p} = {x}")).collect();
-        println!(
-            "  variant={}: {}",
-            v.index,
-            if params.is_empty() {
-                "as written".into()
-            } else {
-                params.join(", ")
-            }
-        );
+        println!("  variant={}: {}", v.index, if params.is_empty() { "as written".into() } else { params.join(", ") });
     }
     if variants.len() > 20 {
         println!("  ... {} more", variants.len() - 20);
@@ -45,20 +32,12 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
         let cols = PoseSchema::new(set, job.analysis.exact).names().count();
         // 8 bytes per value before compression; zstd gains little on float noise.
         let bytes = rows as f64 * cols as f64 * 8.0;
-        println!(
-            "  --columns {:<8}: {cols:>3} columns, at most ~{}",
-            set.name(),
-            human_bytes(bytes)
-        );
+        println!("  --columns {:<8}: {cols:>3} columns, at most ~{}", set.name(), human_bytes(bytes));
     }
     if timing {
         let probe = crate::bench::bench_job(20_000);
         let rate = kernel_rate(&probe);
-        let dynamic = if modes.contains(&"dynamic") {
-            " (dynamic poses cost somewhat more)"
-        } else {
-            ""
-        };
+        let dynamic = if modes.contains(&"dynamic") { " (dynamic poses cost somewhat more)" } else { "" };
         println!(
             "estimated compute time: {:.1} s at {:.0} poses/s measured now on {} threads{dynamic}",
             rows as f64 / rate,

@@ -15,11 +15,7 @@ use clearance_model::{JobError, JobSpec};
 use clearance_parquet::ColumnSet;
 
 #[derive(Parser)]
-#[command(
-    name = "clearance",
-    version,
-    about = "Pose error of a 3-PRS parallel robot due to joint clearances"
-)]
+#[command(name = "clearance", version, about = "Pose error of a 3-PRS parallel robot due to joint clearances")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -84,14 +80,8 @@ enum Command {
 
 fn parse_shard(s: &str) -> Result<(u64, u64), String> {
     let (i, n) = s.split_once('/').ok_or("expected I/N, e.g. 0/4")?;
-    let i: u64 = i
-        .trim()
-        .parse()
-        .map_err(|_| format!("shard index `{i}` is not a whole number"))?;
-    let n: u64 = n
-        .trim()
-        .parse()
-        .map_err(|_| format!("shard count `{n}` is not a whole number"))?;
+    let i: u64 = i.trim().parse().map_err(|_| format!("shard index `{i}` is not a whole number"))?;
+    let n: u64 = n.trim().parse().map_err(|_| format!("shard count `{n}` is not a whole number"))?;
     if n == 0 || i >= n {
         return Err(format!("shard {i}/{n}: need 0 <= I < N"));
     }
@@ -99,30 +89,21 @@ fn parse_shard(s: &str) -> Result<(u64, u64), String> {
 }
 
 fn parse_columns(s: &str) -> Result<ColumnSet, String> {
-    ColumnSet::parse(s)
-        .ok_or_else(|| format!("unknown column set `{s}`; use minimal, standard or full"))
+    ColumnSet::parse(s).ok_or_else(|| format!("unknown column set `{s}`; use minimal, standard or full"))
 }
 
 /// The shard from the flag, or from the scheduler's environment.
-fn resolve_shard(
-    flag: Option<(u64, u64)>,
-    count: Option<u64>,
-) -> Result<Option<(u64, u64)>, String> {
+fn resolve_shard(flag: Option<(u64, u64)>, count: Option<u64>) -> Result<Option<(u64, u64)>, String> {
     if flag.is_some() {
         return Ok(flag);
     }
     let var = |k: &str| std::env::var(k).ok().filter(|v| !v.is_empty());
     if let (Some(i), Some(n)) = (var("SLURM_ARRAY_TASK_ID"), var("SLURM_ARRAY_TASK_COUNT")) {
-        return parse_shard(&format!("{i}/{n}"))
-            .map(Some)
-            .map_err(|e| format!("SLURM_ARRAY_TASK_ID/COUNT: {e}"));
+        return parse_shard(&format!("{i}/{n}")).map(Some).map_err(|e| format!("SLURM_ARRAY_TASK_ID/COUNT: {e}"));
     }
     if let Some(i) = var("JOB_COMPLETION_INDEX") {
-        let n = count
-            .ok_or("JOB_COMPLETION_INDEX is set: give the number of shards with --shard-count N")?;
-        return parse_shard(&format!("{i}/{n}"))
-            .map(Some)
-            .map_err(|e| format!("JOB_COMPLETION_INDEX: {e}"));
+        let n = count.ok_or("JOB_COMPLETION_INDEX is set: give the number of shards with --shard-count N")?;
+        return parse_shard(&format!("{i}/{n}")).map(Some).map_err(|e| format!("JOB_COMPLETION_INDEX: {e}"));
     }
     if count.is_some() {
         return Err("--shard-count needs JOB_COMPLETION_INDEX (or use --shard I/N)".into());
@@ -132,9 +113,7 @@ fn resolve_shard(
 
 fn init_threads(threads: Option<usize>) -> anyhow::Result<()> {
     if let Some(n) = threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build_global()?;
+        rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global()?;
     }
     Ok(())
 }
@@ -153,18 +132,7 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run {
-            job,
-            out,
-            threads,
-            shard,
-            shard_count,
-            resume,
-            overwrite,
-            columns,
-            chunk_size,
-            quiet,
-        } => {
+        Command::Run { job, out, threads, shard, shard_count, resume, overwrite, columns, chunk_size, quiet } => {
             let spec = match load_job(&job) {
                 Ok(s) => s,
                 Err(e) => return usage(e),
@@ -173,51 +141,30 @@ fn main() -> ExitCode {
                 Ok(s) => s,
                 Err(e) => return usage(e),
             };
-            let opts = run::RunOptions {
-                out,
-                columns,
-                shard,
-                resume,
-                overwrite,
-                chunk_size,
-                quiet,
-            };
-            init_threads(threads)
-                .and_then(|_| run::run(&spec, &job.display().to_string(), &opts))
-                .map(|r| {
-                    if !quiet {
-                        eprintln!(
-                            "computed {} of {} poses in {:.2} s{}; output in {}",
-                            r.computed,
-                            r.total,
-                            r.seconds,
-                            if r.complete {
-                                ""
-                            } else {
-                                " (other shards still to finish)"
-                            },
-                            opts.out.display()
-                        );
-                    }
-                })
+            let opts = run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, quiet };
+            init_threads(threads).and_then(|_| run::run(&spec, &job.display().to_string(), &opts)).map(|r| {
+                if !quiet {
+                    eprintln!(
+                        "computed {} of {} poses in {:.2} s{}; output in {}",
+                        r.computed,
+                        r.total,
+                        r.seconds,
+                        if r.complete { "" } else { " (other shards still to finish)" },
+                        opts.out.display()
+                    );
+                }
+            })
         }
         Command::Check { job, no_timing } => match load_job(&job) {
             Ok(spec) => check::check(&spec, &job.display().to_string(), !no_timing),
             Err(e) => return usage(e),
         },
         Command::Status { dir } => return status::status(&dir),
-        Command::Bench {
-            poses,
-            json,
-            threads,
-        } => init_threads(threads).and_then(|_| bench::bench(poses, json)),
+        Command::Bench { poses, json, threads } => init_threads(threads).and_then(|_| bench::bench(poses, json)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e)
-            if e.downcast_ref::<run::UsageError>().is_some()
-                || e.downcast_ref::<JobError>().is_some() =>
-        {
+        Err(e) if e.downcast_ref::<run::UsageError>().is_some() || e.downcast_ref::<JobError>().is_some() => {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }

@@ -22,8 +22,7 @@ impl Progress {
     pub fn new(total: u64, already_done: u64, quiet: bool) -> Self {
         let now = Instant::now();
         let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
-            let bar =
-                ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr_with_hz(4));
+            let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr_with_hz(4));
             bar.set_style(
                 ProgressStyle::with_template(
                     "{bar:40.cyan/blue} {human_pos}/{human_len} poses  {per_sec}  ETA {eta}  {msg}",
@@ -34,13 +33,7 @@ impl Progress {
             bar.set_position(already_done);
             bar
         });
-        Self {
-            bar,
-            total,
-            start: now,
-            log: Mutex::new((now, already_done)),
-            quiet,
-        }
+        Self { bar, total, start: now, log: Mutex::new((now, already_done)), quiet }
     }
 
     pub fn set_message(&self, msg: String) {
@@ -63,11 +56,7 @@ impl Progress {
         if now.duration_since(log.0) >= LOG_EVERY || done == self.total {
             let elapsed = now.duration_since(self.start).as_secs_f64();
             let rate = (done - log.1) as f64 / now.duration_since(log.0).as_secs_f64().max(1e-9);
-            let eta = if rate > 0.0 {
-                (self.total - done) as f64 / rate
-            } else {
-                f64::INFINITY
-            };
+            let eta = if rate > 0.0 { (self.total - done) as f64 / rate } else { f64::INFINITY };
             eprintln!(
                 "progress: {done}/{} poses ({:.1}%), {:.0} poses/s, elapsed {:.0} s, ETA {:.0} s",
                 self.total,

@@ -67,13 +67,7 @@ fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
     for variant in 0..job.variant_count() {
         for &mode in &job.analysis.modes {
             for (chunk, range) in chunks(n, chunk_size).enumerate() {
-                out.push(Unit {
-                    number: out.len() as u64,
-                    variant,
-                    mode,
-                    chunk: chunk as u64,
-                    range,
-                });
+                out.push(Unit { number: out.len() as u64, variant, mode, chunk: chunk as u64, range });
             }
         }
     }
@@ -81,26 +75,18 @@ fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
 }
 
 pub fn part_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
-    out.join("poses")
-        .join(format!("variant={variant}"))
-        .join(format!("part-{}-{chunk:06}.parquet", mode.name()))
+    out.join("poses").join(format!("variant={variant}")).join(format!("part-{}-{chunk:06}.parquet", mode.name()))
 }
 
 /// The files a run owns, removed by `--overwrite`.
-const RUN_FILES: [&str; 4] = [
-    "job.toml",
-    "discontinuities.parquet",
-    "summary.parquet",
-    "_SUCCESS",
-];
+const RUN_FILES: [&str; 4] = ["job.toml", "discontinuities.parquet", "summary.parquet", "_SUCCESS"];
 
 fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
     let entries: Vec<_> = match std::fs::read_dir(out) {
         Ok(rd) => rd.filter_map(|e| e.ok()).collect(),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
         Err(e) => {
-            return Err(e)
-                .with_context(|| format!("cannot read the output directory {}", out.display()));
+            return Err(e).with_context(|| format!("cannot read the output directory {}", out.display()));
         }
     };
     if !entries.is_empty() {
@@ -131,11 +117,7 @@ fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
                 bail!(UsageError(format!(
                     "{} holds {}; use --overwrite to replace it, or another --out",
                     out.display(),
-                    if existing.is_some() {
-                        "a different job"
-                    } else {
-                        "files that are not a clearance run"
-                    }
+                    if existing.is_some() { "a different job" } else { "files that are not a clearance run" }
                 )));
             }
         } else {
@@ -145,17 +127,14 @@ fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
             )));
         }
     }
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create the output directory {}", out.display()))?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create the output directory {}", out.display()))?;
     write_atomic(&out.join("job.toml"), job_toml.as_bytes())
 }
 
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_file_name(format!(
         ".{}.tmp-{}",
-        path.file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default(),
+        path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
         std::process::id()
     ));
     std::fs::write(&tmp, bytes)
@@ -180,10 +159,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     prepare_dir(&opts.out, &job_toml, opts)?;
 
     let all = units(job, opts.chunk_size);
-    let mine: Vec<Unit> = all
-        .into_iter()
-        .filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i))
-        .collect();
+    let mine: Vec<Unit> = all.into_iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).collect();
     let todo: Vec<Unit> = mine
         .iter()
         .filter(|u| !(opts.resume && part_path(&opts.out, u.variant, u.mode, u.chunk).exists()))
@@ -202,27 +178,20 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         ],
         row_group_rows: opts.chunk_size as usize,
     };
-    let models: Vec<(Model, SampleSource)> = variants
-        .iter()
-        .map(|v| (Model::from_job(&v.job), SampleSource::new(&v.job)))
-        .collect();
+    let models: Vec<(Model, SampleSource)> =
+        variants.iter().map(|v| (Model::from_job(&v.job), SampleSource::new(&v.job))).collect();
 
     let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
     std::thread::scope(|scope| -> Result<()> {
-        let (tx, rx) = sync_channel::<(
-            PathBuf,
-            arrow::record_batch::RecordBatch,
-            Vec<(String, String)>,
-        )>(1);
+        let (tx, rx) = sync_channel::<(PathBuf, arrow::record_batch::RecordBatch, Vec<(String, String)>)>(1);
         let schema_ref = schema.schema();
         let write_opts = &write_opts;
         let writer = scope.spawn(move || -> Result<()> {
             for (path, batch, extra) in rx {
                 if let Some(dir) = path.parent() {
-                    std::fs::create_dir_all(dir)
-                        .with_context(|| format!("cannot create {}", dir.display()))?;
+                    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
                 }
                 write_parquet(&path, schema_ref.clone(), &[batch], write_opts, &extra)?;
             }
@@ -244,22 +213,10 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 ("clearance.variant".to_string(), unit.variant.to_string()),
                 (
                     "clearance.params".to_string(),
-                    variant
-                        .params
-                        .iter()
-                        .map(|(p, v)| format!("{p}={v}"))
-                        .collect::<Vec<_>>()
-                        .join(","),
+                    variant.params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(","),
                 ),
             ];
-            if tx
-                .send((
-                    part_path(&opts.out, unit.variant, unit.mode, unit.chunk),
-                    batch,
-                    extra,
-                ))
-                .is_err()
-            {
+            if tx.send((part_path(&opts.out, unit.variant, unit.mode, unit.chunk), batch, extra)).is_err() {
                 break; // the writer failed; its error is reported below
             }
             let n = unit.range.end - unit.range.start;
@@ -279,10 +236,5 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     if complete && opts.shard.is_some() {
         write_atomic(&opts.out.join("_SUCCESS"), b"")?;
     }
-    Ok(RunReport {
-        computed: todo_poses,
-        total,
-        seconds: start.elapsed().as_secs_f64(),
-        complete,
-    })
+    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })
 }

@@ -27,19 +27,12 @@ pub fn status(dir: &Path) -> ExitCode {
     }
     match shards {
         Some(n) => {
-            let missing: Vec<String> = (0..n)
-                .filter(|i| !done.contains(i))
-                .map(|i| i.to_string())
-                .collect();
+            let missing: Vec<String> = (0..n).filter(|i| !done.contains(i)).map(|i| i.to_string()).collect();
             if missing.is_empty() {
                 println!("{}: complete ({n} shards)", dir.display());
                 ExitCode::SUCCESS
             } else {
-                println!(
-                    "{}: incomplete: shards {} of {n} not finished",
-                    dir.display(),
-                    missing.join(", ")
-                );
+                println!("{}: incomplete: shards {} of {n} not finished", dir.display(), missing.join(", "));
                 ExitCode::from(1)
             }
         }

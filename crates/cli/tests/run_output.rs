@@ -35,33 +35,13 @@ fn read_rows(out: &Path) -> BTreeMap<(String, String, u64), Vec<Option<u64>>> {
         }
     }
     for path in parts {
-        let variant = path
-            .parent()
-            .unwrap()
-            .file_name()
-            .unwrap()
-            .to_string_lossy()
-            .into_owned();
-        let reader = ParquetRecordBatchReaderBuilder::try_new(File::open(&path).unwrap())
-            .unwrap()
-            .build()
-            .unwrap();
+        let variant = path.parent().unwrap().file_name().unwrap().to_string_lossy().into_owned();
+        let reader = ParquetRecordBatchReaderBuilder::try_new(File::open(&path).unwrap()).unwrap().build().unwrap();
         for batch in reader {
             let batch: RecordBatch = batch.unwrap();
-            let mode = batch
-                .column_by_name("mode")
-                .unwrap()
-                .as_any()
-                .downcast_ref::<StringArray>()
-                .unwrap()
-                .clone();
-            let sample = batch
-                .column_by_name("sample")
-                .unwrap()
-                .as_any()
-                .downcast_ref::<UInt64Array>()
-                .unwrap()
-                .clone();
+            let mode = batch.column_by_name("mode").unwrap().as_any().downcast_ref::<StringArray>().unwrap().clone();
+            let sample =
+                batch.column_by_name("sample").unwrap().as_any().downcast_ref::<UInt64Array>().unwrap().clone();
             for i in 0..batch.num_rows() {
                 // Bit patterns, so that equality is bitwise and nulls are distinct.
                 let mut bits = Vec::new();
@@ -70,10 +50,7 @@ fn read_rows(out: &Path) -> BTreeMap<(String, String, u64), Vec<Option<u64>>> {
                         bits.push(f.is_valid(i).then(|| f.value(i).to_bits()));
                     }
                 }
-                rows.insert(
-                    (variant.clone(), mode.value(i).to_string(), sample.value(i)),
-                    bits,
-                );
+                rows.insert((variant.clone(), mode.value(i).to_string(), sample.value(i)), bits);
             }
         }
     }
@@ -88,19 +65,12 @@ const GRID_JOB: &str = "[mechanism]\nbase_radius = 0.6\nleg_length = 0.3\n[mass]
 #[test]
 fn bad_job_exits_2_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let job = write_job(
-        dir.path(),
-        "bad.toml",
-        "[grid]\nz = 2.0\npsi = 0.0\ntheta = 0.0\n[mass]\nplatfrom = 3.0\n",
-    );
+    let job = write_job(dir.path(), "bad.toml", "[grid]\nz = 2.0\npsi = 0.0\ntheta = 0.0\n[mass]\nplatfrom = 3.0\n");
     let out = dir.path().join("out");
     let o = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("bad.toml") && err.contains("platfrom"),
-        "{err}"
-    );
+    assert!(err.contains("bad.toml") && err.contains("platfrom"), "{err}");
     assert!(!out.exists());
     let missing = run(&["run", "no/such/job.toml", "--out", out.to_str().unwrap()]);
     assert_eq!(missing.status.code(), Some(2));
@@ -112,29 +82,13 @@ fn output_directory_contract() {
     let dir = tempfile::tempdir().unwrap();
     let job = write_job(dir.path(), "grid.toml", GRID_JOB);
     let out = dir.path().join("out");
-    let o = run(&[
-        "run",
-        job.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--columns",
-        "full",
-        "-q",
-    ]);
+    let o = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "--columns", "full", "-q"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.join("_SUCCESS").exists() && out.join("job.toml").exists());
     let part = out.join("poses/variant=0/part-kinetostatic-000000.parquet");
     let reader = ParquetRecordBatchReaderBuilder::try_new(File::open(&part).unwrap()).unwrap();
-    let kv = reader
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .unwrap()
-        .clone();
-    assert!(
-        kv.iter()
-            .any(|k| k.key == "clearance.job" && k.value.as_deref().unwrap().contains("[grid"))
-    );
+    let kv = reader.metadata().file_metadata().key_value_metadata().unwrap().clone();
+    assert!(kv.iter().any(|k| k.key == "clearance.job" && k.value.as_deref().unwrap().contains("[grid")));
     assert!(kv.iter().any(|k| k.key == "clearance.version"));
     let schema = reader.schema().clone();
     for name in [
@@ -168,40 +122,15 @@ fn output_directory_contract() {
         "exact_err_x",
         "exact_err_rz",
     ] {
-        let f = schema
-            .field_with_name(name)
-            .unwrap_or_else(|_| panic!("column {name}"));
+        let f = schema.field_with_name(name).unwrap_or_else(|_| panic!("column {name}"));
         assert!(f.metadata().contains_key("unit"), "unit of {name}");
     }
-    assert!(
-        schema.field_with_name("variant").is_err(),
-        "variant comes from the hive path"
-    );
+    assert!(schema.field_with_name("variant").is_err(), "variant comes from the hive path");
     let batch = reader.build().unwrap().next().unwrap().unwrap();
-    let status = batch
-        .column_by_name("status")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<StringArray>()
-        .unwrap();
-    let err_x = batch
-        .column_by_name("err_x")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
-    let q1 = batch
-        .column_by_name("q1")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
-    let x = batch
-        .column_by_name("x")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
+    let status = batch.column_by_name("status").unwrap().as_any().downcast_ref::<StringArray>().unwrap();
+    let err_x = batch.column_by_name("err_x").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+    let q1 = batch.column_by_name("q1").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+    let x = batch.column_by_name("x").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
     let t = batch.column_by_name("t").unwrap();
     assert_eq!(t.null_count(), batch.num_rows(), "t is null on grids");
     let mut seen = BTreeMap::new();
@@ -209,48 +138,26 @@ fn output_directory_contract() {
         let s = status.value(i);
         *seen.entry(s.to_string()).or_insert(0) += 1;
         assert!(x.is_valid(i), "parasitic motions are always filled");
-        assert_eq!(
-            err_x.is_valid(i),
-            s == "ok",
-            "err_x null exactly when the status is not ok"
-        );
+        assert_eq!(err_x.is_valid(i), s == "ok", "err_x null exactly when the status is not ok");
         assert_eq!(q1.is_valid(i), s != "unreachable");
     }
     // Sliders outside the platform with 0.3 m legs: large tilts are out of reach; Ψ = 0 is
     // indeterminate (limb 1's axial load vanishes).
     assert!(
-        seen.contains_key("ok")
-            && seen.contains_key("unreachable")
-            && seen.contains_key("indeterminate_contact"),
+        seen.contains_key("ok") && seen.contains_key("unreachable") && seen.contains_key("indeterminate_contact"),
         "{seen:?}"
     );
     for c in batch.columns() {
         if let Some(f) = c.as_any().downcast_ref::<Float64Array>() {
-            assert!(
-                f.iter().flatten().all(|v| v.is_finite()),
-                "no NaN or infinity is written"
-            );
+            assert!(f.iter().flatten().all(|v| v.is_finite()), "no NaN or infinity is written");
         }
     }
 
     // A finished directory is not overwritten by accident.
-    let again = run(&[
-        "run",
-        job.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let again = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
     assert_eq!(again.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&again.stderr).contains("--overwrite"));
-    let over = run(&[
-        "run",
-        job.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "-q",
-        "--overwrite",
-    ]);
+    let over = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q", "--overwrite"]);
     assert!(over.status.success());
     let status = run(&["status", out.to_str().unwrap()]);
     assert!(status.status.success());
@@ -263,47 +170,19 @@ fn same_data_for_any_threads_chunks_shards_and_resume() {
     let j = job.to_str().unwrap();
     let reference = dir.path().join("ref");
     let r = reference.to_str().unwrap();
-    assert!(
-        run(&["run", j, "--out", r, "--threads", "1", "-q"])
-            .status
-            .success()
-    );
+    assert!(run(&["run", j, "--out", r, "--threads", "1", "-q"]).status.success());
     let want = read_rows(&reference);
     assert_eq!(want.len(), 3 * 9 * 13);
 
     let multi = dir.path().join("multi");
     let m = multi.to_str().unwrap();
-    assert!(
-        run(&[
-            "run",
-            j,
-            "--out",
-            m,
-            "--threads",
-            "2",
-            "--chunk-size",
-            "17",
-            "-q"
-        ])
-        .status
-        .success()
-    );
+    assert!(run(&["run", j, "--out", m, "--threads", "2", "--chunk-size", "17", "-q"]).status.success());
     assert_eq!(read_rows(&multi), want, "2 threads and 17-sample chunks");
 
     let sharded = dir.path().join("sharded");
     let s = sharded.to_str().unwrap();
     for i in 0..3 {
-        let o = run(&[
-            "run",
-            j,
-            "--out",
-            s,
-            "--chunk-size",
-            "40",
-            "--shard",
-            &format!("{i}/3"),
-            "-q",
-        ]);
+        let o = run(&["run", j, "--out", s, "--chunk-size", "40", "--shard", &format!("{i}/3"), "-q"]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let done = run(&["status", s]).status.success();
         assert_eq!(done, i == 2, "complete only after the last shard");
@@ -314,11 +193,7 @@ fn same_data_for_any_threads_chunks_shards_and_resume() {
     std::fs::remove_file(sharded.join("_SUCCESS")).unwrap();
     for e in std::fs::read_dir(&sharded).unwrap() {
         let p = e.unwrap().path();
-        if p.file_name()
-            .unwrap()
-            .to_string_lossy()
-            .starts_with("_SUCCESS")
-        {
+        if p.file_name().unwrap().to_string_lossy().starts_with("_SUCCESS") {
             std::fs::remove_file(p).unwrap();
         }
     }

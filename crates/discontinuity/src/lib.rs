@@ -146,11 +146,7 @@ impl Evaluator<'_> {
         after: &PoseResult,
     ) -> Discontinuity {
         let (s, r) = self.at(p, ws);
-        let margin = if solvable(&r) {
-            load(&r, self.model, kind, j).magnitude()
-        } else {
-            f64::NAN
-        };
+        let margin = if solvable(&r) { load(&r, self.model, kind, j).magnitude() } else { f64::NAN };
         let (b, a) = (error_of(before, kind), error_of(after, kind));
         Discontinuity {
             mode: self.mode,
@@ -177,17 +173,9 @@ pub fn search_path(
     opts: &SearchOptions,
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
-    let ev = Evaluator {
-        model,
-        source,
-        path,
-        mode,
-    };
-    let results: Vec<PoseResult> = path
-        .samples
-        .iter()
-        .map(|&i| solve_pose(model, &source.sample(i), mode, ws))
-        .collect();
+    let ev = Evaluator { model, source, path, mode };
+    let results: Vec<PoseResult> =
+        path.samples.iter().map(|&i| solve_pose(model, &source.sample(i), mode, ws)).collect();
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
@@ -207,9 +195,7 @@ pub fn search_path(
             for j in 0..3 {
                 // Determinate samples of this segment, for this joint and kind.
                 let det: Vec<usize> = (start..end)
-                    .filter(|&i| {
-                        load(&results[i], model, kind, j).magnitude() > model.indeterminate_floor
-                    })
+                    .filter(|&i| load(&results[i], model, kind, j).magnitude() > model.indeterminate_floor)
                     .collect();
                 if kind == ClearanceKind::RAxial {
                     axial_switches(&ev, &results, &det, j, ws, &mut out);
@@ -259,10 +245,7 @@ fn vector_switches(
     ws: &mut Workspace,
     out: &mut Vec<Discontinuity>,
 ) {
-    let mag: Vec<f64> = det
-        .iter()
-        .map(|&i| load(&results[i], ev.model, kind, j).magnitude())
-        .collect();
+    let mag: Vec<f64> = det.iter().map(|&i| load(&results[i], ev.model, kind, j).magnitude()).collect();
     for k in 1..det.len().saturating_sub(1) {
         // An interior local minimum (the first sample of a flat bottom).
         if !(mag[k] < mag[k - 1] && mag[k] <= mag[k + 1]) || mag[k] >= opts.dip_threshold {
@@ -271,17 +254,11 @@ fn vector_switches(
         let (lo, hi) = (ev.path.params[det[k - 1]], ev.path.params[det[k + 1]]);
         let (p, m) = brent_min(lo, hi, LOCATE_TOL / 10.0, |p| {
             let (_, r) = ev.at(p, ws);
-            if solvable(&r) {
-                load(&r, ev.model, kind, j).magnitude()
-            } else {
-                f64::INFINITY
-            }
+            if solvable(&r) { load(&r, ev.model, kind, j).magnitude() } else { f64::INFINITY }
         });
         // Where the magnitude has risen back to twice the minimum, on either side.
         let left = (0..k).rev().find(|&i| mag[i] >= 2.0 * m).unwrap_or(0);
-        let right = (k + 1..det.len())
-            .find(|&i| mag[i] >= 2.0 * m)
-            .unwrap_or(det.len() - 1);
+        let right = (k + 1..det.len()).find(|&i| mag[i] >= 2.0 * m).unwrap_or(det.len() - 1);
         let (rl, rr) = (&results[det[left]], &results[det[right]]);
         let turn = load(rl, ev.model, kind, j).dot(load(rr, ev.model, kind, j));
         if turn < 0.0 {
@@ -300,9 +277,7 @@ pub fn find_discontinuities(
 ) -> Vec<Discontinuity> {
     paths(source)
         .par_iter()
-        .map_init(Workspace::new, |ws, path| {
-            search_path(model, source, path, mode, opts, ws)
-        })
+        .map_init(Workspace::new, |ws, path| search_path(model, source, path, mode, opts, ws))
         .flatten_iter()
         .collect()
 }

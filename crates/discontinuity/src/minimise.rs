@@ -63,11 +63,7 @@ pub fn brent_min(a: f64, b: f64, xtol: f64, mut f: impl FnMut(f64) -> f64) -> (f
             e = if x >= m { a - x } else { b - x };
             d = GOLDEN * e;
         }
-        let u = if d.abs() >= tol1 {
-            x + d
-        } else {
-            x + tol1.copysign(d)
-        };
+        let u = if d.abs() >= tol1 { x + d } else { x + tol1.copysign(d) };
         let fu = f(u);
         if fu <= fx {
             if u >= x {

@@ -41,13 +41,9 @@ impl Path {
     /// The sample at parameter `p` (not necessarily a grid or time node).
     pub fn sample_at(&self, source: &SampleSource, p: f64) -> Sample {
         match source {
-            SampleSource::Trajectory(tr) => Sample {
-                index: u64::MAX,
-                t: Some(p),
-                z: tr.z.eval(p),
-                psi: tr.psi.eval(p),
-                theta: tr.theta.eval(p),
-            },
+            SampleSource::Trajectory(tr) => {
+                Sample { index: u64::MAX, t: Some(p), z: tr.z.eval(p), psi: tr.psi.eval(p), theta: tr.theta.eval(p) }
+            }
             SampleSource::Grid(_) => {
                 let mut s = source.sample(self.origin);
                 s.index = u64::MAX;
@@ -73,12 +69,7 @@ pub fn paths(source: &SampleSource) -> Vec<Path> {
     match source {
         SampleSource::Trajectory(tr) => {
             let n = tr.time.len();
-            vec![Path {
-                along: Along::T,
-                samples: (0..n).collect(),
-                params: values(&tr.time),
-                origin: 0,
-            }]
+            vec![Path { along: Along::T, samples: (0..n).collect(), params: values(&tr.time), origin: 0 }]
         }
         SampleSource::Grid(g) => {
             let (nz, np, nt) = (g.z.len(), g.psi.len(), g.theta.len());
@@ -88,12 +79,7 @@ pub fn paths(source: &SampleSource) -> Vec<Path> {
                 for iz in 0..nz {
                     for ip in 0..np {
                         let samples: Vec<u64> = (0..nt).map(|it| index(iz, ip, it)).collect();
-                        out.push(Path {
-                            along: Along::Theta,
-                            origin: samples[0],
-                            samples,
-                            params: values(&g.theta),
-                        });
+                        out.push(Path { along: Along::Theta, origin: samples[0], samples, params: values(&g.theta) });
                     }
                 }
             }
@@ -101,12 +87,7 @@ pub fn paths(source: &SampleSource) -> Vec<Path> {
                 for iz in 0..nz {
                     for it in 0..nt {
                         let samples: Vec<u64> = (0..np).map(|ip| index(iz, ip, it)).collect();
-                        out.push(Path {
-                            along: Along::Psi,
-                            origin: samples[0],
-                            samples,
-                            params: values(&g.psi),
-                        });
+                        out.push(Path { along: Along::Psi, origin: samples[0], samples, params: values(&g.psi) });
                     }
                 }
             }
@@ -114,12 +95,7 @@ pub fn paths(source: &SampleSource) -> Vec<Path> {
                 for ip in 0..np {
                     for it in 0..nt {
                         let samples: Vec<u64> = (0..nz).map(|iz| index(iz, ip, it)).collect();
-                        out.push(Path {
-                            along: Along::Z,
-                            origin: samples[0],
-                            samples,
-                            params: values(&g.z),
-                        });
+                        out.push(Path { along: Along::Z, origin: samples[0], samples, params: values(&g.z) });
                     }
                 }
             }

@@ -8,9 +8,7 @@ use clearance_solver::Model;
 fn run(text: &str, mode: Mode) -> Vec<Discontinuity> {
     let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
     let model = Model::from_job(&job);
-    let opts = SearchOptions {
-        dip_threshold: job.analysis.discontinuity_load_fraction * job.weight(),
-    };
+    let opts = SearchOptions { dip_threshold: job.analysis.discontinuity_load_fraction * job.weight() };
     find_discontinuities(&model, &SampleSource::new(&job), mode, &opts)
 }
 
@@ -69,18 +67,11 @@ fn trajectory_switch_of_limb_one_near_the_papers_theta() {
     let k = run(&trajectory(ABOVE, 501), Mode::Kinetostatic);
     let limb1: Vec<_> = k.iter().filter(|d| d.limb == 1).collect();
     assert_eq!(limb1.len(), 1, "{k:?}");
-    assert!(
-        (limb1[0].theta + 0.28).abs() < 0.01,
-        "Θ = {}",
-        limb1[0].theta
-    );
+    assert!((limb1[0].theta + 0.28).abs() < 0.01, "Θ = {}", limb1[0].theta);
     assert_eq!(limb1[0].along, Along::T);
     // Inertial loads move it (the paper: "inertial loads move the switches").
     let d = run(&trajectory(ABOVE, 501), Mode::Dynamic);
-    let moved = d
-        .iter()
-        .find(|x| x.limb == 1)
-        .expect("a dynamic switch of limb 1");
+    let moved = d.iter().find(|x| x.limb == 1).expect("a dynamic switch of limb 1");
     assert!((moved.theta - limb1[0].theta).abs() > 0.01);
     // The counterweight removes it in kinetostatics.
     assert!(run(&trajectory(BOTH, 501), Mode::Kinetostatic).is_empty());
@@ -95,12 +86,7 @@ fn switches_do_not_depend_on_the_sample_spacing() {
         assert_eq!(coarse.len(), fine.len(), "{mode:?}");
         for (a, b) in coarse.iter().zip(&fine) {
             assert_eq!((a.limb, a.kind), (b.limb, b.kind));
-            assert!(
-                (a.param - b.param).abs() < 1e-8,
-                "{} vs {}",
-                a.param,
-                b.param
-            );
+            assert!((a.param - b.param).abs() < 1e-8, "{} vs {}", a.param, b.param);
         }
     }
     // Grids: the Θ-lines at the coarse grid's Ψ nodes exist in both (Ψ·40 is an
@@ -117,10 +103,7 @@ fn switches_do_not_depend_on_the_sample_spacing() {
         out
     };
     let (c, f) = (on_common(&coarse), on_common(&fine));
-    let f: Vec<_> = f
-        .into_iter()
-        .filter(|x| c.iter().any(|y| y.0 == x.0))
-        .collect();
+    let f: Vec<_> = f.into_iter().filter(|x| c.iter().any(|y| y.0 == x.0)).collect();
     assert!(!c.is_empty());
     assert_eq!(c.len(), f.len());
     for (a, b) in c.iter().zip(&f) {
@@ -144,9 +127,5 @@ fn known_sign_change_is_located_to_the_tolerance() {
     // elsewhere on some lines, are real sign changes too.
     let mut thetas: Vec<f64> = at_zero.iter().map(|d| d.theta).collect();
     thetas.dedup();
-    assert_eq!(
-        (at_zero.len(), thetas.len()),
-        (40, 40),
-        "one switch at Ψ = 0 on each Ψ-line"
-    );
+    assert_eq!((at_zero.len(), thetas.len()), (40, 40), "one switch at Ψ = 0 on each Ψ-line");
 }

@@ -69,11 +69,7 @@ impl SampleSource {
     /// Sample `i` (`i < len()`).
     #[track_caller]
     pub fn sample(&self, i: u64) -> Sample {
-        assert!(
-            i < self.len(),
-            "sample index {i} out of range 0..{}",
-            self.len()
-        );
+        assert!(i < self.len(), "sample index {i} out of range 0..{}", self.len());
         match self {
             SampleSource::Grid(g) => {
                 let (nps, nth) = (g.psi.len(), g.theta.len());
@@ -81,23 +77,11 @@ impl SampleSource {
                 let ips = (i / nth) % nps;
                 let iz = i / (nth * nps);
                 let c = |r: &RangeSpec, k: u64| [r.value(k), 0.0, 0.0];
-                Sample {
-                    index: i,
-                    t: None,
-                    z: c(&g.z, iz),
-                    psi: c(&g.psi, ips),
-                    theta: c(&g.theta, ith),
-                }
+                Sample { index: i, t: None, z: c(&g.z, iz), psi: c(&g.psi, ips), theta: c(&g.theta, ith) }
             }
             SampleSource::Trajectory(tr) => {
                 let t = tr.time.value(i);
-                Sample {
-                    index: i,
-                    t: Some(t),
-                    z: tr.z.eval(t),
-                    psi: tr.psi.eval(t),
-                    theta: tr.theta.eval(t),
-                }
+                Sample { index: i, t: Some(t), z: tr.z.eval(t), psi: tr.psi.eval(t), theta: tr.theta.eval(t) }
             }
         }
     }

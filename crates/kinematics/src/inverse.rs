@@ -26,16 +26,8 @@ impl Geometry {
     pub fn new(base_radius: f64, platform_radius: f64, leg_length: f64) -> Self {
         let x = LIMB_ANGLES.map(|a| Vector3::new(a.cos(), a.sin(), 0.0));
         let y = LIMB_ANGLES.map(|a| Vector3::new(-a.sin(), a.cos(), 0.0));
-        let a_local = LIMB_ANGLES
-            .map(|a| Vector3::new(platform_radius * a.cos(), platform_radius * a.sin(), 0.0));
-        Self {
-            base_radius,
-            platform_radius,
-            leg_length,
-            x,
-            y,
-            a_local,
-        }
+        let a_local = LIMB_ANGLES.map(|a| Vector3::new(platform_radius * a.cos(), platform_radius * a.sin(), 0.0));
+        Self { base_radius, platform_radius, leg_length, x, y, a_local }
     }
 
     /// The paper's prototype: `R_b = 0.18`, `r_p = 0.36`, `L = 1`.
@@ -121,24 +113,12 @@ pub fn rotation<T: Real>(phi: T, psi: T, theta: T) -> [[T; 3]; 3] {
     let (st, ct) = (theta.sin(), theta.cos());
     let zero = T::constant(0.0);
     // R_x(Ψ)·R_z(Φ)
-    let m = [
-        [cf, -sf, zero],
-        [cp * sf, cp * cf, -sp],
-        [sp * sf, sp * cf, cp],
-    ];
+    let m = [[cf, -sf, zero], [cp * sf, cp * cf, -sp], [sp * sf, sp * cf, cp]];
     // R_y(Θ)·m, with R_y = [[cΘ,0,sΘ],[0,1,0],[−sΘ,0,cΘ]]
     [
-        [
-            ct * m[0][0] + st * m[2][0],
-            ct * m[0][1] + st * m[2][1],
-            ct * m[0][2] + st * m[2][2],
-        ],
+        [ct * m[0][0] + st * m[2][0], ct * m[0][1] + st * m[2][1], ct * m[0][2] + st * m[2][2]],
         m[1],
-        [
-            ct * m[2][0] - st * m[0][0],
-            ct * m[2][1] - st * m[0][1],
-            ct * m[2][2] - st * m[0][2],
-        ],
+        [ct * m[2][0] - st * m[0][0], ct * m[2][1] - st * m[0][1], ct * m[2][2] - st * m[0][2]],
     ]
 }
 
@@ -182,21 +162,9 @@ fn solve<T: Real>(geom: &Geometry, z: T, psi: T, theta: T) -> Result<Generic<T>,
             return Err(Unreachable { leg: j });
         }
         q[j] = a[j][2] - disc.sqrt();
-        b[j] = [
-            T::constant(geom.base_radius * xj.x),
-            T::constant(geom.base_radius * xj.y),
-            q[j],
-        ];
+        b[j] = [T::constant(geom.base_radius * xj.x), T::constant(geom.base_radius * xj.y), q[j]];
     }
-    Ok(Generic {
-        x,
-        y,
-        phi,
-        rot,
-        a,
-        b,
-        q,
-    })
+    Ok(Generic { x, y, phi, rot, a, b, q })
 }
 
 fn vec_of(v: [f64; 3]) -> Vector3<f64> {
@@ -226,22 +194,13 @@ fn posture_of<T: Real>(geom: &Geometry, z: f64, psi: f64, theta: f64, g: &Generi
 }
 
 /// The posture at `(Z, Ψ, Θ)`, or the first leg that cannot reach.
-pub fn inverse_kinematics(
-    geom: &Geometry,
-    z: f64,
-    psi: f64,
-    theta: f64,
-) -> Result<Posture, Unreachable> {
+pub fn inverse_kinematics(geom: &Geometry, z: f64, psi: f64, theta: f64) -> Result<Posture, Unreachable> {
     let g = solve(geom, z, psi, theta)?;
     Ok(posture_of(geom, z, psi, theta, &g))
 }
 
 fn vee_skew(m: &Matrix3<f64>) -> Vector3<f64> {
-    0.5 * Vector3::new(
-        m[(2, 1)] - m[(1, 2)],
-        m[(0, 2)] - m[(2, 0)],
-        m[(1, 0)] - m[(0, 1)],
-    )
+    0.5 * Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)])
 }
 
 /// The posture and its exact time derivatives, from each input's
@@ -252,12 +211,7 @@ pub fn inverse_kinematics_motion(
     psi: [f64; 3],
     theta: [f64; 3],
 ) -> Result<(Posture, Motion), Unreachable> {
-    let g = solve(
-        geom,
-        Jet::from_array(z),
-        Jet::from_array(psi),
-        Jet::from_array(theta),
-    )?;
+    let g = solve(geom, Jet::from_array(z), Jet::from_array(psi), Jet::from_array(theta))?;
     let posture = posture_of(geom, z[0], psi[0], theta[0], &g);
     let d = |v: [Jet; 3]| vec_of(v.map(|c| c.d));
     let dd = |v: [Jet; 3]| vec_of(v.map(|c| c.dd));

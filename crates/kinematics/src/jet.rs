@@ -9,12 +9,7 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// The scalar operations the kinematics needs; implemented by `f64` and [`Jet`].
 pub trait Real:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
     fn constant(v: f64) -> Self;
     fn value(self) -> f64;
@@ -71,11 +66,7 @@ impl Jet {
 
     /// From `[value, rate, acceleration]`.
     pub const fn from_array(a: [f64; 3]) -> Self {
-        Self {
-            v: a[0],
-            d: a[1],
-            dd: a[2],
-        }
+        Self { v: a[0], d: a[1], dd: a[2] }
     }
 }
 
@@ -107,11 +98,7 @@ impl Mul for Jet {
     type Output = Jet;
     #[inline(always)]
     fn mul(self, o: Jet) -> Jet {
-        Jet::new(
-            self.v * o.v,
-            self.d * o.v + self.v * o.d,
-            self.dd * o.v + 2.0 * self.d * o.d + self.v * o.dd,
-        )
+        Jet::new(self.v * o.v, self.d * o.v + self.v * o.d, self.dd * o.v + 2.0 * self.d * o.d + self.v * o.dd)
     }
 }
 
@@ -160,11 +147,7 @@ impl Real for Jet {
         let num = x.v * y.d - y.v * x.d;
         let num_d = x.v * y.dd - y.v * x.dd;
         let den_d = 2.0 * (x.v * x.d + y.v * y.d);
-        Jet::new(
-            y.v.atan2(x.v),
-            num / den,
-            (num_d * den - num * den_d) / (den * den),
-        )
+        Jet::new(y.v.atan2(x.v), num / den, (num_d * den - num * den_d) / (den * den))
     }
     #[inline(always)]
     fn scale(self, k: f64) -> Self {
@@ -190,18 +173,8 @@ mod tests {
             let v = |t: f64| f(Jet::constant(t)).v;
             let d_fd = (v(t0 + h) - v(t0 - h)) / (2.0 * h);
             let dd_fd = (v(t0 + h) - 2.0 * v(t0) + v(t0 - h)) / (h * h);
-            assert!(
-                (j.d - d_fd).abs() < 1e-7,
-                "first derivative at {t0}: {} vs {}",
-                j.d,
-                d_fd
-            );
-            assert!(
-                (j.dd - dd_fd).abs() < 1e-5,
-                "second derivative at {t0}: {} vs {}",
-                j.dd,
-                dd_fd
-            );
+            assert!((j.d - d_fd).abs() < 1e-7, "first derivative at {t0}: {} vs {}", j.d, d_fd);
+            assert!((j.dd - dd_fd).abs() < 1e-5, "second derivative at {t0}: {} vs {}", j.dd, dd_fd);
         }
     }
 }

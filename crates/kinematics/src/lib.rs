@@ -31,7 +31,7 @@ mod inverse;
 mod jet;
 
 pub use inverse::{
-    Geometry, Motion, Posture, Unreachable, euler_rates_matrix, inverse_kinematics,
-    inverse_kinematics_motion, parasitic, rotation,
+    Geometry, Motion, Posture, Unreachable, euler_rates_matrix, inverse_kinematics, inverse_kinematics_motion,
+    parasitic, rotation,
 };
 pub use jet::{Jet, Real};

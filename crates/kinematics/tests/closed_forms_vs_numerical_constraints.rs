@@ -27,10 +27,7 @@ fn solve_constraints(geom: &Geometry, psi: f64, theta: f64) -> Vector3<f64> {
             dn[k] -= h;
             (residual(&up)[i] - residual(&dn)[i]) / (2.0 * h)
         });
-        let step = jac
-            .lu()
-            .solve(&(-f))
-            .expect("constraint Jacobian is regular");
+        let step = jac.lu().solve(&(-f)).expect("constraint Jacobian is regular");
         u += step;
         if step.amax() < 1e-15 {
             break;
@@ -52,21 +49,12 @@ fn closed_forms_match_numerical_solution() {
         };
         let num = solve_constraints(&geom, psi, theta);
         // Tolerance: round-off of the constraint residual, scaled by r_p.
-        assert!(
-            (pose.x - num.x).abs() < 1e-13 * rp.max(1.0),
-            "X at ({psi}, {theta})"
-        );
-        assert!(
-            (pose.y - num.y).abs() < 1e-13 * rp.max(1.0),
-            "Y at ({psi}, {theta})"
-        );
+        assert!((pose.x - num.x).abs() < 1e-13 * rp.max(1.0), "X at ({psi}, {theta})");
+        assert!((pose.y - num.y).abs() < 1e-13 * rp.max(1.0), "Y at ({psi}, {theta})");
         assert!((pose.phi - num.z).abs() < 1e-12, "Φ at ({psi}, {theta})");
         for j in 0..3 {
             let leg = (pose.a[j] - pose.b[j]).norm();
-            assert!(
-                (leg - geom.leg_length).abs() < 1e-13,
-                "leg {j} length {leg}"
-            );
+            assert!((leg - geom.leg_length).abs() < 1e-13, "leg {j} length {leg}");
             assert!(pose.b[j].z < pose.a[j].z, "slider below the platform");
         }
     }

@@ -15,11 +15,7 @@ pub struct JobError {
 
 impl JobError {
     pub fn new(file: &str, key: impl Into<String>, reason: impl Into<String>) -> Self {
-        Self {
-            file: file.to_string(),
-            key: key.into(),
-            reason: reason.into(),
-        }
+        Self { file: file.to_string(), key: key.into(), reason: reason.into() }
     }
 }
 

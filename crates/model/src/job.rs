@@ -49,12 +49,7 @@ pub struct MechanismSpec {
 
 impl Default for MechanismSpec {
     fn default() -> Self {
-        Self {
-            base_radius: 0.18,
-            platform_radius: 0.36,
-            leg_length: 1.0,
-            gravity: [0.0, 0.0, -9.81],
-        }
+        Self { base_radius: 0.18, platform_radius: 0.36, leg_length: 1.0, gravity: [0.0, 0.0, -9.81] }
     }
 }
 
@@ -76,12 +71,7 @@ pub struct MassSpec {
 
 impl Default for MassSpec {
     fn default() -> Self {
-        Self {
-            platform: 9.8,
-            leg: 3.0,
-            platform_inertia: None,
-            points: Vec::new(),
-        }
+        Self { platform: 9.8, leg: 3.0, platform_inertia: None, points: Vec::new() }
     }
 }
 
@@ -243,11 +233,7 @@ impl<'de> Deserialize<'de> for RangeSpec {
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<RangeSpec, A::Error> {
                 let t = RangeTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                Ok(RangeSpec::Range {
-                    start: t.start,
-                    stop: t.stop,
-                    n: t.n,
-                })
+                Ok(RangeSpec::Range { start: t.start, stop: t.stop, n: t.n })
             }
         }
         d.deserialize_any(V)
@@ -278,10 +264,7 @@ pub struct Harmonic {
 #[serde(untagged)]
 pub enum InputSpec {
     Constant(f64),
-    Harmonics {
-        offset: f64,
-        harmonics: Vec<Harmonic>,
-    },
+    Harmonics { offset: f64, harmonics: Vec<Harmonic> },
 }
 
 #[derive(Deserialize)]
@@ -299,9 +282,7 @@ impl<'de> Deserialize<'de> for InputSpec {
         impl<'de> Visitor<'de> for V {
             type Value = InputSpec;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str(
-                    "a number or a table { offset, harmonics = [{ amplitude, period, phase }] }",
-                )
+                f.write_str("a number or a table { offset, harmonics = [{ amplitude, period, phase }] }")
             }
             fn visit_f64<E: de::Error>(self, v: f64) -> Result<InputSpec, E> {
                 Ok(InputSpec::Constant(v))
@@ -314,10 +295,7 @@ impl<'de> Deserialize<'de> for InputSpec {
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<InputSpec, A::Error> {
                 let t = HarmonicTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                Ok(InputSpec::Harmonics {
-                    offset: t.offset,
-                    harmonics: t.harmonics,
-                })
+                Ok(InputSpec::Harmonics { offset: t.offset, harmonics: t.harmonics })
             }
         }
         d.deserialize_any(V)
@@ -419,9 +397,7 @@ impl JobSpec {
 
     /// Total moving mass: platform, point masses and three legs (kg).
     pub fn total_mass(&self) -> f64 {
-        self.mass.platform
-            + self.mass.points.iter().map(|p| p.mass).sum::<f64>()
-            + 3.0 * self.mass.leg
+        self.mass.platform + self.mass.points.iter().map(|p| p.mass).sum::<f64>() + 3.0 * self.mass.leg
     }
 
     /// `W = m_total·|g|`, the natural load scale of MODEL.md §8 (N).
@@ -467,52 +443,27 @@ impl JobSpec {
                 finite(file, &format!("mass.points.{i}.at.{k}"), *v)?;
             }
         }
-        for (name, arr) in [
-            ("force", self.load.force),
-            ("moment", self.load.moment),
-            ("at", self.load.at),
-        ] {
+        for (name, arr) in [("force", self.load.force), ("moment", self.load.moment), ("at", self.load.at)] {
             for (k, v) in arr.iter().enumerate() {
                 finite(file, &format!("load.{name}.{k}"), *v)?;
             }
         }
         for kind in KINDS {
-            let unit = if kind == ClearanceKind::RAngular {
-                "rad"
-            } else {
-                "m"
-            };
-            non_negative(
-                file,
-                &format!("clearance.{}", kind.name()),
-                self.clearance.get(kind),
-                unit,
-            )?;
+            let unit = if kind == ClearanceKind::RAngular { "rad" } else { "m" };
+            non_negative(file, &format!("clearance.{}", kind.name()), self.clearance.get(kind), unit)?;
         }
         let a = &self.analysis;
         if a.modes.is_empty() {
-            return err(
-                "analysis.modes",
-                "must list at least one of \"kinetostatic\", \"dynamic\"".into(),
-            );
+            return err("analysis.modes", "must list at least one of \"kinetostatic\", \"dynamic\"".into());
         }
         for (i, mode) in a.modes.iter().enumerate() {
             if a.modes[..i].contains(mode) {
-                return err(
-                    &format!("analysis.modes.{i}"),
-                    format!("\"{}\" is listed twice", mode.name()),
-                );
+                return err(&format!("analysis.modes.{i}"), format!("\"{}\" is listed twice", mode.name()));
             }
         }
         for (key, v) in [
-            (
-                "analysis.discontinuity_load_fraction",
-                a.discontinuity_load_fraction,
-            ),
-            (
-                "analysis.indeterminate_load_fraction",
-                a.indeterminate_load_fraction,
-            ),
+            ("analysis.discontinuity_load_fraction", a.discontinuity_load_fraction),
+            ("analysis.indeterminate_load_fraction", a.indeterminate_load_fraction),
             ("analysis.singular_cond", a.singular_cond),
         ] {
             finite(file, key, v)?;
@@ -522,17 +473,10 @@ impl JobSpec {
         }
         match (&self.grid, &self.trajectory) {
             (Some(_), Some(_)) => {
-                return err(
-                    "",
-                    "has both [grid] and [trajectory]; a job samples exactly one of them".into(),
-                );
+                return err("", "has both [grid] and [trajectory]; a job samples exactly one of them".into());
             }
             (None, None) => {
-                return err(
-                    "",
-                    "has neither [grid] nor [trajectory]; add one to say which poses to analyse"
-                        .into(),
-                );
+                return err("", "has neither [grid] nor [trajectory]; add one to say which poses to analyse".into());
             }
             (Some(g), None) => {
                 if a.modes.contains(&Mode::Dynamic) {
@@ -541,21 +485,14 @@ impl JobSpec {
                         "\"dynamic\" needs a [trajectory] (a grid has no velocities); use \"kinetostatic\"".into(),
                     );
                 }
-                for (key, r) in [
-                    ("grid.z", &g.z),
-                    ("grid.psi", &g.psi),
-                    ("grid.theta", &g.theta),
-                ] {
+                for (key, r) in [("grid.z", &g.z), ("grid.psi", &g.psi), ("grid.theta", &g.theta)] {
                     range(file, key, r)?;
                 }
             }
             (None, Some(t)) => {
                 range(file, "trajectory.time", &t.time)?;
-                for (key, input) in [
-                    ("trajectory.z", &t.z),
-                    ("trajectory.psi", &t.psi),
-                    ("trajectory.theta", &t.theta),
-                ] {
+                for (key, input) in [("trajectory.z", &t.z), ("trajectory.psi", &t.psi), ("trajectory.theta", &t.theta)]
+                {
                     match input {
                         InputSpec::Constant(v) => finite(file, key, *v)?,
                         InputSpec::Harmonics { offset, harmonics } => {
@@ -579,10 +516,7 @@ impl JobSpec {
         }
         for (i, s) in self.sweep.iter().enumerate() {
             if s.values.is_empty() {
-                return err(
-                    &format!("sweep.{i}.values"),
-                    "must list at least one value".into(),
-                );
+                return err(&format!("sweep.{i}.values"), "must list at least one value".into());
             }
             for (k, v) in s.values.iter().enumerate() {
                 finite(file, &format!("sweep.{i}.values.{k}"), *v)?;
@@ -593,25 +527,13 @@ impl JobSpec {
 }
 
 fn finite(file: &str, key: &str, v: f64) -> Result<(), JobError> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(JobError::new(
-            file,
-            key,
-            format!("must be a finite number, got {v}"),
-        ))
-    }
+    if v.is_finite() { Ok(()) } else { Err(JobError::new(file, key, format!("must be a finite number, got {v}"))) }
 }
 
 fn non_negative(file: &str, key: &str, v: f64, unit: &str) -> Result<(), JobError> {
     finite(file, key, v)?;
     if v < 0.0 {
-        return Err(JobError::new(
-            file,
-            key,
-            format!("must be zero or positive ({unit}), got {v}"),
-        ));
+        return Err(JobError::new(file, key, format!("must be zero or positive ({unit}), got {v}")));
     }
     Ok(())
 }
@@ -623,19 +545,13 @@ fn range(file: &str, key: &str, r: &RangeSpec) -> Result<(), JobError> {
             finite(file, &format!("{key}.start"), start)?;
             finite(file, &format!("{key}.stop"), stop)?;
             if n == 0 {
-                return Err(JobError::new(
-                    file,
-                    format!("{key}.n"),
-                    "must be at least 1",
-                ));
+                return Err(JobError::new(file, format!("{key}.n"), "must be at least 1"));
             }
             if n > 1 && start == stop {
                 return Err(JobError::new(
                     file,
                     key,
-                    format!(
-                        "has n = {n} but start = stop = {start}; give a scalar or distinct ends"
-                    ),
+                    format!("has n = {n} but start = stop = {start}; give a scalar or distinct ends"),
                 ));
             }
             Ok(())
@@ -650,9 +566,5 @@ fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> JobError {
         let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
         format!("line {line}: ")
     });
-    JobError::new(
-        file,
-        "",
-        format!("{}{}", location.unwrap_or_default(), message),
-    )
+    JobError::new(file, "", format!("{}{}", location.unwrap_or_default(), message))
 }

@@ -14,12 +14,8 @@ pub enum ClearanceKind {
 }
 
 /// All kinds, in the order used for per-kind arrays everywhere in the engine.
-pub const KINDS: [ClearanceKind; 4] = [
-    ClearanceKind::SRadial,
-    ClearanceKind::RRadial,
-    ClearanceKind::RAxial,
-    ClearanceKind::RAngular,
-];
+pub const KINDS: [ClearanceKind; 4] =
+    [ClearanceKind::SRadial, ClearanceKind::RRadial, ClearanceKind::RAxial, ClearanceKind::RAngular];
 
 impl ClearanceKind {
     /// The name used in job files and output columns (`s_radial`, ...).

@@ -27,15 +27,11 @@ mod sweep;
 
 pub use error::JobError;
 pub use job::{
-    AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, MassSpec,
-    MechanismSpec, Mode, PointMass, RangeSpec, SamplesSpec, SweepSpec, TrajectorySpec,
+    AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, MassSpec, MechanismSpec, Mode,
+    PointMass, RangeSpec, SamplesSpec, SweepSpec, TrajectorySpec,
 };
 pub use kinds::{ClearanceKind, KINDS};
 pub use sweep::Variant;
 
 /// Angles of the three limbs about `z` (MODEL.md §1), in radians.
-pub const LIMB_ANGLES: [f64; 3] = [
-    0.0,
-    2.0 * std::f64::consts::PI / 3.0,
-    4.0 * std::f64::consts::PI / 3.0,
-];
+pub const LIMB_ANGLES: [f64; 3] = [0.0, 2.0 * std::f64::consts::PI / 3.0, 4.0 * std::f64::consts::PI / 3.0];

@@ -28,8 +28,7 @@ impl JobSpec {
         // Check every path once, against the job after defaults.
         for (i, s) in self.sweep.iter().enumerate() {
             let mut probe = table.clone();
-            set_path(&mut probe, &s.param, 0.0)
-                .map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
+            set_path(&mut probe, &s.param, 0.0).map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
         }
         let mut out = Vec::with_capacity(count as usize);
         for index in 0..count {
@@ -42,22 +41,13 @@ impl JobSpec {
             }
             let mut t = table.clone();
             for (i, (path, v)) in params.iter().enumerate() {
-                set_path(&mut t, path, *v)
-                    .map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
+                set_path(&mut t, path, *v).map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
             }
             let job: JobSpec = t.try_into().map_err(|e: toml::de::Error| {
-                JobError::new(
-                    file,
-                    "sweep",
-                    format!("variant {index}: {}", e.message().trim()),
-                )
+                JobError::new(file, "sweep", format!("variant {index}: {}", e.message().trim()))
             })?;
             job.validate(file).map_err(|mut e| {
-                let what = params
-                    .iter()
-                    .map(|(p, v)| format!("{p} = {v}"))
-                    .collect::<Vec<_>>()
-                    .join(", ");
+                let what = params.iter().map(|(p, v)| format!("{p} = {v}")).collect::<Vec<_>>().join(", ");
                 e.reason = format!("{} (in the sweep variant {index}: {what})", e.reason);
                 e
             })?;
@@ -72,32 +62,25 @@ impl JobSpec {
 fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), String> {
     let parts: Vec<&str> = path.split('.').collect();
     if path.is_empty() || parts.iter().any(|p| p.is_empty()) {
-        return Err(format!(
-            "\"{path}\" is not a dotted path such as \"mass.platform\""
-        ));
+        return Err(format!("\"{path}\" is not a dotted path such as \"mass.platform\""));
     }
     if parts[0] == "sweep" || parts[0] == "name" {
         return Err(format!("\"{path}\" cannot be swept"));
     }
-    let mut node: &mut toml::Value = table
-        .get_mut(parts[0])
-        .ok_or_else(|| format!("\"{path}\": the job has no key \"{}\"", parts[0]))?;
+    let mut node: &mut toml::Value =
+        table.get_mut(parts[0]).ok_or_else(|| format!("\"{path}\": the job has no key \"{}\"", parts[0]))?;
     for (depth, part) in parts.iter().enumerate().skip(1) {
         let here = parts[..depth].join(".");
         node = match node {
-            toml::Value::Table(t) => t
-                .get_mut(*part)
-                .ok_or_else(|| format!("\"{path}\": \"{here}\" has no key \"{part}\""))?,
+            toml::Value::Table(t) => {
+                t.get_mut(*part).ok_or_else(|| format!("\"{path}\": \"{here}\" has no key \"{part}\""))?
+            }
             toml::Value::Array(a) => {
-                let i: usize = part.parse().map_err(|_| {
-                    format!(
-                        "\"{path}\": \"{here}\" is a list; index it with a number, not \"{part}\""
-                    )
-                })?;
+                let i: usize = part
+                    .parse()
+                    .map_err(|_| format!("\"{path}\": \"{here}\" is a list; index it with a number, not \"{part}\""))?;
                 let len = a.len();
-                a.get_mut(i).ok_or_else(|| {
-                    format!("\"{path}\": \"{here}\" has {len} entries, no index {i}")
-                })?
+                a.get_mut(i).ok_or_else(|| format!("\"{path}\": \"{here}\" has {len} entries, no index {i}"))?
             }
             _ => return Err(format!("\"{path}\": \"{here}\" is a value, not a table")),
         };
@@ -107,8 +90,6 @@ fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), Strin
             *node = toml::Value::Float(value);
             Ok(())
         }
-        _ => Err(format!(
-            "\"{path}\" is not a number (a table, list, string or flag cannot be swept)"
-        )),
+        _ => Err(format!("\"{path}\" is not a number (a table, list, string or flag cannot be swept)")),
     }
 }

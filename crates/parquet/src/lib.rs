@@ -8,6 +8,9 @@
 //!   [`PoseResult`](clearance_solver::PoseResult) into nulls where its status
 //!   cannot fill a column (docs/conventions.md). No NaN is ever written: a value
 //!   that is not finite is null.
+//! - [`discontinuity_batch`] and [`summary_batch`]: `discontinuities.parquet` (one row
+//!   per refined switch) and `summary.parquet` (one row per variant and mode, from
+//!   mergeable [`SummaryStats`]).
 //! - [`write_parquet`]: one file written under a temporary name and renamed when
 //!   complete, with the job and engine version in the key-value metadata.
 //!
@@ -19,9 +22,13 @@
 //! ```
 
 mod schema;
+mod summary;
+mod tables;
 mod writer;
 
 pub use schema::{ColumnSet, PoseSchema};
+pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
+pub use tables::discontinuity_batch;
 pub use writer::{ParquetError, WriteOptions, write_parquet};
 
 /// The engine version written into every file's metadata.

@@ -93,12 +93,7 @@ fn err_part(e: &PoseError, i: usize) -> f64 {
 }
 
 fn float(name: impl Into<String>, unit: &'static str, needs: Needs, get: Getter) -> FloatColumn {
-    FloatColumn {
-        name: name.into(),
-        unit,
-        needs,
-        get,
-    }
+    FloatColumn { name: name.into(), unit, needs, get }
 }
 
 impl PoseSchema {
@@ -106,38 +101,18 @@ impl PoseSchema {
     pub fn new(set: ColumnSet, exact: bool) -> Self {
         let mut f: Vec<FloatColumn> = Vec::new();
         f.push(float("z", "m", Needs::Always, Box::new(|s, _| s.z[0])));
-        f.push(float(
-            "psi",
-            "rad",
-            Needs::Always,
-            Box::new(|s, _| s.psi[0]),
-        ));
-        f.push(float(
-            "theta",
-            "rad",
-            Needs::Always,
-            Box::new(|s, _| s.theta[0]),
-        ));
+        f.push(float("psi", "rad", Needs::Always, Box::new(|s, _| s.psi[0])));
+        f.push(float("theta", "rad", Needs::Always, Box::new(|s, _| s.theta[0])));
         if set >= ColumnSet::Standard {
             f.push(float("x", "m", Needs::Always, Box::new(|_, r| r.x)));
             f.push(float("y", "m", Needs::Always, Box::new(|_, r| r.y)));
             f.push(float("phi", "rad", Needs::Always, Box::new(|_, r| r.phi)));
             for j in 0..3 {
-                f.push(float(
-                    format!("q{}", j + 1),
-                    "m",
-                    Needs::Reachable,
-                    Box::new(move |_, r| r.q[j]),
-                ));
+                f.push(float(format!("q{}", j + 1), "m", Needs::Reachable, Box::new(move |_, r| r.q[j])));
             }
         }
         for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-            f.push(float(
-                format!("err_{c}"),
-                unit,
-                Needs::Ok,
-                Box::new(move |_, r| err_part(&r.total, i)),
-            ));
+            f.push(float(format!("err_{c}"), unit, Needs::Ok, Box::new(move |_, r| err_part(&r.total, i))));
         }
         if set >= ColumnSet::Standard {
             for kind in KINDS {
@@ -171,12 +146,7 @@ impl PoseSchema {
                     Needs::Solved,
                     Box::new(move |_, r| r.margins.r_angular[j]),
                 ));
-                f.push(float(
-                    format!("margin_s{l}"),
-                    "N",
-                    Needs::Solved,
-                    Box::new(move |_, r| r.margins.s[j]),
-                ));
+                f.push(float(format!("margin_s{l}"), "N", Needs::Solved, Box::new(move |_, r| r.margins.s[j])));
             }
         }
         if set >= ColumnSet::Full {
@@ -207,18 +177,8 @@ impl PoseSchema {
                     ));
                 }
             }
-            f.push(float(
-                "cond_a",
-                "1",
-                Needs::Reachable,
-                Box::new(|_, r| r.cond_a),
-            ));
-            f.push(float(
-                "cond_jp",
-                "1",
-                Needs::Reachable,
-                Box::new(|_, r| r.cond_jp),
-            ));
+            f.push(float("cond_a", "1", Needs::Reachable, Box::new(|_, r| r.cond_a)));
+            f.push(float("cond_jp", "1", Needs::Reachable, Box::new(|_, r| r.cond_jp)));
         }
         if exact {
             for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
@@ -240,14 +200,8 @@ impl PoseSchema {
             Field::new("t", DataType::Float64, true).with_metadata(unit("s")),
             Field::new("status", DataType::Utf8, false).with_metadata(unit("")),
         ];
-        fields.extend(
-            f.iter()
-                .map(|c| Field::new(&c.name, DataType::Float64, true).with_metadata(unit(c.unit))),
-        );
-        Self {
-            schema: Arc::new(Schema::new(fields)),
-            floats: f,
-        }
+        fields.extend(f.iter().map(|c| Field::new(&c.name, DataType::Float64, true).with_metadata(unit(c.unit))));
+        Self { schema: Arc::new(Schema::new(fields)), floats: f }
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -262,28 +216,17 @@ impl PoseSchema {
     /// One record batch from the rows of one mode.
     pub fn batch(&self, mode: Mode, rows: &[(Sample, PoseResult)]) -> RecordBatch {
         let mut cols: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 4);
-        cols.push(Arc::new(StringArray::from_iter_values(
-            rows.iter().map(|_| mode.name()),
-        )));
-        cols.push(Arc::new(UInt64Array::from_iter_values(
-            rows.iter().map(|(s, _)| s.index),
-        )));
-        cols.push(Arc::new(Float64Array::from_iter(
-            rows.iter().map(|(s, _)| s.t),
-        )));
-        cols.push(Arc::new(StringArray::from_iter_values(
-            rows.iter().map(|(_, r)| r.status.name()),
-        )));
+        cols.push(Arc::new(StringArray::from_iter_values(rows.iter().map(|_| mode.name()))));
+        cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|(s, _)| s.index))));
+        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|(s, _)| s.t))));
+        cols.push(Arc::new(StringArray::from_iter_values(rows.iter().map(|(_, r)| r.status.name()))));
         for c in &self.floats {
             let values = rows.iter().map(|(s, r)| {
                 let filled = match c.needs {
                     Needs::Always => true,
                     Needs::Reachable => r.status != Status::Unreachable,
                     Needs::Solved => matches!(r.status, Status::Ok | Status::IndeterminateContact),
-                    Needs::Kind(k) => {
-                        matches!(r.status, Status::Ok | Status::IndeterminateContact)
-                            && r.kind_ok[k]
-                    }
+                    Needs::Kind(k) => matches!(r.status, Status::Ok | Status::IndeterminateContact) && r.kind_ok[k],
                     Needs::Ok => r.status == Status::Ok,
                     Needs::Exact => r.exact.is_some(),
                 };

@@ -14,15 +14,9 @@ use parquet::schema::types::ColumnPath;
 #[derive(Debug, thiserror::Error)]
 pub enum ParquetError {
     #[error("cannot write {path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Io { path: PathBuf, source: std::io::Error },
     #[error("cannot encode {path}: {source}")]
-    Encode {
-        path: PathBuf,
-        source: parquet::errors::ParquetError,
-    },
+    Encode { path: PathBuf, source: parquet::errors::ParquetError },
 }
 
 /// Settings shared by every file of a run.
@@ -36,26 +30,16 @@ pub struct WriteOptions {
 
 impl Default for WriteOptions {
     fn default() -> Self {
-        Self {
-            metadata: Vec::new(),
-            row_group_rows: 128 * 1024,
-        }
+        Self { metadata: Vec::new(), row_group_rows: 128 * 1024 }
     }
 }
 
 fn properties(opts: &WriteOptions, extra: &[(String, String)]) -> WriterProperties {
-    let kv = opts
-        .metadata
-        .iter()
-        .chain(extra)
-        .map(|(k, v)| KeyValue::new(k.clone(), v.clone()))
-        .collect();
+    let kv = opts.metadata.iter().chain(extra).map(|(k, v)| KeyValue::new(k.clone(), v.clone())).collect();
     // Floats rarely repeat, so dictionaries only cost time; the two string
     // columns repeat a handful of values and keep theirs.
     WriterProperties::builder()
-        .set_compression(Compression::ZSTD(
-            ZstdLevel::try_new(1).expect("level 1 is valid"),
-        ))
+        .set_compression(Compression::ZSTD(ZstdLevel::try_new(1).expect("level 1 is valid")))
         .set_dictionary_enabled(false)
         .set_column_dictionary_enabled(ColumnPath::from("mode"), true)
         .set_column_dictionary_enabled(ColumnPath::from("status"), true)
@@ -74,23 +58,13 @@ pub fn write_parquet(
     opts: &WriteOptions,
     extra: &[(String, String)],
 ) -> Result<(), ParquetError> {
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
     let result = (|| {
-        let io = |source| ParquetError::Io {
-            path: path.to_path_buf(),
-            source,
-        };
-        let enc = |source| ParquetError::Encode {
-            path: path.to_path_buf(),
-            source,
-        };
+        let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
+        let enc = |source| ParquetError::Encode { path: path.to_path_buf(), source };
         let file = File::create(&tmp).map_err(io)?;
-        let mut writer =
-            ArrowWriter::try_new(file, schema, Some(properties(opts, extra))).map_err(enc)?;
+        let mut writer = ArrowWriter::try_new(file, schema, Some(properties(opts, extra))).map_err(enc)?;
         for b in batches {
             writer.write(b).map_err(enc)?;
         }

@@ -4,10 +4,7 @@ use clearance_model::{JobSpec, Mode};
 use clearance_solver::{Model, Workspace, solve_pose};
 
 fn main() {
-    let args: Vec<f64> = std::env::args()
-        .skip(1)
-        .map(|a| a.parse().expect("numbers"))
-        .collect();
+    let args: Vec<f64> = std::env::args().skip(1).map(|a| a.parse().expect("numbers")).collect();
     let (z, psi, theta) = match args.as_slice() {
         [z, p, t] => (*z, *p, *t),
         _ => (2.05, 0.1, -0.2),

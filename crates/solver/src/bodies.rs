@@ -32,33 +32,19 @@ impl MassModel {
             Some(i) => Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2])),
             None => {
                 let m = ms.platform;
-                Matrix3::from_diagonal(&Vector3::new(
-                    m * r * r / 4.0,
-                    m * r * r / 4.0,
-                    m * r * r / 2.0,
-                ))
+                Matrix3::from_diagonal(&Vector3::new(m * r * r / 4.0, m * r * r / 4.0, m * r * r / 2.0))
             }
         };
         let total = ms.platform + ms.points.iter().map(|p| p.mass).sum::<f64>();
         let moment: Vector3<f64> = ms.points.iter().map(|p| p.mass * Vector3::from(p.at)).sum();
-        let com_local = if total > 0.0 {
-            moment / total
-        } else {
-            Vector3::zeros()
-        };
+        let com_local = if total > 0.0 { moment / total } else { Vector3::zeros() };
         // Parallel axes: the platform's own inertia is about P, its centre of mass.
         let mut inertia_local = own + point_inertia(ms.platform, &com_local);
         for p in &ms.points {
             inertia_local += point_inertia(p.mass, &(Vector3::from(p.at) - com_local));
         }
         let l = job.mechanism.leg_length;
-        Self {
-            platform_mass: total,
-            com_local,
-            inertia_local,
-            leg_mass: ms.leg,
-            leg_inertia: ms.leg * l * l / 12.0,
-        }
+        Self { platform_mass: total, com_local, inertia_local, leg_mass: ms.leg, leg_inertia: ms.leg * l * l / 12.0 }
     }
 }
 

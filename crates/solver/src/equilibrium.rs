@@ -37,13 +37,7 @@ fn put3(a: &mut MatMut<'_, f64>, row: usize, col: usize, m: &Matrix3<f64>) {
 }
 
 /// Writes `A` (24 × 24) and `b` (24 × 1) for the posture. `a` is overwritten whole.
-pub fn assemble(
-    model: &Model,
-    pose: &Posture,
-    inertial: &Inertial,
-    mut a: MatMut<'_, f64>,
-    mut b: MatMut<'_, f64>,
-) {
+pub fn assemble(model: &Model, pose: &Posture, inertial: &Inertial, mut a: MatMut<'_, f64>, mut b: MatMut<'_, f64>) {
     a.fill(0.0);
     let geom = &model.geometry;
     let mass = &model.mass;

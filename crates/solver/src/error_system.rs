@@ -30,11 +30,7 @@ impl PoseError {
     fn from_twist(t: &Vector6<f64>, euler_inv: &nalgebra::Matrix3<f64>) -> Self {
         let dalpha = Vector3::new(t[0], t[1], t[2]);
         let e = euler_inv * dalpha; // (ΔΘ, ΔΨ, ΔΦ)
-        Self {
-            dalpha,
-            dp: Vector3::new(t[3], t[4], t[5]),
-            euler: [e[2], e[1], e[0]],
-        }
+        Self { dalpha, dp: Vector3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
     }
 }
 
@@ -47,12 +43,7 @@ fn passive_screws(pose: &Posture, y: &Vector3<f64>, j: usize) -> [Vector6<f64>; 
     let rb = pose.b[j] - pose.p;
     let ra = pose.a[j] - pose.p;
     let s = |axis: Vector3<f64>, r: Vector3<f64>| twist(axis, r.cross(&axis));
-    [
-        s(*y, rb),
-        s(Vector3::x(), ra),
-        s(Vector3::y(), ra),
-        s(Vector3::z(), ra),
-    ]
+    [s(*y, rb), s(Vector3::x(), ra), s(Vector3::y(), ra), s(Vector3::z(), ra)]
 }
 
 /// The clearance twist `J_Cl·Δq_Cl` of limb j for each kind (order of `KINDS`).
@@ -97,12 +88,7 @@ pub fn assemble(
 
 /// The per-kind errors from the solved passive motions (`dq`, 12 × 4): the twist
 /// of limb 1.
-pub fn errors_from(
-    pose: &Posture,
-    y: &[Vector3<f64>; 3],
-    take: &TakeUp,
-    dq: &Mat<f64>,
-) -> [PoseError; 4] {
+pub fn errors_from(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, dq: &Mat<f64>) -> [PoseError; 4] {
     let screws = passive_screws(pose, &y[0], 0);
     let cl = clearance_twists(pose, take, 0);
     let euler_inv = euler_rates_matrix(pose.psi, pose.theta)

@@ -59,8 +59,7 @@ pub fn exact_error(geom: &Geometry, pose: &Posture, take: &TakeUp) -> Option<[f6
     let mut dp = Vector3::zeros();
     let mut w = Vector3::zeros();
     let mut phi = [0.0f64; 3];
-    let offset: [Vector3<f64>; 3] =
-        [0, 1, 2].map(|j| take.r_radial[j] + take.r_axial[j] + take.s[j]);
+    let offset: [Vector3<f64>; 3] = [0, 1, 2].map(|j| take.r_radial[j] + take.r_axial[j] + take.s[j]);
     let leg_tilt: [Matrix3<f64>; 3] = [0, 1, 2].map(|j| exp_minus_identity(&take.r_angular[j]));
     let ra0: [Vector3<f64>; 3] = [0, 1, 2].map(|j| pose.rot * geom.a_local[j]);
     let mut last_step = f64::INFINITY;
@@ -92,10 +91,7 @@ pub fn exact_error(geom: &Geometry, pose: &Posture, take: &TakeUp) -> Option<[f6
         for j in 0..3 {
             phi[j] += step[6 + j];
         }
-        let size = dp
-            .amax()
-            .max(w.amax() * l)
-            .max(phi.iter().fold(0.0f64, |m, v| m.max(v.abs())) * l);
+        let size = dp.amax().max(w.amax() * l).max(phi.iter().fold(0.0f64, |m, v| m.max(v.abs())) * l);
         last_step = step.amax() / size.max(f64::MIN_POSITIVE);
         if last_step <= 4.0 * f64::EPSILON {
             break;
@@ -125,10 +121,7 @@ mod tests {
             let got = exp_minus_identity(&w);
             let k = w.cross_matrix();
             let rel = (got - k - 0.5 * k * k).amax() / angle;
-            assert!(
-                rel < angle * angle + 4.0 * f64::EPSILON,
-                "angle {angle}: {rel}"
-            );
+            assert!(rel < angle * angle + 4.0 * f64::EPSILON, "angle {angle}: {rel}");
         }
     }
 

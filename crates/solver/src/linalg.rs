@@ -61,26 +61,12 @@ impl LuSolver {
                 return f64::INFINITY;
             }
         }
-        solve::solve_in_place(
-            self.lu.as_ref(),
-            self.lu.as_ref(),
-            perm,
-            rhs.as_mut(),
-            Par::Seq,
-            stack,
-        );
+        solve::solve_in_place(self.lu.as_ref(), self.lu.as_ref(), perm, rhs.as_mut(), Par::Seq, stack);
         self.inv.fill(0.0);
         for i in 0..n {
             self.inv[(i, i)] = 1.0;
         }
-        solve::solve_in_place(
-            self.lu.as_ref(),
-            self.lu.as_ref(),
-            perm,
-            self.inv.as_mut(),
-            Par::Seq,
-            stack,
-        );
+        solve::solve_in_place(self.lu.as_ref(), self.lu.as_ref(), perm, self.inv.as_mut(), Par::Seq, stack);
         let mut inv_norm = 0.0f64;
         for j in 0..n {
             let mut s = 0.0;
@@ -90,11 +76,7 @@ impl LuSolver {
             inv_norm = inv_norm.max(s);
         }
         let cond = norm * inv_norm;
-        if cond.is_finite() {
-            cond
-        } else {
-            f64::INFINITY
-        }
+        if cond.is_finite() { cond } else { f64::INFINITY }
     }
 }
 
@@ -111,9 +93,7 @@ mod tests {
         let n = 24;
         let mut lu = LuSolver::new(n, 4);
         for _ in 0..20 {
-            let m = Mat::from_fn(n, n, |i, j| {
-                rng.random_range(-1.0..1.0) + if i == j { 4.0 } else { 0.0 }
-            });
+            let m = Mat::from_fn(n, n, |i, j| rng.random_range(-1.0..1.0) + if i == j { 4.0 } else { 0.0 });
             let b = Mat::from_fn(n, 4, |_, _| rng.random_range(-1.0..1.0));
             let mut x = b.clone();
             let cond = lu.solve_with_cond(m.as_ref(), x.as_mut());

@@ -32,12 +32,7 @@ impl Status {
         }
     }
 
-    pub const ALL: [Status; 4] = [
-        Status::Ok,
-        Status::Unreachable,
-        Status::NearSingular,
-        Status::IndeterminateContact,
-    ];
+    pub const ALL: [Status; 4] = [Status::Ok, Status::Unreachable, Status::NearSingular, Status::IndeterminateContact];
 }
 
 /// Everything the engine computes for one (sample, mode).
@@ -128,14 +123,7 @@ impl Workspace {
 /// second order, so a solution further from it than the linear error's own size is
 /// not the pose the clearances produce: it is reported as null.
 fn same_branch(exact: &[f64; 6], linear: &PoseError) -> bool {
-    let lin = [
-        linear.dalpha.x,
-        linear.dalpha.y,
-        linear.dalpha.z,
-        linear.dp.x,
-        linear.dp.y,
-        linear.dp.z,
-    ];
+    let lin = [linear.dalpha.x, linear.dalpha.y, linear.dalpha.z, linear.dp.x, linear.dp.y, linear.dp.z];
     let size = lin.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     exact.iter().zip(lin).all(|(e, l)| (e - l).abs() <= size)
 }
@@ -145,15 +133,11 @@ pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace
     let geom = &model.geometry;
     let (z, psi, theta) = (sample.z[0], sample.psi[0], sample.theta[0]);
     let kin = match mode {
-        Mode::Kinetostatic => {
-            inverse_kinematics(geom, z, psi, theta).map(|p| (p, Inertial::default()))
-        }
-        Mode::Dynamic => {
-            inverse_kinematics_motion(geom, sample.z, sample.psi, sample.theta).map(|(p, m)| {
-                let inertial = Inertial::from_motion(&p, &m, &model.mass);
-                (p, inertial)
-            })
-        }
+        Mode::Kinetostatic => inverse_kinematics(geom, z, psi, theta).map(|p| (p, Inertial::default())),
+        Mode::Dynamic => inverse_kinematics_motion(geom, sample.z, sample.psi, sample.theta).map(|(p, m)| {
+            let inertial = Inertial::from_motion(&p, &m, &model.mass);
+            (p, inertial)
+        }),
     };
     let (pose, inertial) = match kin {
         Ok(v) => v,
@@ -166,12 +150,7 @@ pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace
     equilibrium::assemble(model, &pose, &inertial, ws.a.as_mut(), ws.w.as_mut());
     let cond_a = ws.lu_a.solve_with_cond(ws.a.as_ref(), ws.w.as_mut());
     let reactions = equilibrium::reactions_from(model, &ws.w);
-    let take = take_up(
-        geom,
-        &reactions,
-        &model.clearance,
-        model.indeterminate_floor,
-    );
+    let take = take_up(geom, &reactions, &model.clearance, model.indeterminate_floor);
 
     error_system::assemble(&pose, &geom.y, &take, ws.jp.as_mut(), ws.dq.as_mut());
     let cond_jp = ws.lu_jp.solve_with_cond(ws.jp.as_ref(), ws.dq.as_mut());

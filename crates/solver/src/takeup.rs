@@ -51,11 +51,7 @@ pub struct TakeUp {
 
 /// `−mag·v/|v|`, or zero when the load is at or below the floor (direction undefined).
 fn against(v: Vector3<f64>, norm: f64, mag: f64, floor: f64) -> Vector3<f64> {
-    if norm > floor && norm > 0.0 {
-        -(mag / norm) * v
-    } else {
-        Vector3::zeros()
-    }
+    if norm > floor && norm > 0.0 { -(mag / norm) * v } else { Vector3::zeros() }
 }
 
 /// The take-up of every clearance for the given reactions. `clearance` is in the
@@ -76,11 +72,7 @@ pub fn take_up(geom: &Geometry, r: &JointReactions, clearance: &[f64; 4], floor:
         t.margins.r_angular[j] = nm;
         t.s[j] = against(fs, ns, s, floor);
         t.r_radial[j] = against(perp, np, rr, floor);
-        t.r_axial[j] = if na > floor {
-            -ra * axial.signum() * y
-        } else {
-            Vector3::zeros()
-        };
+        t.r_axial[j] = if na > floor { -ra * axial.signum() * y } else { Vector3::zeros() };
         t.r_angular[j] = against(r.m_r[j], nm, rang, floor);
         for (k, (&mag, margin)) in clearance.iter().zip([ns, np, na, nm]).enumerate() {
             if mag > 0.0 && margin <= floor {

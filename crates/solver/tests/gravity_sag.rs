@@ -32,11 +32,7 @@ fn dead_weight_sags_the_platform() {
             let r = solve_pose(&model, &sample, Mode::Kinetostatic, &mut ws);
             assert_eq!(r.status, Status::Ok);
             // Legs lean at most ~30° here, so the sag stays within 1.2·s.
-            assert!(
-                r.total.dp.z < 0.0 && r.total.dp.z >= -1.2 * s,
-                "{kind}: ΔZ = {}",
-                r.total.dp.z
-            );
+            assert!(r.total.dp.z < 0.0 && r.total.dp.z >= -1.2 * s, "{kind}: ΔZ = {}", r.total.dp.z);
         }
     }
 }
@@ -51,25 +47,13 @@ fn home_pose_sag_is_the_vertical_take_up() {
     .unwrap();
     let model = Model::from_job(&job);
     let geom = &model.geometry;
-    let r = solve_pose(
-        &model,
-        &common::static_sample(2.05, 0.0, 0.0),
-        Mode::Kinetostatic,
-        &mut Workspace::new(),
-    );
+    let r = solve_pose(&model, &common::static_sample(2.05, 0.0, 0.0), Mode::Kinetostatic, &mut Workspace::new());
     let pose = clearance_kinematics::inverse_kinematics(geom, 2.05, 0.0, 0.0).unwrap();
     for j in 0..3 {
         let f = r.reactions.f_s[j].normalize();
-        assert!(
-            f.dot(&geom.y[j]).abs() < 1e-14,
-            "home-pose loads stay in the limb planes"
-        );
+        assert!(f.dot(&geom.y[j]).abs() < 1e-14, "home-pose loads stay in the limb planes");
         let delta = s * f.dot(&pose.e[j]) / pose.e[j].z;
-        assert!(
-            (r.total.dp.z + delta).abs() < 1e-15,
-            "ΔZ = {} vs −{delta}",
-            r.total.dp.z
-        );
+        assert!((r.total.dp.z + delta).abs() < 1e-15, "ΔZ = {} vs −{delta}", r.total.dp.z);
     }
     assert!(r.total.dp.xy().norm() < 1e-18 && r.total.dalpha.norm() < 1e-15);
 }

@@ -18,19 +18,8 @@ fn difference(job_text: &str, c: f64, sample: &clearance_grid::Sample) -> Option
         return None;
     }
     let e = r.exact.expect("exact error converges");
-    let lin = [
-        r.total.dalpha.x,
-        r.total.dalpha.y,
-        r.total.dalpha.z,
-        r.total.dp.x,
-        r.total.dp.y,
-        r.total.dp.z,
-    ];
-    let diff = e
-        .iter()
-        .zip(lin)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let lin = [r.total.dalpha.x, r.total.dalpha.y, r.total.dalpha.z, r.total.dp.x, r.total.dp.y, r.total.dp.z];
+    let diff = e.iter().zip(lin).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     let size = lin.iter().map(|v| v.abs()).fold(0.0, f64::max);
     Some((diff, size))
 }
@@ -48,39 +37,24 @@ fn exact_and_linear_agree_to_second_order() {
         // All four kinds at the common scale c.
         let text = ["s_radial", "r_radial", "r_axial", "r_angular"]
             .iter()
-            .fold(base, |t, k| {
-                t.replace(&format!("{k} = 0\n"), &format!("{k} = CLR\n"))
-            });
+            .fold(base, |t, k| t.replace(&format!("{k} = 0\n"), &format!("{k} = CLR\n")));
         assert_eq!(text.matches("CLR").count(), 4);
-        let sample = common::static_sample(
-            rng.random_range(1.9..2.2),
-            rng.random_range(-0.4..0.4),
-            rng.random_range(-0.4..0.4),
-        );
+        let sample =
+            common::static_sample(rng.random_range(1.9..2.2), rng.random_range(-0.4..0.4), rng.random_range(-0.4..0.4));
         let Some((d3, s3)) = difference(&text, 1e-3, &sample) else {
             continue;
         };
         let (d4, s4) = difference(&text, 1e-4, &sample).unwrap();
         let (d5, s5) = difference(&text, 1e-5, &sample).unwrap();
         // The linear error scales with c.
-        assert!(
-            (s3 / s4 - 10.0).abs() < 1e-6 && (s4 / s5 - 10.0).abs() < 1e-6,
-            "linear error is linear"
-        );
+        assert!((s3 / s4 - 10.0).abs() < 1e-6 && (s4 / s5 - 10.0).abs() < 1e-6, "linear error is linear");
         // Second order: the gap shrinks ~100× per decade (allow 60–140×).
         for (a, b) in [(d3, d4), (d4, d5)] {
             let ratio = a / b;
-            assert!(
-                (60.0..140.0).contains(&ratio),
-                "gap ratio {ratio} ({a:e} → {b:e})"
-            );
+            assert!((60.0..140.0).contains(&ratio), "gap ratio {ratio} ({a:e} → {b:e})");
         }
         // And it is small: relative gap of the order of clearance / mechanism size.
-        assert!(
-            d4 / s4 < 20.0 * 1e-4,
-            "relative gap {} at c = 1e-4",
-            d4 / s4
-        );
+        assert!(d4 / s4 < 20.0 * 1e-4, "relative gap {} at c = 1e-4", d4 / s4);
         checked += 1;
     }
     assert!(checked >= 20, "only {checked} random poses were ok");

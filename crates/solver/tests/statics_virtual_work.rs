@@ -25,19 +25,11 @@ struct Loaded {
 
 fn loaded(model: &Model, z: f64, psi: f64, theta: f64) -> Loaded {
     let pose = inverse_kinematics(&model.geometry, z, psi, theta).unwrap();
-    let mut com_points = vec![(
-        model.mass.platform_mass,
-        pose.p + pose.rot * model.mass.com_local,
-    )];
+    let mut com_points = vec![(model.mass.platform_mass, pose.p + pose.rot * model.mass.com_local)];
     for j in 0..3 {
         com_points.push((model.mass.leg_mass, 0.5 * (pose.a[j] + pose.b[j])));
     }
-    Loaded {
-        q: pose.q,
-        com_points,
-        force_point: pose.p + pose.rot * model.load.at_local,
-        rot: pose.rot,
-    }
+    Loaded { q: pose.q, com_points, force_point: pose.p + pose.rot * model.load.at_local, rot: pose.rot }
 }
 
 #[test]
@@ -47,21 +39,9 @@ fn virtual_work_vanishes_in_statics() {
     for _ in 0..60 {
         let job = common::grid_job(&mut rng, [1e-4; 4]);
         let model = Model::from_job(&job);
-        let (z, psi, theta) = (
-            rng.random_range(1.9..2.2),
-            rng.random_range(-0.4..0.4),
-            rng.random_range(-0.4..0.4),
-        );
-        let r = solve_pose(
-            &model,
-            &common::static_sample(z, psi, theta),
-            Mode::Kinetostatic,
-            &mut ws,
-        );
-        assert!(matches!(
-            r.status,
-            Status::Ok | Status::IndeterminateContact
-        ));
+        let (z, psi, theta) = (rng.random_range(1.9..2.2), rng.random_range(-0.4..0.4), rng.random_range(-0.4..0.4));
+        let r = solve_pose(&model, &common::static_sample(z, psi, theta), Mode::Kinetostatic, &mut ws);
+        assert!(matches!(r.status, Status::Ok | Status::IndeterminateContact));
         let h = 1e-6;
         for dir in 0..3 {
             let mut u = [z, psi, theta];
@@ -76,26 +56,14 @@ fn virtual_work_vanishes_in_statics() {
             for (k, (m, p)) in plus.com_points.iter().enumerate() {
                 work += m * model.gravity.dot(&(p - minus.com_points[k].1));
             }
-            work += model
-                .load
-                .force
-                .dot(&(plus.force_point - minus.force_point));
+            work += model.load.force.dot(&(plus.force_point - minus.force_point));
             // δα from δR·Rᵀ (skew part).
             let dr = (plus.rot - minus.rot) * plus.rot.transpose();
-            let dalpha = 0.5
-                * Vector3::new(
-                    dr[(2, 1)] - dr[(1, 2)],
-                    dr[(0, 2)] - dr[(2, 0)],
-                    dr[(1, 0)] - dr[(0, 1)],
-                );
+            let dalpha = 0.5 * Vector3::new(dr[(2, 1)] - dr[(1, 2)], dr[(0, 2)] - dr[(2, 0)], dr[(1, 0)] - dr[(0, 1)]);
             work += model.load.moment.dot(&dalpha);
             // Central differences: O(h²) truncation ≈ 1e-12 of the load·length scale.
             let scale = job.weight() + model.load.force.norm() + model.load.moment.norm();
-            assert!(
-                work.abs() / (2.0 * h) < 1e-7 * scale,
-                "virtual work {} in direction {dir}",
-                work / (2.0 * h)
-            );
+            assert!(work.abs() / (2.0 * h) < 1e-7 * scale, "virtual work {} in direction {dir}", work / (2.0 * h));
         }
     }
 }

@@ -51,11 +51,5 @@ pub fn grid_job(rng: &mut impl Rng, clearance: [f64; 4]) -> JobSpec {
 }
 
 pub fn static_sample(z: f64, psi: f64, theta: f64) -> Sample {
-    Sample {
-        index: 0,
-        t: None,
-        z: [z, 0.0, 0.0],
-        psi: [psi, 0.0, 0.0],
-        theta: [theta, 0.0, 0.0],
-    }
+    Sample { index: 0, t: None, z: [z, 0.0, 0.0], psi: [psi, 0.0, 0.0], theta: [theta, 0.0, 0.0] }
 }
