@@ -13,9 +13,13 @@ use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
+use clearance_discontinuity::{SearchOptions, find_discontinuities};
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
-use clearance_parquet::{ColumnSet, ENGINE_VERSION, PoseSchema, WriteOptions, write_parquet};
+use clearance_parquet::{
+    ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch, summary_batch,
+    write_parquet,
+};
 use clearance_solver::{Model, Workspace, solve_pose};
 use rayon::prelude::*;
 
@@ -78,8 +82,15 @@ pub fn part_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
     out.join("poses").join(format!("variant={variant}")).join(format!("part-{}-{chunk:06}.parquet", mode.name()))
 }
 
+/// The summary statistics of one part, written just before the part itself, so a
+/// complete part always has them (outside `poses/`, where dataset readers look).
+fn stats_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
+    out.join("_stats").join(format!("variant={variant}")).join(format!("{}-{chunk:06}.json", mode.name()))
+}
+
 /// The files a run owns, removed by `--overwrite`.
 const RUN_FILES: [&str; 4] = ["job.toml", "discontinuities.parquet", "summary.parquet", "_SUCCESS"];
+const RUN_DIRS: [&str; 2] = ["poses", "_stats"];
 
 fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
     let entries: Vec<_> = match std::fs::read_dir(out) {
@@ -108,9 +119,11 @@ fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
                     let _ = std::fs::remove_file(e.path());
                 }
             }
-            if out.join("poses").exists() {
-                std::fs::remove_dir_all(out.join("poses"))
-                    .with_context(|| format!("cannot remove {}", out.join("poses").display()))?;
+            for dir in RUN_DIRS {
+                let path = out.join(dir);
+                if path.exists() {
+                    std::fs::remove_dir_all(&path).with_context(|| format!("cannot remove {}", path.display()))?;
+                }
             }
         } else if opts.resume || opts.shard.is_some() {
             if !same_job {
@@ -152,6 +165,64 @@ fn success_name(shard: Option<(u64, u64)>) -> String {
     }
 }
 
+/// One part file and its statistics, on their way to the writer thread.
+struct Part {
+    path: PathBuf,
+    stats_path: PathBuf,
+    batch: arrow::record_batch::RecordBatch,
+    stats: SummaryStats,
+    extra: Vec<(String, String)>,
+}
+
+/// After every part is written: the discontinuity search and the summary, then
+/// `discontinuities.parquet` and `summary.parquet`.
+fn finalize(
+    job: &JobSpec,
+    variants: &[Variant],
+    models: &[(Model, SampleSource)],
+    all: &[Unit],
+    opts: &RunOptions,
+    write_opts: &WriteOptions,
+) -> Result<()> {
+    if !opts.quiet {
+        eprintln!("searching for discontinuities and summarising ...");
+    }
+    let mut switches = Vec::new();
+    let mut summary = Vec::new();
+    for (variant, (model, source)) in variants.iter().zip(models) {
+        let search =
+            SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() };
+        for &mode in &job.analysis.modes {
+            let mut stats = SummaryStats::default();
+            for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
+                let path = stats_path(&opts.out, u.variant, u.mode, u.chunk);
+                let text = std::fs::read(&path)
+                    .with_context(|| format!("missing {}: finish the run with --resume", path.display()))?;
+                stats.merge(&serde_json::from_slice(&text).with_context(|| format!("corrupt {}", path.display()))?);
+            }
+            let found = find_discontinuities(model, source, mode, &search);
+            let mut counts = [0u64; 4];
+            for d in &found {
+                counts[d.kind.index()] += 1;
+            }
+            summary.push(SummaryRow {
+                variant: variant.index,
+                mode: mode.name(),
+                params: variant.params.iter().map(|(_, v)| *v).collect(),
+                stats,
+                switches: counts,
+            });
+            switches.extend(found.into_iter().map(|d| (variant.index, d)));
+        }
+    }
+    let batch = discontinuity_batch(&switches);
+    write_parquet(&opts.out.join("discontinuities.parquet"), batch.schema(), &[batch], write_opts, &[])?;
+    let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
+    let batch = summary_batch(&names, &summary);
+    write_parquet(&opts.out.join("summary.parquet"), batch.schema(), &[batch], write_opts, &[])?;
+    Ok(())
+}
+
 /// Runs `job` into `opts.out`.
 pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
     let variants: Vec<Variant> = job.variants(job_file)?;
@@ -185,15 +256,16 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
     std::thread::scope(|scope| -> Result<()> {
-        let (tx, rx) = sync_channel::<(PathBuf, arrow::record_batch::RecordBatch, Vec<(String, String)>)>(1);
+        let (tx, rx) = sync_channel::<Part>(1);
         let schema_ref = schema.schema();
         let write_opts = &write_opts;
         let writer = scope.spawn(move || -> Result<()> {
-            for (path, batch, extra) in rx {
-                if let Some(dir) = path.parent() {
+            for part in rx {
+                for dir in [part.path.parent(), part.stats_path.parent()].into_iter().flatten() {
                     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
                 }
-                write_parquet(&path, schema_ref.clone(), &[batch], write_opts, &extra)?;
+                write_atomic(&part.stats_path, &serde_json::to_vec(&part.stats)?)?;
+                write_parquet(&part.path, schema_ref.clone(), &[part.batch], write_opts, &part.extra)?;
             }
             Ok(())
         });
@@ -209,6 +281,10 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 })
                 .collect();
             let batch = schema.batch(unit.mode, &rows);
+            let mut stats = SummaryStats::default();
+            for (_, r) in &rows {
+                stats.push(r);
+            }
             let extra = vec![
                 ("clearance.variant".to_string(), unit.variant.to_string()),
                 (
@@ -216,7 +292,14 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                     variant.params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(","),
                 ),
             ];
-            if tx.send((part_path(&opts.out, unit.variant, unit.mode, unit.chunk), batch, extra)).is_err() {
+            let part = Part {
+                path: part_path(&opts.out, unit.variant, unit.mode, unit.chunk),
+                stats_path: stats_path(&opts.out, unit.variant, unit.mode, unit.chunk),
+                batch,
+                stats,
+                extra,
+            };
+            if tx.send(part).is_err() {
                 break; // the writer failed; its error is reported below
             }
             let n = unit.range.end - unit.range.start;
@@ -228,12 +311,17 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     })?;
     progress.finish();
 
-    write_atomic(&opts.out.join(success_name(opts.shard)), b"")?;
+    if opts.shard.is_some() {
+        write_atomic(&opts.out.join(success_name(opts.shard)), b"")?;
+    }
+    // The process that sees every part done finishes the run; with shards, at least
+    // the last one to write its marker does (two doing it write the same files).
     let complete = match opts.shard {
         None => true,
         Some((_, n)) => (0..n).all(|i| opts.out.join(success_name(Some((i, n)))).exists()),
     };
-    if complete && opts.shard.is_some() {
+    if complete {
+        finalize(job, &variants, &models, &units(job, opts.chunk_size), opts, &write_opts)?;
         write_atomic(&opts.out.join("_SUCCESS"), b"")?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })

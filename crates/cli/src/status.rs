@@ -3,7 +3,8 @@
 use std::path::Path;
 use std::process::ExitCode;
 
-/// Exit 0 when `DIR/_SUCCESS` exists or every shard's marker does; 1 otherwise.
+/// Exit 0 when `DIR/_SUCCESS` exists (written last, after every shard and the
+/// summary); 1 otherwise, saying what is missing.
 pub fn status(dir: &Path) -> ExitCode {
     if !dir.join("job.toml").exists() {
         eprintln!("{}: not a clearance run (no job.toml)", dir.display());
@@ -29,8 +30,12 @@ pub fn status(dir: &Path) -> ExitCode {
         Some(n) => {
             let missing: Vec<String> = (0..n).filter(|i| !done.contains(i)).map(|i| i.to_string()).collect();
             if missing.is_empty() {
-                println!("{}: complete ({n} shards)", dir.display());
-                ExitCode::SUCCESS
+                println!(
+                    "{}: all {n} shards computed, but the summary and discontinuities were not written; \
+                     finish with `clearance run JOB --out DIR --resume`",
+                    dir.display()
+                );
+                ExitCode::from(1)
             } else {
                 println!("{}: incomplete: shards {} of {n} not finished", dir.display(), missing.join(", "));
                 ExitCode::from(1)

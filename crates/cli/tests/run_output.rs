@@ -84,7 +84,23 @@ fn output_directory_contract() {
     let out = dir.path().join("out");
     let o = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "--columns", "full", "-q"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(out.join("_SUCCESS").exists() && out.join("job.toml").exists());
+    for name in ["_SUCCESS", "job.toml", "summary.parquet", "discontinuities.parquet"] {
+        assert!(out.join(name).exists(), "{name}");
+    }
+    let summary = ParquetRecordBatchReaderBuilder::try_new(File::open(out.join("summary.parquet")).unwrap())
+        .unwrap()
+        .build()
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap();
+    assert_eq!(summary.num_rows(), 1);
+    let share =
+        |name: &str| summary.column_by_name(name).unwrap().as_any().downcast_ref::<Float64Array>().unwrap().value(0);
+    let total =
+        share("share_ok") + share("share_unreachable") + share("share_near_singular") + share("share_indeterminate");
+    assert!((total - 1.0).abs() < 1e-12, "status shares add up to 1");
+    assert!(share("dp_max") >= share("dp_p95") && share("dp_p95") > 0.0);
     let part = out.join("poses/variant=0/part-kinetostatic-000000.parquet");
     let reader = ParquetRecordBatchReaderBuilder::try_new(File::open(&part).unwrap()).unwrap();
     let kv = reader.metadata().file_metadata().key_value_metadata().unwrap().clone();
