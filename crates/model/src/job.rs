@@ -351,6 +351,8 @@ impl JobSpec {
     /// Parses, defaults and validates a job file's text. `file` names it in errors
     /// and gives the default `name` (its stem).
     pub fn from_toml_str(text: &str, file: &str) -> Result<JobSpec, JobError> {
+        let table: toml::Table = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
+        crate::keys::check_keys(file, &table)?;
         let mut job: JobSpec = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
         if job.name.is_none() {
             let stem = std::path::Path::new(file)
@@ -559,12 +561,31 @@ fn range(file: &str, key: &str, r: &RangeSpec) -> Result<(), JobError> {
     }
 }
 
-/// Turns a TOML parse or type error into a one- or two-line message with the line.
+/// Turns a TOML parse or type error into a one- or two-line message with the line
+/// and, for a value of the wrong type, the dotted key it belongs to.
 fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> JobError {
     let message = e.message().trim().to_string();
-    let location = e.span().map(|span| {
-        let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-        format!("line {line}: ")
-    });
-    JobError::new(file, "", format!("{}{}", location.unwrap_or_default(), message))
+    let Some(span) = e.span() else { return JobError::new(file, "", message) };
+    let at = span.start.min(text.len());
+    let line_no = text[..at].matches('\n').count() + 1;
+    JobError::new(file, key_at(text, at).unwrap_or_default(), format!("line {line_no}: {message}"))
+}
+
+/// The dotted key whose value starts on the line of byte `at`: the last table
+/// header above it and the key before `=` on that line (best effort).
+fn key_at(text: &str, at: usize) -> Option<String> {
+    let line_start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[line_start..].lines().next().unwrap_or("");
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    let header = text[..line_start]
+        .lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| l.starts_with('['))
+        .map(|l| l.trim_matches(|c| c == '[' || c == ']').trim().to_string());
+    Some(match header {
+        Some(h) if !h.is_empty() => format!("{h}.{key}"),
+        _ => key.to_string(),
+    })
 }

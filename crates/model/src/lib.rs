@@ -22,6 +22,7 @@
 
 mod error;
 mod job;
+mod keys;
 mod kinds;
 mod sweep;
 
