@@ -62,6 +62,13 @@ enum Command {
         #[arg(long)]
         no_timing: bool,
     },
+    /// PNG error maps and trajectory plots from a finished run.
+    Plot {
+        dir: PathBuf,
+        /// Where to write the figures (default: DIR/plots).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Is the run in DIR (or every shard of it) complete? Exit 0 if so.
     Status { dir: PathBuf },
     /// Solver and end-to-end throughput, poses/s.
@@ -160,6 +167,15 @@ fn main() -> ExitCode {
             Err(e) => return usage(e),
         },
         Command::Status { dir } => return status::status(&dir),
+        Command::Plot { dir, out } => {
+            let out = out.unwrap_or_else(|| dir.join("plots"));
+            clearance_plot::plot_run(&dir, &out).map_err(anyhow::Error::from).map(|files| {
+                for f in &files {
+                    println!("{}", f.display());
+                }
+                eprintln!("{} figures in {}", files.len(), out.display());
+            })
+        }
         Command::Bench { poses, json, threads } => init_threads(threads).and_then(|_| bench::bench(poses, json)),
     };
     match result {

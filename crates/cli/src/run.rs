@@ -245,6 +245,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         metadata: vec![
             ("clearance.job".into(), job_toml.clone()),
             ("clearance.version".into(), ENGINE_VERSION.into()),
+            ("clearance.git_commit".into(), env!("CLEARANCE_GIT_COMMIT").into()),
             ("clearance.columns".into(), opts.columns.name().into()),
         ],
         row_group_rows: opts.chunk_size as usize,

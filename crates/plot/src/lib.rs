@@ -1,0 +1,257 @@
+//! # clearance-plot
+//!
+//! PNG figures from a finished `clearance run` directory, the figures of the
+//! paper's sections 3–4 (`shared/paper.md`), one set per variant `K` of the job:
+//!
+//! | run | file under `OUT/variant=K/` | pixels | paper |
+//! |---|---|---|---|
+//! | grid | `total_<mode>.png`, `<kind>_<mode>.png` for each enabled kind: six colour maps over Ψ–Θ at the first `z` (ΔX, ΔY, ΔZ in µm; ΔΨ, ΔΘ, ΔΦ in µrad), each with its colour bar, nulls grey, the switch locus as black dots | [`MAP_SIZE`] 1680 × 1040 | Figs. 6–12 |
+//! | trajectory | `inputs_motion.png`: the moving inputs (Θ) with velocity and acceleration against t | 1680 × (100 + 300 per input) | Fig. 13 |
+//! | trajectory | `parasitic_motion.png`: X, Y, Φ with velocities and accelerations against t | 1680 × 1000 | Fig. 14 |
+//! | trajectory | `total_trajectory.png`, `<kind>_trajectory.png`: the six errors against Θ (else the input that moves), kinetostatics black, dynamics blue, switches dashed | [`ERROR_SIZE`] 1680 × 1000 | Figs. 15–17 |
+//!
+//! Every figure has a 100-pixel header: the job's name and what is shown, then the
+//! variant's swept values, the clearances, and how nulls and switches are drawn.
+//! Grids finer than 800 lines per axis and trajectories longer than 20 000 samples
+//! are decimated while reading (every k-th line or sample): a figure cannot show
+//! more, and a run of millions of poses plots in bounded memory.
+//!
+//! A kind is enabled when its clearance is non-zero and its per-kind columns are in
+//! the files (`--columns minimal` runs get only the total). The switches come from
+//! `discontinuities.parquet` when the run has one; without it the figures have no
+//! switch overlay and say so. Rates along trajectories are not stored in the run:
+//! they are recomputed from `job.toml` with the engine's kinematics, so the
+//! figures need nothing but the run directory.
+//!
+//! Text is drawn with an embedded DejaVu Sans (`data/fonts`, ab_glyph), so plotting
+//! works on machines without fontconfig or any installed font.
+//!
+//! ```no_run
+//! use std::path::Path;
+//! let written = clearance_plot::plot_run(Path::new("out/fig08"), Path::new("out/fig08/plots"))?;
+//! for png in &written {
+//!     println!("{}", png.display());
+//! }
+//! # Ok::<(), clearance_plot::PlotError>(())
+//! ```
+
+mod error;
+mod error_map;
+mod figure;
+mod run_dir;
+mod switches;
+mod trajectory;
+
+use std::path::{Path, PathBuf};
+
+use clearance_grid::SampleSource;
+use clearance_model::{KINDS, Variant};
+
+pub use error::PlotError;
+pub use error_map::MAP_SIZE;
+pub use trajectory::ERROR_SIZE;
+
+use figure::{COMPONENTS, Source};
+use run_dir::{Layout, ModeData, RunDir};
+use switches::Switch;
+
+static FONT_BYTES: &[u8] = include_bytes!("../../../data/fonts/DejaVuSans.ttf");
+
+/// Registers the embedded font as plotters' `sans-serif` (once per process).
+fn register_font() -> Result<(), PlotError> {
+    static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font(figure::FONT, plotters::style::FontStyle::Normal, FONT_BYTES).is_ok()
+    });
+    if ok { Ok(()) } else { Err(PlotError::Font) }
+}
+
+/// Reads the finished run in `run_dir` and writes its figures under `out_dir`
+/// (created if needed; existing figures of the same name are replaced). Returns
+/// the files written, variant by variant.
+pub fn plot_run(run_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    register_font()?;
+    let run = RunDir::open(run_dir)?;
+    let switches = switches::read_switches(&run_dir.join("discontinuities.parquet"))?;
+    let mut written = Vec::new();
+    for variant in &run.variants {
+        let poses = run_dir.join("poses").join(format!("variant={}", variant.index));
+        if !poses.is_dir() {
+            return Err(PlotError::NotARun {
+                dir: run_dir.to_path_buf(),
+                why: format!("{} is missing", poses.display()),
+            });
+        }
+        let dir = out_dir.join(format!("variant={}", variant.index));
+        std::fs::create_dir_all(&dir).map_err(PlotError::io(&dir))?;
+        let source = SampleSource::new(&variant.job);
+        let layout = Layout::of(&source);
+        let data = run_dir::read_variant(&run, variant.index, &layout)?;
+        let mine: Option<Vec<&Switch>> =
+            switches.as_ref().map(|all| all.iter().filter(|s| s.variant == variant.index).collect());
+        let ctx = Context { run: &run, variant, dir: &dir, switches: mine.as_deref() };
+        match &layout {
+            Layout::Grid { z0, psi, theta, .. } => ctx.grid_figures(&data, *z0, psi, theta, &mut written)?,
+            Layout::Trajectory { samples, .. } => ctx.trajectory_figures(&source, samples, &data, &mut written)?,
+        }
+    }
+    Ok(written)
+}
+
+/// One variant's figures.
+struct Context<'a> {
+    run: &'a RunDir,
+    variant: &'a Variant,
+    dir: &'a Path,
+    /// This variant's switches; `None` when the run has no discontinuities.parquet.
+    switches: Option<&'a [&'a Switch]>,
+}
+
+impl Context<'_> {
+    /// Total first, then each enabled kind whose columns some mode holds.
+    fn sources(&self, data: &[ModeData]) -> Vec<Source> {
+        let has = |s: Source| data.iter().any(|d| COMPONENTS.iter().any(|&c| d.column(&s.column(c)).is_some()));
+        let clearance = &self.variant.job.clearance;
+        std::iter::once(Source::Total)
+            .chain(KINDS.into_iter().map(Source::Kind))
+            .filter(|&s| match s {
+                Source::Total => has(s),
+                Source::Kind(k) => clearance.get(k) != 0.0 && has(s),
+            })
+            .collect()
+    }
+
+    fn title(&self) -> String {
+        self.run.job.name().to_string()
+    }
+
+    /// `variant K: param = value · ` when the job has sweeps, else nothing.
+    fn variant_note(&self) -> String {
+        if self.run.variants.len() <= 1 && self.variant.params.is_empty() {
+            return String::new();
+        }
+        let params: Vec<String> = self.variant.params.iter().map(|(p, v)| format!("{p} = {v}")).collect();
+        format!("variant {}: {} · ", self.variant.index, params.join(", "))
+    }
+
+    /// The clearances a figure of `source` includes, as `r_radial = 100 µm, ...`.
+    fn clearances(&self, source: Source) -> String {
+        let c = &self.variant.job.clearance;
+        let list: Vec<String> = KINDS
+            .into_iter()
+            .filter(|&k| source.shows(k.name()) && c.get(k) != 0.0)
+            .map(|k| {
+                let unit = if k.name() == "r_angular" { "µrad" } else { "µm" };
+                format!("{} = {} {unit}", k.name(), short(c.get(k) * 1e6))
+            })
+            .collect();
+        if list.is_empty() { "no clearance (rigid joints)".to_string() } else { list.join(", ") }
+    }
+
+    /// The switches of `mode` a figure of `source` marks, and the subtitle's note on them.
+    fn switches_for(&self, source: Source, mode: Option<&str>) -> (Vec<&Switch>, String) {
+        let Some(all) = self.switches else {
+            return (Vec::new(), "no discontinuities.parquet: switches not drawn".into());
+        };
+        let chosen: Vec<&Switch> =
+            all.iter().copied().filter(|s| source.shows(&s.kind) && mode.is_none_or(|m| s.mode == m)).collect();
+        let n = chosen.len();
+        (chosen, format!("{n} switch{}", if n == 1 { "" } else { "es" }))
+    }
+
+    fn grid_figures(
+        &self,
+        data: &[ModeData],
+        z0: f64,
+        psi: &[f64],
+        theta: &[f64],
+        written: &mut Vec<PathBuf>,
+    ) -> Result<(), PlotError> {
+        let z_tol = 1e-9 * z0.abs().max(1.0);
+        for source in self.sources(data) {
+            for mode in data {
+                let columns = trajectory::error_columns(mode, source);
+                if columns.iter().all(Option::is_none) {
+                    continue;
+                }
+                let (switches, note) = self.switches_for(source, Some(&mode.mode));
+                let at_z0: Vec<(f64, f64)> =
+                    switches.iter().filter(|s| (s.z - z0).abs() <= z_tol).map(|s| (s.psi, s.theta)).collect();
+                let note = if self.switches.is_some() {
+                    format!("black dots: switch locus ({} at this Z)", at_z0.len())
+                } else {
+                    note
+                };
+                let map = error_map::ErrorMap {
+                    title: format!("{} — {}, {}", self.title(), source.describe(), mode.mode),
+                    subtitle: format!(
+                        "{}pose error at Z = {} m · {} · grey: no value (status ≠ ok) · {note}",
+                        self.variant_note(),
+                        short(z0),
+                        self.clearances(source),
+                    ),
+                    psi,
+                    theta,
+                    panels: error_map::panels(columns, psi.len() * theta.len()),
+                    switches: at_z0,
+                };
+                let path = self.dir.join(format!("{}_{}.png", source.stem(), mode.mode));
+                map.write(&path)?;
+                written.push(path);
+            }
+        }
+        Ok(())
+    }
+
+    fn trajectory_figures(
+        &self,
+        sample_source: &SampleSource,
+        samples: &[u64],
+        data: &[ModeData],
+        written: &mut Vec<PathBuf>,
+    ) -> Result<(), PlotError> {
+        let title = self.title();
+        let inputs = self.dir.join("inputs_motion.png");
+        let parasitic = self.dir.join("parasitic_motion.png");
+        trajectory::write_motions(
+            &self.variant.job,
+            samples,
+            &title,
+            &format!("{}nominal inverse kinematics, exact rates (automatic differentiation)", self.variant_note()),
+            &inputs,
+            &parasitic,
+        )?;
+        written.push(inputs);
+        written.push(parasitic);
+
+        let (along, x_desc, x) = trajectory::abscissa(sample_source, samples);
+        for source in self.sources(data) {
+            let (switches, note) = self.switches_for(source, None);
+            let modes: Vec<&str> = data.iter().map(|d| d.mode.as_str()).collect();
+            let figure = trajectory::TrajectoryErrors {
+                title: format!("{title} — error along the trajectory, {}", source.describe()),
+                subtitle: format!(
+                    "{}{} · {} · gaps: no value (status ≠ ok) · {note}",
+                    self.variant_note(),
+                    modes.join(" vs "),
+                    self.clearances(source),
+                ),
+                x_desc,
+                x: &x,
+                modes: data.iter().map(|d| (d.mode.as_str(), trajectory::error_columns(d, source))).collect(),
+                switches: trajectory::switch_marks(&switches, along),
+            };
+            let path = self.dir.join(format!("{}_trajectory.png", source.stem()));
+            figure.write(&path)?;
+            written.push(path);
+        }
+        Ok(())
+    }
+}
+
+/// A number in at most four significant decimals, without trailing zeros.
+fn short(v: f64) -> String {
+    let s = format!("{:.4}", v);
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}

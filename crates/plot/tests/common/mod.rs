@@ -1,0 +1,146 @@
+//! Small run directories made in the test with the engine's own library, the way
+//! `clearance run` lays them out, so the plot tests do not depend on the CLI.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use arrow::array::{Float64Array, StringArray, UInt32Array, UInt64Array};
+use arrow::datatypes::{DataType, Field, Schema};
+use arrow::record_batch::RecordBatch;
+use clearance_grid::SampleSource;
+use clearance_model::JobSpec;
+use clearance_parquet::{ColumnSet, PoseSchema, WriteOptions, write_parquet};
+use clearance_solver::{Model, Workspace, solve_pose};
+
+/// Writes `job_text` as a complete run under `dir`: job.toml, one part file per
+/// (variant, mode), _SUCCESS.
+pub fn make_run(dir: &Path, job_text: &str, columns: ColumnSet) -> JobSpec {
+    let job = JobSpec::from_toml_str(job_text, "test.toml").expect("test job is valid");
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join("job.toml"), job.to_toml_string()).unwrap();
+    let schema = PoseSchema::new(columns, job.analysis.exact);
+    for variant in job.variants("test.toml").unwrap() {
+        let model = Model::from_job(&variant.job);
+        let source = SampleSource::new(&variant.job);
+        let mut ws = Workspace::new();
+        for &mode in &job.analysis.modes {
+            let rows: Vec<_> = (0..source.len())
+                .map(|i| {
+                    let s = source.sample(i);
+                    (s, solve_pose(&model, &s, mode, &mut ws))
+                })
+                .collect();
+            let batch = schema.batch(mode, &rows);
+            let part = dir
+                .join("poses")
+                .join(format!("variant={}", variant.index))
+                .join(format!("part-{}-000000.parquet", mode.name()));
+            std::fs::create_dir_all(part.parent().unwrap()).unwrap();
+            write_parquet(&part, schema.schema(), &[batch], &WriteOptions::default(), &[]).unwrap();
+        }
+    }
+    std::fs::write(dir.join("_SUCCESS"), b"").unwrap();
+    job
+}
+
+/// One row of `discontinuities.parquet` (the columns of shared/INTERFACE.md).
+pub struct SwitchRow {
+    pub variant: u64,
+    pub mode: &'static str,
+    pub kind: &'static str,
+    pub along: &'static str,
+    pub t: Option<f64>,
+    pub z: f64,
+    pub psi: f64,
+    pub theta: f64,
+}
+
+pub fn write_switches(dir: &Path, rows: &[SwitchRow]) -> PathBuf {
+    let f64s = |f: &dyn Fn(&SwitchRow) -> Option<f64>| Arc::new(rows.iter().map(f).collect::<Float64Array>()) as _;
+    let mut fields = vec![
+        Field::new("variant", DataType::UInt64, false),
+        Field::new("mode", DataType::Utf8, false),
+        Field::new("limb", DataType::UInt32, false),
+        Field::new("kind", DataType::Utf8, false),
+        Field::new("along", DataType::Utf8, false),
+        Field::new("t", DataType::Float64, true),
+    ];
+    for name in ["z", "psi", "theta", "margin"] {
+        fields.push(Field::new(name, DataType::Float64, false));
+    }
+    for c in ["x", "y", "z", "rx", "ry", "rz"] {
+        fields.push(Field::new(format!("jump_{c}"), DataType::Float64, false));
+    }
+    let mut columns: Vec<arrow::array::ArrayRef> = vec![
+        Arc::new(rows.iter().map(|r| r.variant).collect::<UInt64Array>()),
+        Arc::new(rows.iter().map(|r| Some(r.mode)).collect::<StringArray>()),
+        Arc::new(rows.iter().map(|_| 1u32).collect::<UInt32Array>()),
+        Arc::new(rows.iter().map(|r| Some(r.kind)).collect::<StringArray>()),
+        Arc::new(rows.iter().map(|r| Some(r.along)).collect::<StringArray>()),
+        f64s(&|r| r.t),
+        f64s(&|r| Some(r.z)),
+        f64s(&|r| Some(r.psi)),
+        f64s(&|r| Some(r.theta)),
+        f64s(&|_| Some(1.0)),
+    ];
+    for _ in 0..6 {
+        columns.push(f64s(&|_| Some(1e-5)));
+    }
+    let schema = Arc::new(Schema::new(fields));
+    let batch = RecordBatch::try_new(schema.clone(), columns).unwrap();
+    let path = dir.join("discontinuities.parquet");
+    write_parquet(&path, schema, &[batch], &WriteOptions::default(), &[]).unwrap();
+    path
+}
+
+/// A decoded figure.
+pub struct Png {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<[u8; 3]>,
+}
+
+impl Png {
+    pub fn open(path: &Path) -> Png {
+        let img = image::open(path).unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display())).to_rgb8();
+        Png { width: img.width(), height: img.height(), pixels: img.pixels().map(|p| p.0).collect() }
+    }
+
+    pub fn distinct_colours(&self) -> usize {
+        let mut c: Vec<[u8; 3]> = self.pixels.clone();
+        c.sort_unstable();
+        c.dedup();
+        c.len()
+    }
+
+    /// The fraction of pixels that are not the white background.
+    pub fn ink(&self) -> f64 {
+        self.pixels.iter().filter(|p| **p != [255, 255, 255]).count() as f64 / self.pixels.len() as f64
+    }
+
+    pub fn count(&self, colour: [u8; 3]) -> usize {
+        self.pixels.iter().filter(|p| **p == colour).count()
+    }
+
+    pub fn differs_from(&self, other: &Png) -> usize {
+        self.pixels.iter().zip(&other.pixels).filter(|(a, b)| a != b).count()
+    }
+}
+
+/// The files under `dir`, relative to it, sorted.
+pub fn files_under(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            let sub = path.file_name().unwrap().to_string_lossy().into_owned();
+            out.extend(files_under(&path).into_iter().map(|f| format!("{sub}/{f}")));
+        } else {
+            out.push(path.file_name().unwrap().to_string_lossy().into_owned());
+        }
+    }
+    out.sort();
+    out
+}
