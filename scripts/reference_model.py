@@ -241,6 +241,25 @@ def kappa1(M):
         return norm1(M) * norm1(_inv_stack(M))
 
 
+def reduced_matrices(p, A, e):
+    """The 6x6 reductions that docs/conventions.md uses to judge conditioning.
+
+    G (equilibrium, legs eliminated): columns [f; r_j x f] for f = e_j, y_j;
+    M (error, reciprocal screws):     rows    [(r_j x f)^T, f^T] for the same forces,
+    with r_j = A_j - P.  Written from the convention's text, not from the engine."""
+    N = p.shape[0]
+    G = np.zeros((N, 6, 6))
+    M = np.zeros((N, 6, 6))
+    for j in range(3):
+        r = A[:, j] - p
+        for c, f in enumerate((e[:, j], np.broadcast_to(YJ[j], (N, 3)))):
+            k = 2 * j + c
+            mom = np.cross(r, f)
+            G[:, 0:3, k], G[:, 3:6, k] = f, mom
+            M[:, k, 0:3], M[:, k, 3:6] = mom, f
+    return G, M
+
+
 def _solve_stack(M, rhs):
     try:
         return np.linalg.solve(M, rhs)
@@ -761,10 +780,13 @@ def _compute_chunk(P, smp, sl, modes):
     Amat = equilibrium_matrix(P, kin_s["A"], kin_s["B"], kin_s["C"])
     bs = [equilibrium_rhs(P, kin_s, mot if m == "dynamic" else None) for m in modes]
     wsol = _solve_stack(Amat, np.stack(bs, -1))                  # (N,24,M)
-    cond_a = kappa1(Amat)
     S = passive_screws(kin_s["p"], kin_s["A"], kin_s["B"])
     JP = loop_matrix(S)
-    cond_jp = kappa1(JP)
+    Gred, Mred = reduced_matrices(kin_s["p"], kin_s["A"], kin_s["e"])
+    cond_a, cond_jp = kappa1(Gred), kappa1(Mred)
+    with np.errstate(all="ignore"):
+        cond_a = np.where(np.isfinite(cond_a), cond_a, np.inf)
+        cond_jp = np.where(np.isfinite(cond_jp), cond_jp, np.inf)
     singular = ~((cond_a <= P["singular_cond"]) & (cond_jp <= P["singular_cond"]))
 
     out = {}

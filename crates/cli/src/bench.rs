@@ -6,7 +6,7 @@ use anyhow::Result;
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
 use clearance_parquet::ColumnSet;
-use clearance_solver::{Model, Workspace, solve_pose};
+use clearance_solver::{Model, SolverKind, Workspace, solve_pose};
 use rayon::prelude::*;
 
 use crate::run::{RunOptions, run};
@@ -23,8 +23,9 @@ pub fn bench_job(poses: u64) -> JobSpec {
 }
 
 /// Kinetostatic pose → reactions → take-up → error, all kinds, no I/O. Returns poses/s.
-pub fn kernel_rate(job: &JobSpec) -> f64 {
-    let model = Model::from_job(job);
+pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
+    let mut model = Model::from_job(job);
+    model.solver = solver;
     let source = SampleSource::new(job);
     let n = source.len();
     let start = Instant::now();
@@ -40,12 +41,13 @@ pub fn kernel_rate(job: &JobSpec) -> f64 {
     n as f64 / secs
 }
 
-pub fn bench(poses: u64, json: bool) -> Result<()> {
+pub fn bench(poses: u64, json: bool, solver: SolverKind) -> Result<()> {
     let job = bench_job(poses);
     let n = job.sample_count();
     let threads = rayon::current_num_threads();
-    kernel_rate(&bench_job(10_000)); // warm up
-    let kernel = kernel_rate(&job);
+    kernel_rate(&bench_job(10_000), SolverKind::Fast); // warm up
+    let kernel = kernel_rate(&job, SolverKind::Fast);
+    let kernel_general = kernel_rate(&bench_job(poses / 10), SolverKind::General);
     let dir = std::env::temp_dir().join(format!("clearance-bench-{}", std::process::id()));
     let opts = RunOptions {
         out: dir.clone(),
@@ -54,6 +56,7 @@ pub fn bench(poses: u64, json: bool) -> Result<()> {
         resume: false,
         overwrite: false,
         chunk_size: 65536,
+        solver,
         quiet: true,
     };
     let _ = std::fs::remove_dir_all(&dir);
@@ -65,11 +68,13 @@ pub fn bench(poses: u64, json: bool) -> Result<()> {
     let e2e = n as f64 / secs;
     if json {
         println!(
-            "{{\"kernel_poses_per_s\": {kernel:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"general\"}}"
+            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\"}}",
+            if solver == SolverKind::Fast { "fast" } else { "general" }
         );
     } else {
         println!("poses per measurement: {n}, threads: {threads}");
         println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
+        println!("kernel, general faer path:              {kernel_general:>12.0} poses/s");
         println!("end to end (grid -> Parquet, standard):  {e2e:>12.0} poses/s");
     }
     Ok(())

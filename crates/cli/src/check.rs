@@ -36,7 +36,7 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
     }
     if timing {
         let probe = crate::bench::bench_job(20_000);
-        let rate = kernel_rate(&probe);
+        let rate = kernel_rate(&probe, clearance_solver::SolverKind::Fast);
         let dynamic = if modes.contains(&"dynamic") { " (dynamic poses cost somewhat more)" } else { "" };
         println!(
             "estimated compute time: {:.1} s at {:.0} poses/s measured now on {} threads{dynamic}",

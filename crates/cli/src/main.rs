@@ -13,6 +13,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use clearance_model::{JobError, JobSpec};
 use clearance_parquet::ColumnSet;
+use clearance_solver::SolverKind;
 
 #[derive(Parser)]
 #[command(name = "clearance", version, about = "Pose error of a 3-PRS parallel robot due to joint clearances")]
@@ -51,6 +52,9 @@ enum Command {
         /// Samples per part file.
         #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u64).range(1..))]
         chunk_size: u64,
+        /// `fast` (6 × 6 reduced systems) or `general` (the assembled 24 × 24 and 12 × 12, faer).
+        #[arg(long, default_value = "fast", value_parser = parse_solver)]
+        solver: SolverKind,
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
@@ -82,7 +86,18 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Solver of the end-to-end measurement (the kernel is measured with both).
+        #[arg(long, default_value = "fast", value_parser = parse_solver)]
+        solver: SolverKind,
     },
+}
+
+fn parse_solver(s: &str) -> Result<SolverKind, String> {
+    match s {
+        "fast" => Ok(SolverKind::Fast),
+        "general" => Ok(SolverKind::General),
+        _ => Err(format!("unknown solver `{s}`; use fast or general")),
+    }
 }
 
 fn parse_shard(s: &str) -> Result<(u64, u64), String> {
@@ -139,7 +154,19 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run { job, out, threads, shard, shard_count, resume, overwrite, columns, chunk_size, quiet } => {
+        Command::Run {
+            job,
+            out,
+            threads,
+            shard,
+            shard_count,
+            resume,
+            overwrite,
+            columns,
+            chunk_size,
+            solver,
+            quiet,
+        } => {
             let spec = match load_job(&job) {
                 Ok(s) => s,
                 Err(e) => return usage(e),
@@ -148,7 +175,7 @@ fn main() -> ExitCode {
                 Ok(s) => s,
                 Err(e) => return usage(e),
             };
-            let opts = run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, quiet };
+            let opts = run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, solver, quiet };
             init_threads(threads).and_then(|_| run::run(&spec, &job.display().to_string(), &opts)).map(|r| {
                 if !quiet {
                     eprintln!(
@@ -176,7 +203,9 @@ fn main() -> ExitCode {
                 eprintln!("{} figures in {}", files.len(), out.display());
             })
         }
-        Command::Bench { poses, json, threads } => init_threads(threads).and_then(|_| bench::bench(poses, json)),
+        Command::Bench { poses, json, threads, solver } => {
+            init_threads(threads).and_then(|_| bench::bench(poses, json, solver))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -20,7 +20,7 @@ use clearance_parquet::{
     ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch, summary_batch,
     write_parquet,
 };
-use clearance_solver::{Model, Workspace, solve_pose};
+use clearance_solver::{Model, SolverKind, Workspace, solve_pose};
 use rayon::prelude::*;
 
 use crate::progress::Progress;
@@ -36,6 +36,7 @@ pub struct RunOptions {
     pub overwrite: bool,
     /// Samples per part file.
     pub chunk_size: u64,
+    pub solver: SolverKind,
     pub quiet: bool,
 }
 
@@ -250,8 +251,14 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         ],
         row_group_rows: opts.chunk_size as usize,
     };
-    let models: Vec<(Model, SampleSource)> =
-        variants.iter().map(|v| (Model::from_job(&v.job), SampleSource::new(&v.job))).collect();
+    let models: Vec<(Model, SampleSource)> = variants
+        .iter()
+        .map(|v| {
+            let mut model = Model::from_job(&v.job);
+            model.solver = opts.solver;
+            (model, SampleSource::new(&v.job))
+        })
+        .collect();
 
     let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
     let start = Instant::now();

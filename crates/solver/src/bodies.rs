@@ -92,6 +92,16 @@ pub fn leg_inertia_world(mass: &MassModel, e: &Vector3<f64>) -> Matrix3<f64> {
     mass.leg_inertia * (Matrix3::identity() - e * e.transpose())
 }
 
+/// Which solver runs the two linear systems. Both give the same results to
+/// round-off; `General` assembles the full 24 × 24 and 12 × 12 systems of MODEL.md
+/// and solves them with faer, `Fast` (the default) solves their 6 × 6 reductions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SolverKind {
+    General,
+    #[default]
+    Fast,
+}
+
 /// The model of one job that every pose shares.
 #[derive(Clone, Debug)]
 pub struct Model {
@@ -107,6 +117,7 @@ pub struct Model {
     pub indeterminate_floor: f64,
     pub singular_cond: f64,
     pub exact: bool,
+    pub solver: SolverKind,
 }
 
 impl Model {
@@ -126,6 +137,7 @@ impl Model {
             indeterminate_floor: job.analysis.indeterminate_load_fraction * weight,
             singular_cond: job.analysis.singular_cond,
             exact: job.analysis.exact,
+            solver: SolverKind::default(),
         }
     }
 }

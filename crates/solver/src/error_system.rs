@@ -26,14 +26,6 @@ pub struct PoseError {
     pub euler: [f64; 3],
 }
 
-impl PoseError {
-    fn from_twist(t: &Vector6<f64>, euler_inv: &nalgebra::Matrix3<f64>) -> Self {
-        let dalpha = Vector3::new(t[0], t[1], t[2]);
-        let e = euler_inv * dalpha; // (ΔΘ, ΔΨ, ΔΦ)
-        Self { dalpha, dp: Vector3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
-    }
-}
-
 fn twist(w: Vector3<f64>, v: Vector3<f64>) -> Vector6<f64> {
     Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z)
 }
@@ -99,7 +91,7 @@ pub fn errors_from(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, dq: &Ma
         for (u, s) in screws.iter().enumerate() {
             t += s * dq[(u, k)];
         }
-        PoseError::from_twist(&t, &euler_inv)
+        crate::fast::pose_error([t[0], t[1], t[2], t[3], t[4], t[5]], &euler_inv)
     })
 }
 

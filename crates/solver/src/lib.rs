@@ -14,6 +14,9 @@
 //!    (MODEL.md §7).
 //!
 //! [`solve_pose`] runs them in order; a bad pose becomes a [`Status`], never a panic.
+//! [`fast`] solves the same two systems in their 6 × 6 reduced forms (the default,
+//! [`SolverKind::Fast`]); the assembled faer path ([`SolverKind::General`]) is the
+//! reference, and the two agree to round-off.
 //!
 //! Symbols: `A` the equilibrium matrix, `w` the reactions, `b` the known loads;
 //! `J_P` the passive-joint screw matrix, `Δq_P` the passive joint motions, `J_Cl·Δq_Cl`
@@ -33,16 +36,19 @@
 //! ```
 
 #![allow(non_snake_case)]
+// Limb loops index several per-limb arrays at once, as the equations do.
+#![allow(clippy::needless_range_loop)]
 
 pub mod bodies;
 pub mod equilibrium;
 pub mod error_system;
 pub mod exact;
+pub mod fast;
 mod linalg;
 mod pose;
 pub mod takeup;
 
-pub use bodies::{Inertial, Load, MassModel, Model};
+pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
 pub use equilibrium::JointReactions;
 pub use error_system::PoseError;
 pub use linalg::LuSolver;

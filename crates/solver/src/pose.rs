@@ -5,10 +5,12 @@ use clearance_kinematics::{inverse_kinematics, inverse_kinematics_motion, parasi
 use clearance_model::Mode;
 use faer::Mat;
 
+use crate::bodies::SolverKind;
 use crate::bodies::{Inertial, Model};
 use crate::equilibrium::{self, JointReactions};
 use crate::error_system::{self, PoseError};
 use crate::exact::exact_error;
+use crate::fast;
 use crate::linalg::LuSolver;
 use crate::takeup::{Margins, take_up};
 
@@ -147,42 +149,56 @@ pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace
         }
     };
 
-    equilibrium::assemble(model, &pose, &inertial, ws.a.as_mut(), ws.w.as_mut());
-    let cond_a = ws.lu_a.solve_with_cond(ws.a.as_ref(), ws.w.as_mut());
-    let reactions = equilibrium::reactions_from(model, &ws.w);
-    let take = take_up(geom, &reactions, &model.clearance, model.indeterminate_floor);
+    // Both paths judge conditioning on the reduced systems (docs/conventions.md).
+    let reduced = fast::reduce(model, &pose);
+    let (cond_a, cond_jp) = (reduced.cond_g, reduced.cond_m);
+    let mut result = PoseResult::unreachable(pose.x, pose.y, pose.phi);
+    result.q = pose.q;
+    result.cond_a = cond_a;
+    result.cond_jp = cond_jp;
+    if !(cond_a <= model.singular_cond && cond_jp <= model.singular_cond) {
+        result.status = Status::NearSingular;
+        return result;
+    }
 
-    error_system::assemble(&pose, &geom.y, &take, ws.jp.as_mut(), ws.dq.as_mut());
-    let cond_jp = ws.lu_jp.solve_with_cond(ws.jp.as_ref(), ws.dq.as_mut());
-    let errors = error_system::errors_from(&pose, &geom.y, &take, &ws.dq);
+    let reactions = match model.solver {
+        SolverKind::Fast => reduced.reactions(model, &pose, &inertial),
+        SolverKind::General => {
+            equilibrium::assemble(model, &pose, &inertial, ws.a.as_mut(), ws.w.as_mut());
+            if !ws.lu_a.solve(ws.a.as_ref(), ws.w.as_mut()) {
+                result.status = Status::NearSingular;
+                return result;
+            }
+            equilibrium::reactions_from(model, &ws.w)
+        }
+    };
+    let take = take_up(geom, &reactions, &model.clearance, model.indeterminate_floor);
+    let errors = match model.solver {
+        SolverKind::Fast => {
+            let euler_inv = euler_inverse(&pose);
+            reduced.errors(model, &pose, &take).map(|t| fast::pose_error(t, &euler_inv))
+        }
+        SolverKind::General => {
+            error_system::assemble(&pose, &geom.y, &take, ws.jp.as_mut(), ws.dq.as_mut());
+            if !ws.lu_jp.solve(ws.jp.as_ref(), ws.dq.as_mut()) {
+                result.status = Status::NearSingular;
+                return result;
+            }
+            error_system::errors_from(&pose, &geom.y, &take, &ws.dq)
+        }
+    };
     let total = error_system::total(&errors);
     let kind_ok = take.indeterminate.map(|i| !i);
-
-    let near_singular = !(cond_a <= model.singular_cond && cond_jp <= model.singular_cond);
-    let status = if near_singular {
-        Status::NearSingular
-    } else if kind_ok.contains(&false) {
-        Status::IndeterminateContact
-    } else {
-        Status::Ok
-    };
+    let status = if kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
     let exact = (model.exact && status == Status::Ok)
         .then(|| exact_error(geom, &pose, &take))
         .flatten()
         .filter(|e| same_branch(e, &total));
-    PoseResult {
-        status,
-        x: pose.x,
-        y: pose.y,
-        phi: pose.phi,
-        q: pose.q,
-        reactions,
-        margins: take.margins,
-        errors,
-        kind_ok,
-        total,
-        cond_a,
-        cond_jp,
-        exact,
-    }
+    PoseResult { status, reactions, margins: take.margins, errors, kind_ok, total, exact, ..result }
+}
+
+fn euler_inverse(pose: &clearance_kinematics::Posture) -> nalgebra::Matrix3<f64> {
+    clearance_kinematics::euler_rates_matrix(pose.psi, pose.theta)
+        .try_inverse()
+        .unwrap_or_else(|| nalgebra::Matrix3::from_element(f64::NAN))
 }
