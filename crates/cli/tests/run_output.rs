@@ -219,3 +219,19 @@ fn same_data_for_any_threads_chunks_shards_and_resume() {
     assert!(o.status.success());
     assert_eq!(read_rows(&sharded), want, "resumed");
 }
+
+#[test]
+fn unwritable_output_fails_with_exit_1_and_no_final_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = write_job(dir.path(), "grid.toml", GRID_JOB);
+    // A regular file where the output directory's parent should be: nothing can be
+    // created below it, whoever runs the test (root included).
+    let blocker = dir.path().join("blocker");
+    std::fs::write(&blocker, b"not a directory").unwrap();
+    let out = blocker.join("out");
+    let o = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("out") && err.lines().count() <= 2, "{err}");
+    assert_eq!(std::fs::read(&blocker).unwrap(), b"not a directory");
+}

@@ -9,6 +9,7 @@ use arrow::record_batch::RecordBatch;
 use clearance_grid::Sample;
 use clearance_model::{KINDS, Mode};
 use clearance_solver::{PoseError, PoseResult, Status};
+use rayon::prelude::*;
 
 /// Which columns to write (INTERFACE.md `--columns`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -220,21 +221,27 @@ impl PoseSchema {
         cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|(s, _)| s.index))));
         cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|(s, _)| s.t))));
         cols.push(Arc::new(StringArray::from_iter_values(rows.iter().map(|(_, r)| r.status.name()))));
-        for c in &self.floats {
-            let values = rows.iter().map(|(s, r)| {
-                let filled = match c.needs {
-                    Needs::Always => true,
-                    Needs::Reachable => r.status != Status::Unreachable,
-                    Needs::Solved => matches!(r.status, Status::Ok | Status::IndeterminateContact),
-                    Needs::Kind(k) => matches!(r.status, Status::Ok | Status::IndeterminateContact) && r.kind_ok[k],
-                    Needs::Ok => r.status == Status::Ok,
-                    Needs::Exact => r.exact.is_some(),
-                };
-                let v = if filled { (c.get)(s, r) } else { f64::NAN };
-                v.is_finite().then_some(v)
-            });
-            cols.push(Arc::new(Float64Array::from_iter(values)));
-        }
+        // Columns are independent: build them on the rayon pool.
+        let floats: Vec<ArrayRef> = self
+            .floats
+            .par_iter()
+            .map(|c| {
+                let values = rows.iter().map(|(s, r)| {
+                    let filled = match c.needs {
+                        Needs::Always => true,
+                        Needs::Reachable => r.status != Status::Unreachable,
+                        Needs::Solved => matches!(r.status, Status::Ok | Status::IndeterminateContact),
+                        Needs::Kind(k) => matches!(r.status, Status::Ok | Status::IndeterminateContact) && r.kind_ok[k],
+                        Needs::Ok => r.status == Status::Ok,
+                        Needs::Exact => r.exact.is_some(),
+                    };
+                    let v = if filled { (c.get)(s, r) } else { f64::NAN };
+                    v.is_finite().then_some(v)
+                });
+                Arc::new(Float64Array::from_iter(values)) as ArrayRef
+            })
+            .collect();
+        cols.extend(floats);
         RecordBatch::try_new(self.schema.clone(), cols).expect("columns match the schema")
     }
 }
