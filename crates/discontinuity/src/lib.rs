@@ -175,7 +175,7 @@ pub fn search_path(
 ) -> Vec<Discontinuity> {
     let ev = Evaluator { model, source, path, mode };
     let results: Vec<PoseResult> =
-        path.samples.iter().map(|&i| solve_pose(model, &source.sample(i), mode, ws)).collect();
+        (0..path.len()).map(|k| solve_pose(model, &source.sample(path.sample_index(k)), mode, ws)).collect();
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;

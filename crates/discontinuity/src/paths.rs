@@ -3,6 +3,7 @@
 
 use clearance_grid::{Sample, SampleSource};
 use clearance_model::RangeSpec;
+use std::sync::Arc;
 
 /// The input a path varies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -25,19 +26,36 @@ impl Along {
     }
 }
 
-/// One path: the samples on it, in order, and how to evaluate any point between them.
+/// One path: which samples lie on it, in order, and how to evaluate any point
+/// between them. A path is a few numbers (its first sample and the stride between
+/// samples); the parameter values are shared by every line along the same input, so
+/// the paths of a 50-million-pose grid cost kilobytes, not gigabytes.
 #[derive(Clone, Debug)]
 pub struct Path {
     pub along: Along,
-    /// Sample indices on the path, in increasing order of the parameter.
-    pub samples: Vec<u64>,
-    /// The path parameter (the varying input, or t) at each sample.
-    pub params: Vec<f64>,
-    /// The fixed node: sample index of the path's first point (its other inputs).
+    /// The path parameter (the varying input, or t) at each sample, shared.
+    pub params: Arc<[f64]>,
+    /// Sample index of the path's first point (it fixes the other inputs).
     origin: u64,
+    /// Index step from one sample of the path to the next.
+    stride: u64,
 }
 
 impl Path {
+    /// The number of samples on the path.
+    pub fn len(&self) -> usize {
+        self.params.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.params.is_empty()
+    }
+
+    /// The sample index of the `k`-th point.
+    pub fn sample_index(&self, k: usize) -> u64 {
+        self.origin + k as u64 * self.stride
+    }
+
     /// The sample at parameter `p` (not necessarily a grid or time node).
     pub fn sample_at(&self, source: &SampleSource, p: f64) -> Sample {
         match source {
@@ -60,7 +78,7 @@ impl Path {
     }
 }
 
-fn values(r: &RangeSpec) -> Vec<f64> {
+fn values(r: &RangeSpec) -> Arc<[f64]> {
     (0..r.len()).map(|i| r.value(i)).collect()
 }
 
@@ -68,34 +86,48 @@ fn values(r: &RangeSpec) -> Vec<f64> {
 pub fn paths(source: &SampleSource) -> Vec<Path> {
     match source {
         SampleSource::Trajectory(tr) => {
-            let n = tr.time.len();
-            vec![Path { along: Along::T, samples: (0..n).collect(), params: values(&tr.time), origin: 0 }]
+            vec![Path { along: Along::T, params: values(&tr.time), origin: 0, stride: 1 }]
         }
         SampleSource::Grid(g) => {
             let (nz, np, nt) = (g.z.len(), g.psi.len(), g.theta.len());
             let index = |iz: u64, ip: u64, it: u64| (iz * np + ip) * nt + it;
             let mut out = Vec::new();
             if nt > 1 {
+                let params = values(&g.theta);
                 for iz in 0..nz {
                     for ip in 0..np {
-                        let samples: Vec<u64> = (0..nt).map(|it| index(iz, ip, it)).collect();
-                        out.push(Path { along: Along::Theta, origin: samples[0], samples, params: values(&g.theta) });
+                        out.push(Path {
+                            along: Along::Theta,
+                            params: params.clone(),
+                            origin: index(iz, ip, 0),
+                            stride: 1,
+                        });
                     }
                 }
             }
             if np > 1 {
+                let params = values(&g.psi);
                 for iz in 0..nz {
                     for it in 0..nt {
-                        let samples: Vec<u64> = (0..np).map(|ip| index(iz, ip, it)).collect();
-                        out.push(Path { along: Along::Psi, origin: samples[0], samples, params: values(&g.psi) });
+                        out.push(Path {
+                            along: Along::Psi,
+                            params: params.clone(),
+                            origin: index(iz, 0, it),
+                            stride: nt,
+                        });
                     }
                 }
             }
             if nz > 1 {
+                let params = values(&g.z);
                 for ip in 0..np {
                     for it in 0..nt {
-                        let samples: Vec<u64> = (0..nz).map(|iz| index(iz, ip, it)).collect();
-                        out.push(Path { along: Along::Z, origin: samples[0], samples, params: values(&g.z) });
+                        out.push(Path {
+                            along: Along::Z,
+                            params: params.clone(),
+                            origin: index(0, ip, it),
+                            stride: np * nt,
+                        });
                     }
                 }
             }
