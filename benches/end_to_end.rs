@@ -1,0 +1,143 @@
+//! End-to-end throughput, grid → Parquet on disk with the standard columns, in poses
+//! per second (`Throughput::Elements`).
+//!
+//! | bench | what is timed |
+//! |---|---|
+//! | `end_to_end/library/<solver>` | the pose loop of `clearance run` rebuilt from the library crates: chunks of 65 536 samples solved on the rayon pool, `PoseSchema::batch` (standard columns), summary statistics, `write_parquet` on a writer thread overlapping the next chunk |
+//! | `end_to_end/cli_run` | `target/release/clearance run JOB --out DIR --quiet` as a child process: the above plus process start, `job.toml`, the discontinuity search along every grid line, `summary.parquet` and `_SUCCESS` — what `clearance bench` calls end to end |
+//!
+//! Output goes to a fresh temporary directory per iteration, removed outside the timing.
+//! `cli_run` uses the release binary as it is on disk: build it first with
+//! `cargo build --release -p clearance-cli` (it is skipped, with a note, when missing).
+//!
+//! Run: `cargo bench --bench end_to_end`.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::mpsc::sync_channel;
+
+use clearance_grid::{SampleSource, chunks};
+use clearance_model::{JobSpec, Mode};
+use clearance_parquet::{ColumnSet, PoseSchema, SummaryStats, WriteOptions, write_parquet};
+use clearance_solver::{Model, Workspace, solve_pose};
+use common::for_each_solver;
+use criterion::{BatchSize, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use rayon::prelude::*;
+
+/// Poses per iteration: 362² = 131 044, two part files of `CHUNK`.
+const LIB_SIDE: u64 = 362;
+const CHUNK: u64 = 65_536;
+/// Poses per iteration of the child-process run: 200² = 40 000.
+const CLI_SIDE: u64 = 200;
+
+/// Grid → poses part files (standard columns) in `out`, as `clearance run` does.
+fn run_poses(job: &JobSpec, model: &Model, source: &SampleSource, schema: &PoseSchema, out: &Path) {
+    let opts =
+        WriteOptions { metadata: vec![("clearance.job".into(), job.to_toml_string())], row_group_rows: CHUNK as usize };
+    let dir = out.join("poses").join("variant=0");
+    std::fs::create_dir_all(&dir).expect("create the output directory");
+    let mut total = SummaryStats::default();
+    std::thread::scope(|scope| {
+        let (tx, rx) = sync_channel::<(PathBuf, _)>(1); // (part path, RecordBatch)
+        let schema_ref = schema.schema();
+        let opts = &opts;
+        let writer = scope.spawn(move || {
+            for (path, batch) in rx {
+                write_parquet(&path, schema_ref.clone(), &[batch], opts, &[]).expect("write a part file");
+            }
+        });
+        for (k, range) in chunks(source.len(), CHUNK).enumerate() {
+            let rows: Vec<_> = range
+                .into_par_iter()
+                .map_init(Workspace::new, |ws, i| {
+                    let s = source.sample(i);
+                    (s, solve_pose(model, &s, Mode::Kinetostatic, ws))
+                })
+                .collect();
+            let batch = schema.batch(Mode::Kinetostatic, &rows);
+            let mut stats = SummaryStats::default();
+            for (_, r) in &rows {
+                stats.push(r);
+            }
+            total.merge(&stats);
+            tx.send((dir.join(format!("part-kinetostatic-{k:06}.parquet")), batch)).expect("the writer is alive");
+        }
+        drop(tx);
+        writer.join().expect("the writer does not panic");
+    });
+    std::hint::black_box(total);
+}
+
+fn library(c: &mut Criterion) {
+    let job = common::grid_job(LIB_SIDE);
+    let source = SampleSource::new(&job);
+    let schema = PoseSchema::new(ColumnSet::Standard, false);
+    let mut g = c.benchmark_group("end_to_end/library");
+    g.sampling_mode(SamplingMode::Flat);
+    g.throughput(Throughput::Elements(source.len()));
+    for_each_solver(|name, setup| {
+        let model = common::model_for(&job, setup);
+        g.bench_function(name, |b| {
+            b.iter_batched(
+                || tempfile::tempdir().expect("a temporary directory"),
+                |tmp| {
+                    run_poses(&job, &model, &source, &schema, tmp.path());
+                    tmp // removed after the timing
+                },
+                BatchSize::PerIteration,
+            )
+        });
+    });
+    g.finish();
+}
+
+fn release_binary() -> PathBuf {
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target"));
+    target.join("release").join("clearance")
+}
+
+fn cli_run(c: &mut Criterion) {
+    let bin = release_binary();
+    if !bin.exists() {
+        eprintln!("end_to_end/cli_run: skipped, {} is missing (cargo build --release -p clearance-cli)", bin.display());
+        return;
+    }
+    let job = common::grid_job(CLI_SIDE);
+    let jobdir = tempfile::tempdir().expect("a temporary directory");
+    let job_path = jobdir.path().join("bench.toml");
+    std::fs::write(&job_path, job.to_toml_string()).expect("write the job");
+    let mut g = c.benchmark_group("end_to_end");
+    g.sampling_mode(SamplingMode::Flat);
+    g.throughput(Throughput::Elements(job.sample_count()));
+    g.bench_function("cli_run", |b| {
+        b.iter_batched(
+            || tempfile::tempdir().expect("a temporary directory"),
+            |tmp| {
+                let out = tmp.path().join("out");
+                let status = Command::new(&bin)
+                    .arg("run")
+                    .arg(&job_path)
+                    .arg("--out")
+                    .arg(&out)
+                    .arg("--quiet")
+                    .status()
+                    .expect("start clearance");
+                assert!(status.success(), "clearance run failed: {status}");
+                tmp
+            },
+            BatchSize::PerIteration,
+        )
+    });
+    g.finish();
+}
+
+criterion_group! {
+    name = end_to_end;
+    config = common::config();
+    targets = library, cli_run
+}
+criterion_main!(end_to_end);
