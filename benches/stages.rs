@@ -6,7 +6,7 @@
 //! | `kinematics/inverse_motion` | the same with exact rates (second-order jets), one trajectory sample |
 //! | `pose/<mode>/<solver>` | `solve_pose`: kinematics → A·w = b → take-up → J_P·Δq_P = J_Cl·Δq_Cl, all four kinds, one thread |
 //! | `kernel/<solver>/<threads>` | the same kinetostatic kernel as `clearance bench`, spread over a rayon pool of 1 and 2 threads |
-//! | `parquet/batch_standard` | `PoseSchema::batch`: one solved pose → one row of the standard columns (Arrow, nulls applied) |
+//! | `parquet/batch_standard` | `PoseSchema::batch`: one solved pose → one row of the standard columns (Arrow, nulls applied; rayon pool) |
 //! | `parquet/write_standard` | `write_parquet`: one row of a 65 536-row batch → zstd Parquet on disk (one thread, as `clearance run`'s writer) |
 //! | `discontinuity/grid_21x21` | `find_discontinuities` on a 21 × 21 grid (element = grid pose; includes the refinement solves) |
 //!
