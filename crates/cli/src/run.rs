@@ -231,7 +231,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     prepare_dir(&opts.out, &job_toml, opts)?;
 
     let all = units(job, opts.chunk_size);
-    let mine: Vec<Unit> = all.into_iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).collect();
+    let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
     let todo: Vec<Unit> = mine
         .iter()
         .filter(|u| !(opts.resume && part_path(&opts.out, u.variant, u.mode, u.chunk).exists()))
@@ -329,7 +329,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         Some((_, n)) => (0..n).all(|i| opts.out.join(success_name(Some((i, n)))).exists()),
     };
     if complete {
-        finalize(job, &variants, &models, &units(job, opts.chunk_size), opts, &write_opts)?;
+        finalize(job, &variants, &models, &all, opts, &write_opts)?;
         write_atomic(&opts.out.join("_SUCCESS"), b"")?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })

@@ -9,7 +9,7 @@
 //! rows `0..6` close limb 2 against limb 1 and rows `6..12` limb 3 against limb 1.
 //! Each clearance kind is one right-hand side, so one factorisation serves all four.
 
-use clearance_kinematics::{Posture, euler_rates_matrix};
+use clearance_kinematics::Posture;
 use faer::{Mat, MatMut};
 use nalgebra::{Vector3, Vector6};
 
@@ -83,9 +83,7 @@ pub fn assemble(
 pub fn errors_from(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, dq: &Mat<f64>) -> [PoseError; 4] {
     let screws = passive_screws(pose, &y[0], 0);
     let cl = clearance_twists(pose, take, 0);
-    let euler_inv = euler_rates_matrix(pose.psi, pose.theta)
-        .try_inverse()
-        .unwrap_or_else(|| nalgebra::Matrix3::from_element(f64::NAN));
+    let euler_inv = crate::fast::euler_inverse(pose);
     [0, 1, 2, 3].map(|k| {
         let mut t = cl[k];
         for (u, s) in screws.iter().enumerate() {

@@ -209,6 +209,14 @@ impl Reduced {
     }
 }
 
+/// Maps `Δα` to `(ΔΘ, ΔΨ, ΔΦ)`; NaN where the Euler rates are singular (cos Ψ = 0),
+/// which the writer turns into nulls.
+pub fn euler_inverse(pose: &Posture) -> Matrix3<f64> {
+    clearance_kinematics::euler_rates_matrix(pose.psi, pose.theta)
+        .try_inverse()
+        .unwrap_or_else(|| Matrix3::from_element(f64::NAN))
+}
+
 /// `[Δα; Δp]` → a [`PoseError`] with Euler angles.
 pub fn pose_error(t: [f64; 6], euler_inv: &Matrix3<f64>) -> PoseError {
     let dalpha = Vector3::new(t[0], t[1], t[2]);

@@ -175,7 +175,7 @@ pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace
     let take = take_up(geom, &reactions, &model.clearance, model.indeterminate_floor);
     let errors = match model.solver {
         SolverKind::Fast => {
-            let euler_inv = euler_inverse(&pose);
+            let euler_inv = fast::euler_inverse(&pose);
             reduced.errors(model, &pose, &take).map(|t| fast::pose_error(t, &euler_inv))
         }
         SolverKind::General => {
@@ -195,10 +195,4 @@ pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace
         .flatten()
         .filter(|e| same_branch(e, &total));
     PoseResult { status, reactions, margins: take.margins, errors, kind_ok, total, exact, ..result }
-}
-
-fn euler_inverse(pose: &clearance_kinematics::Posture) -> nalgebra::Matrix3<f64> {
-    clearance_kinematics::euler_rates_matrix(pose.psi, pose.theta)
-        .try_inverse()
-        .unwrap_or_else(|| nalgebra::Matrix3::from_element(f64::NAN))
 }
