@@ -11,12 +11,31 @@ use parquet::file::properties::WriterProperties;
 use parquet::schema::types::ColumnPath;
 
 /// A file that could not be written. The temporary file is removed.
+///
+/// The cause is the error's `source()`, not part of its message, so that a report
+/// of the whole chain (`anyhow`'s `{:#}`) names it once.
 #[derive(Debug, thiserror::Error)]
 pub enum ParquetError {
-    #[error("cannot write {path}: {source}")]
+    /// The file system refused: full disk, no permission...
+    #[error("cannot write {path}")]
     Io { path: PathBuf, source: std::io::Error },
-    #[error("cannot encode {path}: {source}")]
+    #[error("cannot encode {path}")]
     Encode { path: PathBuf, source: parquet::errors::ParquetError },
+}
+
+impl ParquetError {
+    /// The writer reports I/O failures as `External` parquet errors; they are
+    /// `Io`, whatever layer met them.
+    fn from_parquet(path: &Path, e: parquet::errors::ParquetError) -> Self {
+        let path = path.to_path_buf();
+        match e {
+            parquet::errors::ParquetError::External(inner) => match inner.downcast::<std::io::Error>() {
+                Ok(io) => ParquetError::Io { path, source: *io },
+                Err(inner) => ParquetError::Encode { path, source: parquet::errors::ParquetError::External(inner) },
+            },
+            source => ParquetError::Encode { path, source },
+        }
+    }
 }
 
 /// Settings shared by every file of a run.
@@ -62,15 +81,17 @@ pub fn write_parquet(
     let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
     let result = (|| {
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
-        let enc = |source| ParquetError::Encode { path: path.to_path_buf(), source };
+        let enc = |e| ParquetError::from_parquet(path, e);
         let file = File::create(&tmp).map_err(io)?;
         let mut writer = ArrowWriter::try_new(file, schema, Some(properties(opts, extra))).map_err(enc)?;
         for b in batches {
             writer.write(b).map_err(enc)?;
         }
-        let file = writer.into_inner().map_err(enc)?;
-        file.sync_all().map_err(io)?;
-        drop(file);
+        // `finish` writes the footer and flushes the buffer with the I/O error
+        // intact (`into_inner` would turn a full disk into a string).
+        writer.finish().map_err(enc)?;
+        writer.inner().sync_all().map_err(io)?;
+        drop(writer);
         std::fs::rename(&tmp, path).map_err(io)
     })();
     if result.is_err() {
