@@ -68,6 +68,9 @@ pub struct Inertial {
     pub leg_omega: [Vector3<f64>; 3],
     pub leg_omega_dot: [Vector3<f64>; 3],
     pub leg_com_acc: [Vector3<f64>; 3],
+    /// False in kinetostatics, where every rate above is zero and the inertial
+    /// terms can be skipped.
+    pub moving: bool,
 }
 
 impl Inertial {
@@ -83,6 +86,7 @@ impl Inertial {
             leg_omega: motion.leg_omega,
             leg_omega_dot: motion.leg_omega_dot,
             leg_com_acc: motion.leg_com_acc,
+            moving: true,
         }
     }
 }

@@ -13,129 +13,219 @@
 //! screw of limb j (the S rotations about `A_j` and the R rotation about `y_j` through
 //! `B_j`), so the platform twist `ΔΓ = [Δα; Δp]` satisfies, for each such force `f`,
 //! `f·(Δp + Δα×r_j) = f·(v_j + ω_j×r_j)` with `[ω_j; v_j]` the clearance twist of limb j:
-//! six equations `M·ΔΓ = d`, one right-hand side per clearance kind. Both are exactly
+//! six equations `M·ΔΓ = d`, one right-hand side per clearance kind. `M` is `G`
+//! transposed with its halves swapped, so one LU of `G` solves both. Both are exactly
 //! the 24 × 24 and 12 × 12 systems after elimination; the two paths agree to round-off
 //! (tested on random poses).
 
 use clearance_kinematics::Posture;
-use nalgebra::{Matrix3, SMatrix, Vector3, Vector6};
+use nalgebra::{Matrix3, Vector3};
 
 use crate::bodies::{Inertial, Model, leg_inertia_world};
 use crate::equilibrium::JointReactions;
 use crate::error_system::PoseError;
 use crate::takeup::TakeUp;
 
-type M6 = SMatrix<f64, 6, 6>;
+/// A 6 × 6 matrix, row-major.
+type A6 = [[f64; 6]; 6];
 
-/// A 6 × 6 LU with partial pivoting, in place, and its exact 1-norm condition number.
+/// A 6 × 6 LU with partial pivoting (`P·A = L·U`), in place on plain arrays so
+/// that every loop has fixed bounds and unrolls.
 struct Lu6 {
-    lu: M6,
+    lu: A6,
+    /// Row `i` of `P·A` is row `perm[i]` of `A`.
     perm: [usize; 6],
 }
 
 impl Lu6 {
     /// `None` when a pivot is zero or not finite.
-    fn new(mut a: M6) -> Option<Self> {
+    fn new(mut a: A6) -> Option<Self> {
         let mut perm = [0, 1, 2, 3, 4, 5];
         for k in 0..6 {
             let mut p = k;
             for i in k + 1..6 {
-                if a[(i, k)].abs() > a[(p, k)].abs() {
+                if a[i][k].abs() > a[p][k].abs() {
                     p = i;
                 }
             }
-            if a[(p, k)] == 0.0 || !a[(p, k)].is_finite() {
+            if a[p][k] == 0.0 || !a[p][k].is_finite() {
                 return None;
             }
             if p != k {
-                a.swap_rows(p, k);
+                a.swap(p, k);
                 perm.swap(p, k);
             }
-            let inv = 1.0 / a[(k, k)];
-            for i in k + 1..6 {
-                let l = a[(i, k)] * inv;
-                a[(i, k)] = l;
+            let inv = 1.0 / a[k][k];
+            let pivot_row = a[k];
+            for row in a.iter_mut().skip(k + 1) {
+                let l = row[k] * inv;
+                row[k] = l;
                 for j in k + 1..6 {
-                    a[(i, j)] -= l * a[(k, j)];
+                    row[j] -= l * pivot_row[j];
                 }
             }
         }
         Some(Self { lu: a, perm })
     }
 
-    fn solve(&self, b: &Vector6<f64>) -> Vector6<f64> {
-        let mut x = Vector6::from_fn(|i, _| b[self.perm[i]]);
+    /// `A·x = b`.
+    fn solve(&self, b: &[f64; 6]) -> [f64; 6] {
+        let lu = &self.lu;
+        let mut x = self.perm.map(|p| b[p]);
         for i in 1..6 {
             for j in 0..i {
-                x[i] -= self.lu[(i, j)] * x[j];
+                x[i] -= lu[i][j] * x[j];
             }
         }
         for i in (0..6).rev() {
             for j in i + 1..6 {
-                x[i] -= self.lu[(i, j)] * x[j];
+                x[i] -= lu[i][j] * x[j];
             }
-            x[i] /= self.lu[(i, i)];
+            x[i] /= lu[i][i];
         }
         x
     }
 
-    /// `‖A‖₁·‖A⁻¹‖₁`, with `‖A‖₁` of the matrix that was factored.
-    fn cond1(&self, norm_a: f64) -> f64 {
-        let mut inv_norm = 0.0f64;
-        for k in 0..6 {
-            let col = self.solve(&Vector6::from_fn(|i, _| if i == k { 1.0 } else { 0.0 }));
-            inv_norm = inv_norm.max(col.abs().sum());
+    /// `Aᵀ·x = d` for `K` right-hand sides at once (row `i` of `d` holds component
+    /// `i` of every right-hand side): `Uᵀ·z = d`, `Lᵀ·w = z`, `x = Pᵀ·w`. Rows are
+    /// updated whole, so the compiler vectorises across right-hand sides.
+    fn solve_transposed<const K: usize>(&self, d: &[[f64; K]; 6]) -> [[f64; K]; 6] {
+        let lu = &self.lu;
+        let mut w = *d;
+        for i in 0..6 {
+            for k in 0..i {
+                let (l, u) = (w[k], lu[k][i]);
+                for (wi, lk) in w[i].iter_mut().zip(l) {
+                    *wi -= u * lk;
+                }
+            }
+            let pivot = lu[i][i];
+            for wi in &mut w[i] {
+                *wi /= pivot;
+            }
         }
-        norm_a * inv_norm
+        for i in (0..5).rev() {
+            for k in i + 1..6 {
+                let (l, f) = (w[k], lu[k][i]);
+                for (wi, lk) in w[i].iter_mut().zip(l) {
+                    *wi -= f * lk;
+                }
+            }
+        }
+        let mut x = [[0.0; K]; 6];
+        for i in 0..6 {
+            x[self.perm[i]] = w[i];
+        }
+        x
+    }
+
+    /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse `U⁻¹·L⁻¹·P`, computed a
+    /// whole row at a time.
+    fn inverse_norms(&self) -> (f64, f64) {
+        let lu = &self.lu;
+        let mut x = [[0.0; 6]; 6];
+        for i in 0..6 {
+            x[i][self.perm[i]] = 1.0;
+        }
+        for i in 1..6 {
+            for j in 0..i {
+                let (row, l) = (x[j], lu[i][j]);
+                for (xi, r) in x[i].iter_mut().zip(row) {
+                    *xi -= l * r;
+                }
+            }
+        }
+        for i in (0..6).rev() {
+            for j in i + 1..6 {
+                let (row, u) = (x[j], lu[i][j]);
+                for (xi, r) in x[i].iter_mut().zip(row) {
+                    *xi -= u * r;
+                }
+            }
+            let pivot = lu[i][i];
+            for xi in &mut x[i] {
+                *xi /= pivot;
+            }
+        }
+        let mut col_sums = [0.0f64; 6];
+        let mut row_max = 0.0f64;
+        for row in &x {
+            let mut sum = 0.0;
+            for (c, v) in col_sums.iter_mut().zip(row) {
+                *c += v.abs();
+                sum += v.abs();
+            }
+            row_max = row_max.max(sum);
+        }
+        (col_sums.iter().fold(0.0f64, |m, &s| m.max(s)), row_max)
     }
 }
 
-fn norm1(a: &M6) -> f64 {
-    (0..6).map(|j| a.column(j).abs().sum()).fold(0.0, f64::max)
+fn norms(a: &A6) -> (f64, f64) {
+    let mut one = 0.0f64;
+    let mut inf = 0.0f64;
+    for k in 0..6 {
+        let (mut col, mut row) = (0.0, 0.0);
+        for i in 0..6 {
+            col += a[i][k].abs();
+            row += a[k][i].abs();
+        }
+        one = one.max(col);
+        inf = inf.max(row);
+    }
+    (one, inf)
 }
 
-fn six(a: Vector3<f64>, b: Vector3<f64>) -> Vector6<f64> {
-    Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z)
+fn six(a: Vector3<f64>, b: Vector3<f64>) -> [f64; 6] {
+    [a.x, a.y, a.z, b.x, b.y, b.z]
 }
 
-/// The two reduced matrices of a posture and their conditioning.
+/// The reduced equilibrium of a posture, factored once, and its conditioning.
+///
+/// `M = Gᵀ·S` with `S` the swap of the two three-row halves (row k of `M` is column
+/// k of `G` with its halves swapped), so one LU of `G` serves both systems and
+/// `κ₁(M) = ‖G‖∞·‖G⁻¹‖∞`: the explicit inverse gives both condition numbers.
 pub struct Reduced {
     /// `n_j = y_j × e_j`.
     n: [Vector3<f64>; 3],
     g: Option<Lu6>,
-    m: Option<Lu6>,
     /// `κ₁(G)` and `κ₁(M)`; infinite when singular.
     pub cond_g: f64,
     pub cond_m: f64,
 }
 
-/// Builds and factors `G` (equilibrium) and `M` (error) for the posture.
+/// Builds and factors `G` for the posture; `M` comes with it.
 pub fn reduce(model: &Model, pose: &Posture) -> Reduced {
     let y = &model.geometry.y;
     let n = [0, 1, 2].map(|j| y[j].cross(&pose.e[j]));
-    let mut g = M6::zeros();
-    let mut m = M6::zeros();
+    let mut g = [[0.0; 6]; 6];
     for j in 0..3 {
         let r = pose.a[j] - pose.p;
         for (c, f) in [pose.e[j], y[j]].into_iter().enumerate() {
-            let k = 2 * j + c;
-            let moment = r.cross(&f);
-            g.set_column(k, &six(f, moment));
-            // Row k of M: [(r×f)ᵀ, fᵀ] acting on [Δα; Δp].
-            m.set_row(k, &six(moment, f).transpose());
+            let col = six(f, r.cross(&f));
+            for i in 0..6 {
+                g[i][2 * j + c] = col[i];
+            }
         }
     }
-    let (ng, nm) = (norm1(&g), norm1(&m));
+    let (norm_one, norm_inf) = norms(&g);
     let g = Lu6::new(g);
-    let m = Lu6::new(m);
-    let cond = |lu: &Option<Lu6>, norm: f64| {
-        let c = lu.as_ref().map_or(f64::INFINITY, |lu| lu.cond1(norm));
-        if c.is_finite() { c } else { f64::INFINITY }
+    let finite = |c: f64| if c.is_finite() { c } else { f64::INFINITY };
+    let (cond_g, cond_m) = match &g {
+        Some(lu) => {
+            let (inv_one, inv_inf) = lu.inverse_norms();
+            (finite(norm_one * inv_one), finite(norm_inf * inv_inf))
+        }
+        None => (f64::INFINITY, f64::INFINITY),
     };
-    Reduced { n, cond_g: cond(&g, ng), cond_m: cond(&m, nm), g, m }
+    Reduced { n, g, cond_g, cond_m }
 }
 
 impl Reduced {
+    fn lu(&self) -> &Lu6 {
+        self.g.as_ref().expect("solve only regular postures")
+    }
+
     /// Joint reactions from the reduced equilibrium.
     pub fn reactions(&self, model: &Model, pose: &Posture, inertial: &Inertial) -> JointReactions {
         let geom = &model.geometry;
@@ -146,20 +236,23 @@ impl Reduced {
         let mut gamma = [0.0; 3];
         for j in 0..3 {
             c[j] = mass.leg_mass * (inertial.leg_com_acc[j] - model.gravity);
-            let inertia: Matrix3<f64> = leg_inertia_world(mass, &pose.e[j]);
-            let w = inertial.leg_omega[j];
-            h[j] = inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w));
+            if inertial.moving {
+                let inertia: Matrix3<f64> = leg_inertia_world(mass, &pose.e[j]);
+                let w = inertial.leg_omega[j];
+                h[j] = inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w));
+            }
             gamma[j] = -(h[j] + 0.5 * l * pose.e[j].cross(&c[j])).dot(&geom.y[j]) / l;
         }
         let m = mass.platform_mass;
         let com = pose.rot * mass.com_local;
         let force = m * (inertial.com_acc - model.gravity) - model.load.force;
-        let inertia = pose.rot * mass.inertia_local * pose.rot.transpose();
-        let w = inertial.omega;
         let e_point = pose.rot * model.load.at_local;
-        let moment_c = inertia * inertial.omega_dot + w.cross(&(inertia * w))
-            - (e_point - com).cross(&model.load.force)
-            - model.load.moment;
+        let mut moment_c = -(e_point - com).cross(&model.load.force) - model.load.moment;
+        if inertial.moving {
+            let inertia = pose.rot * mass.inertia_local * pose.rot.transpose();
+            let w = inertial.omega;
+            moment_c += inertia * inertial.omega_dot + w.cross(&(inertia * w));
+        }
         // About P: Σ r_j×f_Sj = M_C + (C − P)×Σ f_Sj.
         let mut f = force;
         let mut mo = moment_c + com.cross(&force);
@@ -168,7 +261,7 @@ impl Reduced {
             f -= known;
             mo -= (pose.a[j] - pose.p).cross(&known);
         }
-        let u = self.g.as_ref().expect("solve only regular postures").solve(&six(f, mo));
+        let u = self.lu().solve(&six(f, mo));
         let mut out = JointReactions::default();
         for j in 0..3 {
             let fs = u[2 * j] * pose.e[j] + u[2 * j + 1] * geom.y[j] + gamma[j] * self.n[j];
@@ -181,11 +274,13 @@ impl Reduced {
         out
     }
 
-    /// Per-kind pose errors (order of `KINDS`) from the reduced error system.
+    /// Per-kind pose errors `[Δα; Δp]` (order of `KINDS`) from `M·t = d`, that is
+    /// `Gᵀ·(S·t) = d`.
     pub fn errors(&self, model: &Model, pose: &Posture, take: &TakeUp) -> [[f64; 6]; 4] {
         let y = &model.geometry.y;
-        let lu = self.m.as_ref().expect("solve only regular postures");
-        let mut rhs = [Vector6::zeros(); 4];
+        let lu = self.lu();
+        // Row i holds component i of every kind's right-hand side.
+        let mut rhs = [[0.0; 4]; 6];
         for j in 0..3 {
             let r = pose.a[j] - pose.p;
             let rb = pose.b[j] - pose.p;
@@ -197,15 +292,12 @@ impl Reduced {
                 rb.cross(&take.r_angular[j]) + take.r_angular[j].cross(&r),
             ];
             for (c, f) in [pose.e[j], y[j]].into_iter().enumerate() {
-                for k in 0..4 {
-                    rhs[k][2 * j + c] = f.dot(&at_a[k]);
-                }
+                rhs[2 * j + c] = at_a.map(|v| f.dot(&v));
             }
         }
-        rhs.map(|b| {
-            let t = lu.solve(&b);
-            [t[0], t[1], t[2], t[3], t[4], t[5]]
-        })
+        let s = lu.solve_transposed(&rhs);
+        // t = S·s: the halves swap back.
+        [0, 1, 2, 3].map(|k| [s[3][k], s[4][k], s[5][k], s[0][k], s[1][k], s[2][k]])
     }
 }
 
