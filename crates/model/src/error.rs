@@ -1,6 +1,6 @@
 //! Errors in a job file. Each names the file, the key (a dotted path) and the reason.
 
-use std::fmt;
+use std::fmt::{self, Write};
 
 /// A job file that cannot be run. Nothing may be written when one is returned.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,12 +21,33 @@ impl JobError {
 
 impl fmt::Display for JobError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.key.is_empty() {
-            write!(f, "{}: {}", self.file, self.reason)
-        } else {
-            write!(f, "{}: `{}`: {}", self.file, self.key, self.reason)
+        let (file, key, reason) = (Escaped(&self.file), Escaped(&self.key), Escaped(&self.reason));
+        if self.key.is_empty() { write!(f, "{file}: {reason}") } else { write!(f, "{file}: `{key}`: {reason}") }
+    }
+}
+
+/// Text from the job file (a quoted key, a sweep path, a string value) may hold
+/// newlines; written as escapes, they cannot stretch a message past its line.
+struct Escaped<'a>(&'a str);
+
+impl fmt::Display for Escaped<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for c in self.0.chars() {
+            if c.is_control() { write!(f, "{}", c.escape_default())? } else { f.write_char(c)? }
         }
+        Ok(())
     }
 }
 
 impl std::error::Error for JobError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn newlines_from_the_file_stay_escaped() {
+        let e = JobError::new("j.toml", "mass.a\n\nb", "unknown variant `x\ty`");
+        assert_eq!(e.to_string(), "j.toml: `mass.a\\n\\nb`: unknown variant `x\\ty`");
+    }
+}

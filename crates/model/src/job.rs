@@ -389,10 +389,11 @@ impl JobSpec {
         }
     }
 
-    /// Number of samples per (variant, mode).
+    /// Number of samples per (variant, mode); `u64::MAX` if that overflows
+    /// (validation refuses it).
     pub fn sample_count(&self) -> u64 {
         match self.samples() {
-            SamplesSpec::Grid(g) => g.z.len() * g.psi.len() * g.theta.len(),
+            SamplesSpec::Grid(g) => g.z.len().saturating_mul(g.psi.len()).saturating_mul(g.theta.len()),
             SamplesSpec::Trajectory(t) => t.time.len(),
         }
     }
@@ -424,7 +425,7 @@ impl JobSpec {
         ] {
             finite(file, key, v)?;
             if v <= 0.0 {
-                return err(key, format!("must be a positive length in m, got {v}"));
+                return err(key, format!("must be a positive length in m, got {v:?}"));
             }
         }
         for (i, v) in m.gravity.iter().enumerate() {
@@ -470,7 +471,7 @@ impl JobSpec {
         ] {
             finite(file, key, v)?;
             if v <= 0.0 {
-                return err(key, format!("must be positive, got {v}"));
+                return err(key, format!("must be positive, got {v:?}"));
             }
         }
         match (&self.grid, &self.trajectory) {
@@ -493,12 +494,18 @@ impl JobSpec {
             }
             (None, Some(t)) => {
                 range(file, "trajectory.time", &t.time)?;
+                let t_max = match t.time {
+                    RangeSpec::Value(v) => v.abs(),
+                    RangeSpec::Range { start, stop, .. } => start.abs().max(stop.abs()),
+                };
                 for (key, input) in [("trajectory.z", &t.z), ("trajectory.psi", &t.psi), ("trajectory.theta", &t.theta)]
                 {
                     match input {
                         InputSpec::Constant(v) => finite(file, key, *v)?,
                         InputSpec::Harmonics { offset, harmonics } => {
                             finite(file, &format!("{key}.offset"), *offset)?;
+                            // Bounds of |value|, |rate| and |acceleration| over the time range.
+                            let mut bound = [offset.abs(), 0.0, 0.0];
                             for (i, h) in harmonics.iter().enumerate() {
                                 let k = format!("{key}.harmonics.{i}");
                                 finite(file, &format!("{k}.amplitude"), h.amplitude)?;
@@ -507,9 +514,24 @@ impl JobSpec {
                                 if h.period <= 0.0 {
                                     return err(
                                         &format!("{k}.period"),
-                                        format!("must be a positive time in s, got {}", h.period),
+                                        format!("must be a positive time in s, got {:?}", h.period),
                                     );
                                 }
+                                let w = 2.0 * std::f64::consts::PI / h.period;
+                                if !(w * t_max + h.phase.abs()).is_finite() {
+                                    return err(
+                                        &format!("{k}.period"),
+                                        format!("{:?} s is too short: the phase 2π·t/period overflows", h.period),
+                                    );
+                                }
+                                let a = h.amplitude.abs();
+                                bound = [bound[0] + a, bound[1] + a * w, bound[2] + a * w * w];
+                            }
+                            if !bound.iter().all(|b| b.is_finite()) {
+                                return err(
+                                    &format!("{key}.harmonics"),
+                                    "the input or its rates overflow: amplitudes too large for the periods".into(),
+                                );
                             }
                         }
                     }
@@ -524,18 +546,38 @@ impl JobSpec {
                 finite(file, &format!("sweep.{i}.values.{k}"), *v)?;
             }
         }
+        // Checked before anything is expanded or counted in u64.
+        let variants = self.variant_count();
+        if variants > crate::sweep::MAX_VARIANTS {
+            let count = if variants == u64::MAX { "more than 2^64".to_string() } else { variants.to_string() };
+            return err(
+                "sweep",
+                format!(
+                    "{} sweeps make {count} variants, more than the {} a job may have; split the study into several jobs",
+                    self.sweep.len(),
+                    crate::sweep::MAX_VARIANTS
+                ),
+            );
+        }
+        let samples = match self.samples() {
+            SamplesSpec::Grid(g) => g.z.len().checked_mul(g.psi.len()).and_then(|n| n.checked_mul(g.theta.len())),
+            SamplesSpec::Trajectory(t) => Some(t.time.len()),
+        };
+        if samples.and_then(|n| n.checked_mul(variants)).and_then(|n| n.checked_mul(a.modes.len() as u64)).is_none() {
+            return err("", "has more than 2^64 poses (samples × variants × modes); it could never finish".into());
+        }
         Ok(())
     }
 }
 
 fn finite(file: &str, key: &str, v: f64) -> Result<(), JobError> {
-    if v.is_finite() { Ok(()) } else { Err(JobError::new(file, key, format!("must be a finite number, got {v}"))) }
+    if v.is_finite() { Ok(()) } else { Err(JobError::new(file, key, format!("must be a finite number, got {v:?}"))) }
 }
 
 fn non_negative(file: &str, key: &str, v: f64, unit: &str) -> Result<(), JobError> {
     finite(file, key, v)?;
     if v < 0.0 {
-        return Err(JobError::new(file, key, format!("must be zero or positive ({unit}), got {v}")));
+        return Err(JobError::new(file, key, format!("must be zero or positive ({unit}), got {v:?}")));
     }
     Ok(())
 }
@@ -549,11 +591,22 @@ fn range(file: &str, key: &str, r: &RangeSpec) -> Result<(), JobError> {
             if n == 0 {
                 return Err(JobError::new(file, format!("{key}.n"), "must be at least 1"));
             }
+            // `value` computes (stop − start)·i before dividing by n − 1 (as the NumPy
+            // reference does): that product must stay finite up to i = n − 1.
+            if n > 1 && !((stop - start) * (n - 1) as f64).is_finite() {
+                return Err(JobError::new(
+                    file,
+                    key,
+                    format!(
+                        "start = {start:?} and stop = {stop:?} are too far apart: (stop − start)·(n − 1) overflows"
+                    ),
+                ));
+            }
             if n > 1 && start == stop {
                 return Err(JobError::new(
                     file,
                     key,
-                    format!("has n = {n} but start = stop = {start}; give a scalar or distinct ends"),
+                    format!("has n = {n} but start = stop = {start:?}; give a scalar or distinct ends"),
                 ));
             }
             Ok(())
@@ -588,4 +641,38 @@ fn key_at(text: &str, at: usize) -> Option<String> {
         Some(h) if !h.is_empty() => format!("{h}.{key}"),
         _ => key.to_string(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::JobSpec;
+
+    fn refuse(text: &str) -> (String, String) {
+        let e = JobSpec::from_toml_str(text, "j.toml").unwrap_err();
+        (e.key, e.reason)
+    }
+
+    #[test]
+    fn counts_that_overflow_are_refused() {
+        let n = "{ start = 0, stop = 1, n = 4294967296 }";
+        let (k, r) = refuse(&format!("[grid]\nz = {n}\npsi = {n}\ntheta = 0\n"));
+        assert_eq!(k, "");
+        assert!(r.contains("2^64 poses"), "{r}");
+    }
+
+    #[test]
+    fn inputs_that_overflow_are_refused() {
+        let (k, _) = refuse("[grid]\nz = { start = -1e308, stop = 1e308, n = 3 }\npsi = 0\ntheta = 0\n");
+        assert_eq!(k, "grid.z");
+        // Found by the fuzzer: a finite span whose last value overflowed.
+        let (k, _) = refuse("[grid]\nz = { start = -0, stop = 1e308, n = 3 }\npsi = 0\ntheta = 0\n");
+        assert_eq!(k, "grid.z");
+        let trajectory = "[trajectory]\ntime = { start = 0, stop = 1, n = 3 }\nz = 2\npsi = 0\n";
+        let (k, _) =
+            refuse(&format!("{trajectory}theta = {{ harmonics = [ {{ amplitude = 1, period = 5e-324 }} ] }}\n"));
+        assert_eq!(k, "trajectory.theta.harmonics.0.period");
+        let (k, _) =
+            refuse(&format!("{trajectory}theta = {{ harmonics = [ {{ amplitude = 1e300, period = 1e-300 }} ] }}\n"));
+        assert_eq!(k, "trajectory.theta.harmonics");
+    }
 }

@@ -32,7 +32,7 @@ pub use job::{
     PointMass, RangeSpec, SamplesSpec, SweepSpec, TrajectorySpec,
 };
 pub use kinds::{ClearanceKind, KINDS};
-pub use sweep::Variant;
+pub use sweep::{MAX_VARIANTS, Variant};
 
 /// Angles of the three limbs about `z` (MODEL.md §1), in radians.
 pub const LIMB_ANGLES: [f64; 3] = [0.0, 2.0 * std::f64::consts::PI / 3.0, 4.0 * std::f64::consts::PI / 3.0];

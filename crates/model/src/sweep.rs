@@ -12,10 +12,16 @@ pub struct Variant {
     pub job: JobSpec,
 }
 
+/// The most variants a job's sweeps may make. Each is a job expanded in memory
+/// before anything runs and a `variant=K` partition of the output; a study beyond
+/// this is several jobs.
+pub const MAX_VARIANTS: u64 = 10_000;
+
 impl JobSpec {
-    /// Number of variants: the product of the sweeps' lengths (1 without sweeps).
+    /// Number of variants: the product of the sweeps' lengths (1 without sweeps),
+    /// `u64::MAX` if that overflows (validation refuses more than [`MAX_VARIANTS`]).
     pub fn variant_count(&self) -> u64 {
-        self.sweep.iter().map(|s| s.values.len() as u64).product()
+        self.sweep.iter().fold(1u64, |n, s| n.saturating_mul(s.values.len() as u64))
     }
 
     /// Expands the sweeps. Variant `K` enumerates the product row-major, the first
@@ -91,5 +97,31 @@ fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), Strin
             Ok(())
         }
         _ => Err(format!("\"{path}\" is not a number (a table, list, string or flag cannot be swept)")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::JobSpec;
+
+    const GRID: &str = "[grid]\nz = 2.0\npsi = 0.0\ntheta = 0.0\n";
+
+    fn sweeps(count: usize, values: &str) -> String {
+        let one = format!("[[sweep]]\nparam = \"mass.leg\"\nvalues = [{values}]\n");
+        format!("{GRID}{}", one.repeat(count))
+    }
+
+    #[test]
+    fn too_many_variants_are_refused_before_expanding() {
+        // 10^7 variants: was minutes and gigabytes; 2^64: was a multiply overflow.
+        for text in [sweeps(7, "1,2,3,4,5,6,7,8,9,10"), sweeps(64, "1, 2")] {
+            let e = JobSpec::from_toml_str(&text, "j.toml").unwrap_err();
+            assert_eq!(e.key, "sweep");
+            assert!(e.reason.contains("split the study"), "{}", e.reason);
+        }
+        assert_eq!(
+            JobSpec::from_toml_str(&sweeps(4, "1,2,3,4,5,6,7,8,9,10"), "j.toml").unwrap().variant_count(),
+            10_000
+        );
     }
 }
