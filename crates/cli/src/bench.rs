@@ -5,7 +5,7 @@ use std::time::Instant;
 use anyhow::Result;
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
-use clearance_parquet::ColumnSet;
+use clearance_parquet::{Codec, ColumnSet};
 use clearance_solver::{Model, SolverKind, Workspace, solve_pose};
 use rayon::prelude::*;
 
@@ -41,7 +41,7 @@ pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
     n as f64 / secs
 }
 
-pub fn bench(poses: u64, json: bool, solver: SolverKind) -> Result<()> {
+pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec) -> Result<()> {
     let job = bench_job(poses);
     let n = job.sample_count();
     let threads = rayon::current_num_threads();
@@ -57,6 +57,7 @@ pub fn bench(poses: u64, json: bool, solver: SolverKind) -> Result<()> {
         overwrite: false,
         chunk_size: 65536,
         solver,
+        compression,
         quiet: true,
     };
     let _ = std::fs::remove_dir_all(&dir);
@@ -68,8 +69,9 @@ pub fn bench(poses: u64, json: bool, solver: SolverKind) -> Result<()> {
     let e2e = n as f64 / secs;
     if json {
         println!(
-            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\"}}",
-            if solver == SolverKind::Fast { "fast" } else { "general" }
+            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\", \"compression\": \"{}\"}}",
+            if solver == SolverKind::Fast { "fast" } else { "general" },
+            compression.name()
         );
     } else {
         println!("poses per measurement: {n}, threads: {threads}");

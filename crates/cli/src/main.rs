@@ -12,7 +12,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use clearance_model::{JobError, JobSpec};
-use clearance_parquet::ColumnSet;
+use clearance_parquet::{Codec, ColumnSet};
 use clearance_solver::SolverKind;
 
 #[derive(Parser)]
@@ -55,6 +55,9 @@ enum Command {
         /// `fast` (6 × 6 reduced systems) or `general` (the assembled 24 × 24 and 12 × 12, faer).
         #[arg(long, default_value = "fast", value_parser = parse_solver)]
         solver: SolverKind,
+        /// Parquet page compression: none, lz4 or zstd (benches/README.md has the trade-off).
+        #[arg(long, default_value = "none", value_parser = parse_codec)]
+        compression: Codec,
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
@@ -89,6 +92,9 @@ enum Command {
         /// Solver of the end-to-end measurement (the kernel is measured with both).
         #[arg(long, default_value = "fast", value_parser = parse_solver)]
         solver: SolverKind,
+        /// Parquet compression of the end-to-end measurement.
+        #[arg(long, default_value = "none", value_parser = parse_codec)]
+        compression: Codec,
     },
 }
 
@@ -108,6 +114,10 @@ fn parse_shard(s: &str) -> Result<(u64, u64), String> {
         return Err(format!("shard {i}/{n}: need 0 <= I < N"));
     }
     Ok((i, n))
+}
+
+fn parse_codec(s: &str) -> Result<Codec, String> {
+    Codec::parse(s).ok_or_else(|| format!("unknown compression `{s}`; use {}", Codec::NAMES.join(", ")))
 }
 
 fn parse_columns(s: &str) -> Result<ColumnSet, String> {
@@ -165,6 +175,7 @@ fn main() -> ExitCode {
             columns,
             chunk_size,
             solver,
+            compression,
             quiet,
         } => {
             let spec = match load_job(&job) {
@@ -175,7 +186,8 @@ fn main() -> ExitCode {
                 Ok(s) => s,
                 Err(e) => return usage(e),
             };
-            let opts = run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, solver, quiet };
+            let opts =
+                run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, solver, compression, quiet };
             init_threads(threads).and_then(|_| run::run(&spec, &job.display().to_string(), &opts)).map(|r| {
                 if !quiet {
                     eprintln!(
@@ -203,8 +215,8 @@ fn main() -> ExitCode {
                 eprintln!("{} figures in {}", files.len(), out.display());
             })
         }
-        Command::Bench { poses, json, threads, solver } => {
-            init_threads(threads).and_then(|_| bench::bench(poses, json, solver))
+        Command::Bench { poses, json, threads, solver, compression } => {
+            init_threads(threads).and_then(|_| bench::bench(poses, json, solver, compression))
         }
     };
     match result {

@@ -17,7 +17,7 @@ use clearance_discontinuity::{SearchOptions, find_discontinuities};
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch, summary_batch,
+    Codec, ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch, summary_batch,
     write_parquet,
 };
 use clearance_solver::{Model, SolverKind, Workspace, solve_pose};
@@ -37,6 +37,7 @@ pub struct RunOptions {
     /// Samples per part file.
     pub chunk_size: u64,
     pub solver: SolverKind,
+    pub compression: Codec,
     pub quiet: bool,
 }
 
@@ -250,6 +251,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             ("clearance.columns".into(), opts.columns.name().into()),
         ],
         row_group_rows: opts.chunk_size as usize,
+        codec: opts.compression,
     };
     let models: Vec<(Model, SampleSource)> = variants
         .iter()

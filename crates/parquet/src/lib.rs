@@ -29,7 +29,7 @@ mod writer;
 pub use schema::{ColumnSet, PoseSchema};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
 pub use tables::discontinuity_batch;
-pub use writer::{ParquetError, WriteOptions, write_parquet};
+pub use writer::{Codec, ParquetError, WriteOptions, write_parquet};
 
 /// The engine version written into every file's metadata.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");
