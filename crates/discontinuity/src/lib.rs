@@ -9,7 +9,7 @@
 //! Every [`Path`] (a trajectory, or each grid line along each input) is searched:
 //!
 //! - `r_axial`: a switch wherever the sign differs between consecutive determinate
-//!   samples, located by bisection;
+//!   samples, located by Brent's root finder;
 //! - vector loads: a switch at each interior local minimum of the load magnitude
 //!   below `discontinuity_load_fraction·W`, located by Brent minimisation between the
 //!   neighbouring samples, provided the take-up directions where the magnitude has
@@ -23,13 +23,14 @@
 mod minimise;
 mod paths;
 
-pub use minimise::{bisect, brent_min};
+pub use minimise::{bisect, brent_min, brent_root};
 pub use paths::{Along, Path, paths};
 
 use clearance_grid::{Sample, SampleSource};
 use clearance_model::{ClearanceKind, KINDS, Mode};
-use clearance_solver::{Model, PoseError, PoseResult, Status, Workspace, solve_pose};
+use clearance_solver::{JointReactions, Model, PoseError, PoseResult, Status, Workspace, solve_pose, solve_reactions};
 use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// Locations are refined to this absolute tolerance in the path parameter (rad, m or s).
 pub const LOCATE_TOL: f64 = 1e-9;
@@ -94,8 +95,12 @@ impl Load {
 
 /// The load deciding one kind's take-up at one limb: a signed scalar or a vector.
 fn load(r: &PoseResult, model: &Model, kind: ClearanceKind, j: usize) -> Load {
+    load_of(&r.reactions, model, kind, j)
+}
+
+fn load_of(reactions: &JointReactions, model: &Model, kind: ClearanceKind, j: usize) -> Load {
     let y = model.geometry.y[j];
-    let fr = r.reactions.f_r[j];
+    let fr = reactions.f_r[j];
     match kind {
         ClearanceKind::RAxial => Load::Scalar(fr.dot(&y)),
         ClearanceKind::RRadial => {
@@ -103,11 +108,11 @@ fn load(r: &PoseResult, model: &Model, kind: ClearanceKind, j: usize) -> Load {
             Load::Vector([p.x, p.y, p.z])
         }
         ClearanceKind::SRadial => {
-            let f = r.reactions.f_s[j];
+            let f = reactions.f_s[j];
             Load::Vector([f.x, f.y, f.z])
         }
         ClearanceKind::RAngular => {
-            let m = r.reactions.m_r[j];
+            let m = reactions.m_r[j];
             Load::Vector([m.x, m.y, m.z])
         }
     }
@@ -164,28 +169,98 @@ impl Evaluator<'_> {
     }
 }
 
-/// The switches along one path.
+/// What the search needs to know of one sample without solving it again, as bits:
+/// whether it is solvable, and per (kind, limb) whether the deciding load is
+/// determinate and whether it is "low" (axial: negative; vector loads: below the dip
+/// threshold). A run records it for every pose as it goes, so the search solves
+/// only the few samples around a switch.
+pub type Trace = u32;
+
+const SOLVABLE: Trace = 1;
+
+fn det_bit(kind: ClearanceKind, j: usize) -> Trace {
+    1 << (1 + 3 * kind.index() + j)
+}
+
+fn low_bit(kind: ClearanceKind, j: usize) -> Trace {
+    1 << (13 + 3 * kind.index() + j)
+}
+
+/// The [`Trace`] of one solved sample.
+pub fn trace(r: &PoseResult, model: &Model, opts: &SearchOptions) -> Trace {
+    if !solvable(r) {
+        return 0;
+    }
+    let mut t = SOLVABLE;
+    for kind in KINDS {
+        for j in 0..3 {
+            let l = load(r, model, kind, j);
+            let magnitude = l.magnitude();
+            if magnitude > model.indeterminate_floor {
+                t |= det_bit(kind, j);
+            }
+            let low = match l {
+                Load::Scalar(s) => s.is_sign_negative(),
+                Load::Vector(_) => magnitude < opts.dip_threshold,
+            };
+            if low {
+                t |= low_bit(kind, j);
+            }
+        }
+    }
+    t
+}
+
+/// The solved samples of one path, solved when first asked for.
+struct Solved<'a> {
+    model: &'a Model,
+    source: &'a SampleSource,
+    path: &'a Path,
+    mode: Mode,
+    cache: HashMap<usize, PoseResult>,
+    /// Reactions only, for following load magnitudes.
+    reactions: Vec<Option<JointReactions>>,
+}
+
+impl Solved<'_> {
+    /// The reactions at the `k`-th sample (a solvable one).
+    fn reactions(&mut self, k: usize, ws: &mut Workspace) -> JointReactions {
+        let (model, source, path, mode) = (self.model, self.source, self.path, self.mode);
+        *self.reactions[k].get_or_insert_with(|| {
+            solve_reactions(model, &source.sample(path.sample_index(k)), mode, ws).unwrap_or_default()
+        })
+    }
+
+    /// The `k`-th sample of the path.
+    fn get(&mut self, k: usize, ws: &mut Workspace) -> PoseResult {
+        let (model, source, path, mode) = (self.model, self.source, self.path, self.mode);
+        *self.cache.entry(k).or_insert_with(|| solve_pose(model, &source.sample(path.sample_index(k)), mode, ws))
+    }
+}
+
+/// The switches along one path, given the [`Trace`] of each of its samples (by
+/// sample index, made with the same [`SearchOptions`]).
 pub fn search_path(
     model: &Model,
     source: &SampleSource,
     path: &Path,
     mode: Mode,
-    opts: &SearchOptions,
+    trace_of: impl Fn(u64) -> Trace,
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
     let ev = Evaluator { model, source, path, mode };
-    let results: Vec<PoseResult> =
-        (0..path.len()).map(|k| solve_pose(model, &source.sample(path.sample_index(k)), mode, ws)).collect();
+    let traces: Vec<Trace> = (0..path.len()).map(|k| trace_of(path.sample_index(k))).collect();
+    let mut solved = Solved { model, source, path, mode, cache: HashMap::new(), reactions: vec![None; path.len()] };
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
-    while start < results.len() {
-        if !solvable(&results[start]) {
+    while start < traces.len() {
+        if traces[start] & SOLVABLE == 0 {
             start += 1;
             continue;
         }
         let mut end = start;
-        while end < results.len() && solvable(&results[end]) {
+        while end < traces.len() && traces[end] & SOLVABLE != 0 {
             end += 1;
         }
         for kind in KINDS {
@@ -194,13 +269,12 @@ pub fn search_path(
             }
             for j in 0..3 {
                 // Determinate samples of this segment, for this joint and kind.
-                let det: Vec<usize> = (start..end)
-                    .filter(|&i| load(&results[i], model, kind, j).magnitude() > model.indeterminate_floor)
-                    .collect();
+                let det: Vec<usize> = (start..end).filter(|&i| traces[i] & det_bit(kind, j) != 0).collect();
+                let low: Vec<bool> = det.iter().map(|&i| traces[i] & low_bit(kind, j) != 0).collect();
                 if kind == ClearanceKind::RAxial {
-                    axial_switches(&ev, &results, &det, j, ws, &mut out);
+                    axial_switches(&ev, &mut solved, &det, &low, j, ws, &mut out);
                 } else {
-                    vector_switches(&ev, &results, &det, kind, j, opts, ws, &mut out);
+                    vector_switches(&ev, &mut solved, &det, &low, kind, j, ws, &mut out);
                 }
             }
         }
@@ -211,73 +285,104 @@ pub fn search_path(
 
 fn axial_switches(
     ev: &Evaluator<'_>,
-    results: &[PoseResult],
+    solved: &mut Solved<'_>,
     det: &[usize],
+    negative: &[bool],
     j: usize,
     ws: &mut Workspace,
     out: &mut Vec<Discontinuity>,
 ) {
     let kind = ClearanceKind::RAxial;
     let signed = |r: &PoseResult| load(r, ev.model, kind, j).signed();
-    for w in det.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let (fa, fb) = (signed(&results[a]), signed(&results[b]));
-        if fa.signum() == fb.signum() {
+    for w in 0..det.len().saturating_sub(1) {
+        if negative[w] == negative[w + 1] {
             continue;
         }
+        let (a, b) = (det[w], det[w + 1]);
+        let (ra, rb) = (solved.get(a, ws), solved.get(b, ws));
         let (pa, pb) = (ev.path.params[a], ev.path.params[b]);
-        let p = bisect(pa, pb, fa, LOCATE_TOL, |p| {
+        let p = brent_root(pa, pb, signed(&ra), signed(&rb), LOCATE_TOL, |p| {
             let (_, r) = ev.at(p, ws);
             if solvable(&r) { signed(&r) } else { 0.0 }
         });
-        out.push(ev.record(kind, j, p, ws, &results[a], &results[b]));
+        out.push(ev.record(kind, j, p, ws, &ra, &rb));
     }
 }
 
 #[allow(clippy::too_many_arguments)]
 fn vector_switches(
     ev: &Evaluator<'_>,
-    results: &[PoseResult],
+    solved: &mut Solved<'_>,
     det: &[usize],
+    below: &[bool],
     kind: ClearanceKind,
     j: usize,
-    opts: &SearchOptions,
     ws: &mut Workspace,
     out: &mut Vec<Discontinuity>,
 ) {
-    let mag: Vec<f64> = det.iter().map(|&i| load(&results[i], ev.model, kind, j).magnitude()).collect();
+    let mag = |solved: &mut Solved<'_>, i: usize, ws: &mut Workspace| {
+        load_of(&solved.reactions(det[i], ws), ev.model, kind, j).magnitude()
+    };
     for k in 1..det.len().saturating_sub(1) {
-        // An interior local minimum (the first sample of a flat bottom).
-        if !(mag[k] < mag[k - 1] && mag[k] <= mag[k + 1]) || mag[k] >= opts.dip_threshold {
+        // An interior local minimum (the first sample of a flat bottom) below the
+        // dip threshold.
+        if !below[k] {
+            continue;
+        }
+        let here = mag(solved, k, ws);
+        if !(here < mag(solved, k - 1, ws) && here <= mag(solved, k + 1, ws)) {
             continue;
         }
         let (lo, hi) = (ev.path.params[det[k - 1]], ev.path.params[det[k + 1]]);
-        let (p, m) = brent_min(lo, hi, LOCATE_TOL / 10.0, |p| {
+        // The squared magnitude has the same minimum and is smooth there (the
+        // magnitude itself is a V when the load passes near zero), so Brent's
+        // parabolic steps converge in a few evaluations.
+        let (p, m2) = brent_min(lo, hi, LOCATE_TOL / 10.0, |p| {
             let (_, r) = ev.at(p, ws);
-            if solvable(&r) { load(&r, ev.model, kind, j).magnitude() } else { f64::INFINITY }
+            if solvable(&r) { load(&r, ev.model, kind, j).magnitude().powi(2) } else { f64::INFINITY }
         });
+        let m = m2.sqrt();
         // Where the magnitude has risen back to twice the minimum, on either side.
-        let left = (0..k).rev().find(|&i| mag[i] >= 2.0 * m).unwrap_or(0);
-        let right = (k + 1..det.len()).find(|&i| mag[i] >= 2.0 * m).unwrap_or(det.len() - 1);
-        let (rl, rr) = (&results[det[left]], &results[det[right]]);
-        let turn = load(rl, ev.model, kind, j).dot(load(rr, ev.model, kind, j));
+        let left = (0..k).rev().find(|&i| mag(solved, i, ws) >= 2.0 * m).unwrap_or(0);
+        let right = (k + 1..det.len()).find(|&i| mag(solved, i, ws) >= 2.0 * m).unwrap_or(det.len() - 1);
+        let (rl, rr) = (solved.get(det[left], ws), solved.get(det[right], ws));
+        let turn = load(&rl, ev.model, kind, j).dot(load(&rr, ev.model, kind, j));
         if turn < 0.0 {
-            out.push(ev.record(kind, j, p, ws, rl, rr));
+            out.push(ev.record(kind, j, p, ws, &rl, &rr));
         }
     }
 }
 
-/// All switches of one (variant, mode), paths searched in parallel; the order is
-/// that of [`paths`], then of the search, whatever the thread count.
+/// The [`Trace`] of every sample of a (variant, mode), solving each once.
+pub fn traces(model: &Model, source: &SampleSource, mode: Mode, opts: &SearchOptions) -> Vec<Trace> {
+    (0..source.len())
+        .into_par_iter()
+        .map_init(Workspace::new, |ws, i| trace(&solve_pose(model, &source.sample(i), mode, ws), model, opts))
+        .collect()
+}
+
+/// All switches of one (variant, mode) from the traces of its samples (indexed by
+/// sample), paths searched in parallel; the order is that of [`paths`], then of the
+/// search, whatever the thread count.
+pub fn find_discontinuities_traced(
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    traces: &[Trace],
+) -> Vec<Discontinuity> {
+    paths(source)
+        .par_iter()
+        .map_init(Workspace::new, |ws, path| search_path(model, source, path, mode, |i| traces[i as usize], ws))
+        .flatten_iter()
+        .collect()
+}
+
+/// All switches of one (variant, mode), every sample solved here.
 pub fn find_discontinuities(
     model: &Model,
     source: &SampleSource,
     mode: Mode,
     opts: &SearchOptions,
 ) -> Vec<Discontinuity> {
-    paths(source)
-        .par_iter()
-        .map_init(Workspace::new, |ws, path| search_path(model, source, path, mode, opts, ws))
-        .flatten_iter()
-        .collect()
+    find_discontinuities_traced(model, source, mode, &traces(model, source, mode, opts))
 }

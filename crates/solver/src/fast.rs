@@ -189,13 +189,17 @@ pub struct Reduced {
     /// `n_j = y_j × e_j`.
     n: [Vector3<f64>; 3],
     g: Option<Lu6>,
+    /// `‖G‖₁` and `‖G‖∞`.
+    norm_one: f64,
+    norm_inf: f64,
     /// `κ₁(G)` and `κ₁(M)`; infinite when singular.
     pub cond_g: f64,
     pub cond_m: f64,
 }
 
-/// Builds and factors `G` for the posture; `M` comes with it.
-pub fn reduce(model: &Model, pose: &Posture) -> Reduced {
+/// Builds and factors `G` for the posture, without its conditioning (NaN): enough
+/// for the reactions of a posture already known to be regular.
+pub fn factor(model: &Model, pose: &Posture) -> Reduced {
     let y = &model.geometry.y;
     let n = [0, 1, 2].map(|j| y[j].cross(&pose.e[j]));
     let mut g = [[0.0; 6]; 6];
@@ -209,19 +213,30 @@ pub fn reduce(model: &Model, pose: &Posture) -> Reduced {
         }
     }
     let (norm_one, norm_inf) = norms(&g);
-    let g = Lu6::new(g);
+    Reduced { n, g: Lu6::new(g), norm_one, norm_inf, cond_g: f64::NAN, cond_m: f64::NAN }
+}
+
+/// Builds and factors `G` for the posture (`M` comes with it) and both
+/// condition numbers.
+pub fn reduce(model: &Model, pose: &Posture) -> Reduced {
+    let mut r = factor(model, pose);
     let finite = |c: f64| if c.is_finite() { c } else { f64::INFINITY };
-    let (cond_g, cond_m) = match &g {
+    (r.cond_g, r.cond_m) = match &r.g {
         Some(lu) => {
             let (inv_one, inv_inf) = lu.inverse_norms();
-            (finite(norm_one * inv_one), finite(norm_inf * inv_inf))
+            (finite(r.norm_one * inv_one), finite(r.norm_inf * inv_inf))
         }
         None => (f64::INFINITY, f64::INFINITY),
     };
-    Reduced { n, g, cond_g, cond_m }
+    r
 }
 
 impl Reduced {
+    /// Whether `G` could be factored.
+    pub fn regular(&self) -> bool {
+        self.g.is_some()
+    }
+
     fn lu(&self) -> &Lu6 {
         self.g.as_ref().expect("solve only regular postures")
     }

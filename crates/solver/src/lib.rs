@@ -52,5 +52,5 @@ pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
 pub use equilibrium::JointReactions;
 pub use error_system::PoseError;
 pub use linalg::LuSolver;
-pub use pose::{PoseResult, Status, Workspace, solve_pose};
+pub use pose::{PoseResult, Status, Workspace, solve_pose, solve_reactions};
 pub use takeup::{Margins, TakeUp};

@@ -1,7 +1,7 @@
 //! One pose through the whole pipeline: kinematics → reactions → take-up → error.
 
 use clearance_grid::Sample;
-use clearance_kinematics::{inverse_kinematics, inverse_kinematics_motion, parasitic};
+use clearance_kinematics::{Posture, Unreachable, inverse_kinematics, inverse_kinematics_motion, parasitic};
 use clearance_model::Mode;
 use faer::Mat;
 
@@ -130,21 +130,39 @@ fn same_branch(exact: &[f64; 6], linear: &PoseError) -> bool {
     exact.iter().zip(lin).all(|(e, l)| (e - l).abs() <= size)
 }
 
-/// Runs one sample in one mode. Never panics on a bad pose: it becomes a status.
-pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> PoseResult {
+/// The nominal posture of a sample and, in dynamics, its inertial loads.
+fn posture(model: &Model, sample: &Sample, mode: Mode) -> Result<(Posture, Inertial), Unreachable> {
     let geom = &model.geometry;
     let (z, psi, theta) = (sample.z[0], sample.psi[0], sample.theta[0]);
-    let kin = match mode {
+    match mode {
         Mode::Kinetostatic => inverse_kinematics(geom, z, psi, theta).map(|p| (p, Inertial::default())),
         Mode::Dynamic => inverse_kinematics_motion(geom, sample.z, sample.psi, sample.theta).map(|(p, m)| {
             let inertial = Inertial::from_motion(&p, &m, &model.mass);
             (p, inertial)
         }),
-    };
-    let (pose, inertial) = match kin {
+    }
+}
+
+/// The joint reactions alone, for searches that follow loads between poses whose
+/// status is already known: the same numbers as [`solve_pose`]'s reactions, without
+/// the conditioning, take-up and errors. `None` where `solve_pose` has no reactions.
+pub fn solve_reactions(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> Option<JointReactions> {
+    if model.solver == SolverKind::General {
+        let r = solve_pose(model, sample, mode, ws);
+        return matches!(r.status, Status::Ok | Status::IndeterminateContact).then_some(r.reactions);
+    }
+    let (pose, inertial) = posture(model, sample, mode).ok()?;
+    let reduced = fast::factor(model, &pose);
+    reduced.regular().then(|| reduced.reactions(model, &pose, &inertial))
+}
+
+/// Runs one sample in one mode. Never panics on a bad pose: it becomes a status.
+pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> PoseResult {
+    let geom = &model.geometry;
+    let (pose, inertial) = match posture(model, sample, mode) {
         Ok(v) => v,
         Err(_) => {
-            let (x, y, phi) = parasitic(geom.platform_radius, psi, theta);
+            let (x, y, phi) = parasitic(geom.platform_radius, sample.psi[0], sample.theta[0]);
             return PoseResult::unreachable(x, y, phi);
         }
     };
