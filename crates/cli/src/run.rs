@@ -13,12 +13,12 @@ use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clearance_discontinuity::{SearchOptions, find_discontinuities};
+use clearance_discontinuity::{SearchOptions, Trace, find_discontinuities_traced, trace};
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    Codec, ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch, summary_batch,
-    write_parquet,
+    Codec, ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch,
+    summary_batch, write_parquet,
 };
 use clearance_solver::{Model, SolverKind, Workspace, solve_pose};
 use rayon::prelude::*;
@@ -80,6 +80,58 @@ fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
     out
 }
 
+/// Whether a part file is whole: Parquet's magic at both ends and a footer that
+/// fits. Parts are renamed into place before they reach the disk (the run syncs
+/// them before `_SUCCESS`), so after a power cut a part can exist and be empty or
+/// torn; `--resume` computes such a part again.
+fn part_complete(path: &Path) -> bool {
+    use std::io::{Read, Seek, SeekFrom};
+    let check = || -> std::io::Result<bool> {
+        let mut f = std::fs::File::open(path)?;
+        let len = f.metadata()?.len();
+        if len < 12 {
+            return Ok(false);
+        }
+        let (mut head, mut tail) = ([0u8; 4], [0u8; 8]);
+        f.read_exact(&mut head)?;
+        f.seek(SeekFrom::End(-8))?;
+        f.read_exact(&mut tail)?;
+        let footer = u64::from(u32::from_le_bytes([tail[0], tail[1], tail[2], tail[3]]));
+        Ok(&head == b"PAR1" && &tail[4..] == b"PAR1" && footer + 12 <= len)
+    };
+    check().unwrap_or(false)
+}
+
+/// Flushes the files of `units` (those that exist) and their directories to the
+/// disk, so that a marker written after this covers data that survives a power cut.
+fn sync_units(out: &Path, units: &[Unit]) -> Result<()> {
+    let mut dirs = std::collections::BTreeSet::new();
+    for u in units {
+        for path in [
+            part_path(out, u.variant, u.mode, u.chunk),
+            stats_path(out, u.variant, u.mode, u.chunk),
+            trace_path(out, u.variant, u.mode, u.chunk),
+        ] {
+            match std::fs::File::open(&path) {
+                Ok(f) => f.sync_all().with_context(|| format!("cannot write {}", path.display()))?,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+                Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+            }
+            if let Some(dir) = path.parent() {
+                dirs.insert(dir.to_path_buf());
+            }
+        }
+    }
+    dirs.insert(out.to_path_buf());
+    for dir in dirs {
+        // Directories sync on Linux; elsewhere opening one may fail, which is harmless.
+        if let Ok(d) = std::fs::File::open(&dir) {
+            let _ = d.sync_all();
+        }
+    }
+    Ok(())
+}
+
 pub fn part_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
     out.join("poses").join(format!("variant={variant}")).join(format!("part-{}-{chunk:06}.parquet", mode.name()))
 }
@@ -89,6 +141,28 @@ pub fn part_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
 fn stats_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
     out.join("_stats").join(format!("variant={variant}")).join(format!("{}-{chunk:06}.json", mode.name()))
 }
+
+/// The discontinuity [`Trace`] of each pose of one part, beside its statistics: the
+/// search at the end of the run reads these instead of solving every pose again.
+fn trace_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
+    stats_path(out, variant, mode, chunk).with_extension("trace")
+}
+
+fn encode_traces(traces: &[Trace]) -> Vec<u8> {
+    traces.iter().flat_map(|t| t.to_le_bytes()).collect()
+}
+
+/// The traces of a part as written, or `None` if the file is missing or not of
+/// the part's length (a run from an engine without traces).
+fn read_traces(path: &Path, len: usize) -> Option<Vec<Trace>> {
+    let bytes = std::fs::read(path).ok()?;
+    (bytes.len() == 4 * len)
+        .then(|| bytes.chunks_exact(4).map(|b| Trace::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
+}
+
+/// Rows per block of a unit: each block is solved on one thread straight into its
+/// slice of the column buffers. Fixed, so results never depend on the thread count.
+const BLOCK: usize = 1024;
 
 /// The files a run owns, removed by `--overwrite`.
 const RUN_FILES: [&str; 4] = ["job.toml", "discontinuities.parquet", "summary.parquet", "_SUCCESS"];
@@ -160,6 +234,17 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         })
 }
 
+/// An empty completion marker, on the disk before this returns.
+fn write_marker(path: &Path) -> Result<()> {
+    write_atomic(path, b"")?;
+    let sync = |p: &Path| std::fs::File::open(p).and_then(|f| f.sync_all());
+    sync(path).with_context(|| format!("cannot write {}", path.display()))?;
+    if let Some(dir) = path.parent() {
+        let _ = sync(dir);
+    }
+    Ok(())
+}
+
 fn success_name(shard: Option<(u64, u64)>) -> String {
     match shard {
         None => "_SUCCESS".to_string(),
@@ -171,9 +256,23 @@ fn success_name(shard: Option<(u64, u64)>) -> String {
 struct Part {
     path: PathBuf,
     stats_path: PathBuf,
+    trace_path: PathBuf,
+    traces: Vec<Trace>,
     batch: arrow::record_batch::RecordBatch,
     stats: SummaryStats,
     extra: Vec<(String, String)>,
+}
+
+fn search_options(variant: &Variant) -> SearchOptions {
+    SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() }
+}
+
+/// The traces of a unit whose trace file is missing, by solving its poses.
+fn unit_traces(model: &Model, source: &SampleSource, u: &Unit, search: &SearchOptions) -> Vec<Trace> {
+    (u.range.start..u.range.end)
+        .into_par_iter()
+        .map_init(Workspace::new, |ws, i| trace(&solve_pose(model, &source.sample(i), u.mode, ws), model, search))
+        .collect()
 }
 
 /// After every part is written: the discontinuity search and the summary, then
@@ -192,17 +291,23 @@ fn finalize(
     let mut switches = Vec::new();
     let mut summary = Vec::new();
     for (variant, (model, source)) in variants.iter().zip(models) {
-        let search =
-            SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() };
+        let search = search_options(variant);
         for &mode in &job.analysis.modes {
             let mut stats = SummaryStats::default();
+            let mut traces: Vec<Trace> = Vec::with_capacity(source.len() as usize);
             for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
                 let path = stats_path(&opts.out, u.variant, u.mode, u.chunk);
                 let text = std::fs::read(&path)
                     .with_context(|| format!("missing {}: finish the run with --resume", path.display()))?;
                 stats.merge(&serde_json::from_slice(&text).with_context(|| format!("corrupt {}", path.display()))?);
+                let len = (u.range.end - u.range.start) as usize;
+                match read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len) {
+                    Some(t) => traces.extend(t),
+                    None => traces.extend(unit_traces(model, source, u, &search)),
+                }
             }
-            let found = find_discontinuities(model, source, mode, &search);
+            let found = find_discontinuities_traced(model, source, mode, &traces);
+            drop(traces);
             let mut counts = [0u64; 4];
             for d in &found {
                 counts[d.kind.index()] += 1;
@@ -235,7 +340,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
     let todo: Vec<Unit> = mine
         .iter()
-        .filter(|u| !(opts.resume && part_path(&opts.out, u.variant, u.mode, u.chunk).exists()))
+        .filter(|u| !(opts.resume && part_complete(&part_path(&opts.out, u.variant, u.mode, u.chunk))))
         .cloned()
         .collect();
     let mine_poses: u64 = mine.iter().map(|u| u.range.end - u.range.start).sum();
@@ -252,6 +357,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         ],
         row_group_rows: opts.chunk_size as usize,
         codec: opts.compression,
+        durable: false,
     };
     let models: Vec<(Model, SampleSource)> = variants
         .iter()
@@ -274,6 +380,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 for dir in [part.path.parent(), part.stats_path.parent()].into_iter().flatten() {
                     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
                 }
+                write_atomic(&part.trace_path, &encode_traces(&part.traces))?;
                 write_atomic(&part.stats_path, &serde_json::to_vec(&part.stats)?)?;
                 write_parquet(&part.path, schema_ref.clone(), &[part.batch], write_opts, &part.extra)?;
             }
@@ -283,18 +390,33 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let (model, source) = &models[unit.variant as usize];
             let variant = &variants[unit.variant as usize];
             progress.set_message(format!("variant {} {}", unit.variant, unit.mode.name()));
-            let rows: Vec<_> = (unit.range.start..unit.range.end)
+            let search = search_options(variant);
+            let n = (unit.range.end - unit.range.start) as usize;
+            let mut cols = schema.columns(n);
+            let mut traces: Vec<Trace> = vec![0; n];
+            let block_stats: Vec<SummaryStats> = cols
+                .blocks(&schema, BLOCK)
                 .into_par_iter()
-                .map_init(Workspace::new, |ws, i| {
-                    let s = source.sample(i);
-                    (s, solve_pose(model, &s, unit.mode, ws))
+                .zip(traces.par_chunks_mut(BLOCK))
+                .enumerate()
+                .map_init(Workspace::new, |ws, (b, (mut sink, block_traces))| {
+                    let mut stats = SummaryStats::default();
+                    let first = unit.range.start + (b * BLOCK) as u64;
+                    for (i, t) in block_traces.iter_mut().enumerate() {
+                        let s = source.sample(first + i as u64);
+                        let r = solve_pose(model, &s, unit.mode, ws);
+                        sink.put(i, &s, &r);
+                        stats.push(&r);
+                        *t = trace(&r, model, &search);
+                    }
+                    stats
                 })
                 .collect();
-            let batch = schema.batch(unit.mode, &rows);
             let mut stats = SummaryStats::default();
-            for (_, r) in &rows {
-                stats.push(r);
+            for b in &block_stats {
+                stats.merge(b);
             }
+            let batch = schema.finish(unit.mode, cols);
             let extra = vec![
                 ("clearance.variant".to_string(), unit.variant.to_string()),
                 (
@@ -305,6 +427,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let part = Part {
                 path: part_path(&opts.out, unit.variant, unit.mode, unit.chunk),
                 stats_path: stats_path(&opts.out, unit.variant, unit.mode, unit.chunk),
+                trace_path: trace_path(&opts.out, unit.variant, unit.mode, unit.chunk),
+                traces,
                 batch,
                 stats,
                 extra,
@@ -321,8 +445,9 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     })?;
     progress.finish();
 
+    sync_units(&opts.out, &mine)?;
     if opts.shard.is_some() {
-        write_atomic(&opts.out.join(success_name(opts.shard)), b"")?;
+        write_marker(&opts.out.join(success_name(opts.shard)))?;
     }
     // The process that sees every part done finishes the run; with shards, at least
     // the last one to write its marker does (two doing it write the same files).
@@ -331,8 +456,9 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         Some((_, n)) => (0..n).all(|i| opts.out.join(success_name(Some((i, n)))).exists()),
     };
     if complete {
-        finalize(job, &variants, &models, &all, opts, &write_opts)?;
-        write_atomic(&opts.out.join("_SUCCESS"), b"")?;
+        let durable = WriteOptions { durable: true, ..write_opts.clone() };
+        finalize(job, &variants, &models, &all, opts, &durable)?;
+        write_marker(&opts.out.join("_SUCCESS"))?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })
 }

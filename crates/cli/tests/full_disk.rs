@@ -156,6 +156,10 @@ fn stats_name(chunk: u64) -> String {
     format!("_stats/variant=0/kinetostatic-{chunk:06}.json")
 }
 
+fn trace_name(chunk: u64) -> String {
+    format!("_stats/variant=0/kinetostatic-{chunk:06}.trace")
+}
+
 /// Every file below `dir`, relative to it.
 fn files(dir: &Path) -> Vec<String> {
     fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {
@@ -209,6 +213,9 @@ fn assert_failed_cleanly(o: &Output, out: &Path, failed: &str) {
             assert_eq!(parquet_rows(&path), CHUNK as usize, "{name}");
             let chunk: u64 = name.trim_end_matches(".parquet").rsplit('-').next().unwrap().parse().unwrap();
             assert!(out.join(stats_name(chunk)).exists(), "{name} has no statistics");
+        } else if name.starts_with("_stats/") && name.ends_with(".trace") {
+            // One 4-byte discontinuity trace per pose of the part.
+            assert_eq!(std::fs::metadata(&path).unwrap().len(), 4 * CHUNK, "{name}");
         } else if name.starts_with("_stats/") {
             let text = std::fs::read(&path).unwrap();
             serde_json::from_slice::<serde_json::Value>(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -267,7 +274,7 @@ fn a_full_disk_at_every_kind_of_write() {
         // The order `clearance run` writes in; `_SUCCESS` is empty and takes no block.
         let mut writes = vec!["job.toml".to_string()];
         for k in 0..PARTS {
-            writes.extend([stats_name(k), part_name(k)]);
+            writes.extend([trace_name(k), stats_name(k), part_name(k)]);
         }
         writes.extend(["discontinuities.parquet".to_string(), "summary.parquet".to_string()]);
         let need: Vec<u64> = writes.iter().map(|w| blocks(w)).collect();
@@ -277,6 +284,7 @@ fn a_full_disk_at_every_kind_of_write() {
         let at = |name: &str| writes.iter().position(|w| w == name).unwrap();
         for failing in [
             at("job.toml"),
+            at(&trace_name(0)),
             at(&stats_name(0)),
             at(&part_name(0)),
             at(&stats_name(1)),

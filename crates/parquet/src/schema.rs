@@ -4,12 +4,12 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use arrow::array::{ArrayRef, Float64Array, StringArray, UInt64Array};
+use arrow::buffer::{NullBuffer, ScalarBuffer};
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use arrow::record_batch::RecordBatch;
 use clearance_grid::Sample;
 use clearance_model::{KINDS, Mode};
 use clearance_solver::{PoseError, PoseResult, Status};
-use rayon::prelude::*;
 
 /// Which columns to write (INTERFACE.md `--columns`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -41,36 +41,44 @@ impl ColumnSet {
     }
 }
 
-/// When a column has a value (docs/conventions.md).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Needs {
-    /// Always: inputs and parasitic motions.
-    Always,
-    /// Any reachable pose: actuators, condition numbers.
-    Reachable,
-    /// Reactions solved and trusted: `ok` or `indeterminate_contact`.
-    Solved,
-    /// Kind k's take-up determinate on a solved pose.
-    Kind(usize),
-    /// Status `ok`.
-    Ok,
-    /// The exact error converged.
-    Exact,
+/// The value slots of one row, every column set's columns among them
+/// ([`row_values`] fills them all at once; a column reads its slot).
+mod slot {
+    pub const Z: usize = 0;
+    pub const PSI: usize = 1;
+    pub const THETA: usize = 2;
+    pub const X: usize = 3;
+    pub const Y: usize = 4;
+    pub const PHI: usize = 5;
+    /// `q1..q3`.
+    pub const Q: usize = 6;
+    /// The nine parts of the total error.
+    pub const TOTAL: usize = 9;
+    /// Nine parts per kind.
+    pub const KIND: usize = 18;
+    /// Per limb: r_radial, r_axial, r_angular, s.
+    pub const MARGIN: usize = 54;
+    /// Per limb: f_r, m_r, f_s (three components each).
+    pub const REACTION: usize = 66;
+    pub const COND_A: usize = 93;
+    pub const COND_JP: usize = 94;
+    /// Δp then Δα.
+    pub const EXACT: usize = 95;
+    pub const COUNT: usize = 101;
 }
-
-type Getter = Box<dyn Fn(&Sample, &PoseResult) -> f64 + Send + Sync>;
 
 struct FloatColumn {
     name: String,
     unit: &'static str,
-    needs: Needs,
-    get: Getter,
+    slot: usize,
 }
 
 /// The `poses` schema of one column set, and the batch builder for it.
 pub struct PoseSchema {
     schema: SchemaRef,
     floats: Vec<FloatColumn>,
+    /// The slot of each float column, in column order.
+    slots: Vec<usize>,
 }
 
 const ERR_PARTS: [(&str, &str); 9] = [
@@ -85,112 +93,116 @@ const ERR_PARTS: [(&str, &str); 9] = [
     ("theta", "rad"),
 ];
 
-fn err_part(e: &PoseError, i: usize) -> f64 {
-    match i {
-        0..=2 => e.dp[i],
-        3..=5 => e.dalpha[i - 3],
-        _ => e.euler[i - 6],
+fn put_error(out: &mut [f64], e: &PoseError) {
+    for i in 0..3 {
+        out[i] = e.dp[i];
+        out[3 + i] = e.dalpha[i];
+        out[6 + i] = e.euler[i];
     }
 }
 
-fn float(name: impl Into<String>, unit: &'static str, needs: Needs, get: Getter) -> FloatColumn {
-    FloatColumn { name: name.into(), unit, needs, get }
+/// Every slot of one row; NaN where the status leaves a value undefined
+/// (docs/conventions.md), which the batch turns into a null.
+fn row_values(s: &Sample, r: &PoseResult) -> [f64; slot::COUNT] {
+    let mut v = [f64::NAN; slot::COUNT];
+    v[slot::Z] = s.z[0];
+    v[slot::PSI] = s.psi[0];
+    v[slot::THETA] = s.theta[0];
+    v[slot::X] = r.x;
+    v[slot::Y] = r.y;
+    v[slot::PHI] = r.phi;
+    if r.status == Status::Unreachable {
+        return v;
+    }
+    v[slot::Q..slot::Q + 3].copy_from_slice(&r.q);
+    v[slot::COND_A] = r.cond_a;
+    v[slot::COND_JP] = r.cond_jp;
+    if !matches!(r.status, Status::Ok | Status::IndeterminateContact) {
+        return v;
+    }
+    if r.status == Status::Ok {
+        put_error(&mut v[slot::TOTAL..slot::TOTAL + 9], &r.total);
+    }
+    for k in 0..4 {
+        if r.kind_ok[k] {
+            put_error(&mut v[slot::KIND + 9 * k..slot::KIND + 9 * k + 9], &r.errors[k]);
+        }
+    }
+    let m = &r.margins;
+    for j in 0..3 {
+        v[slot::MARGIN + 4 * j..slot::MARGIN + 4 * j + 4].copy_from_slice(&[
+            m.r_radial[j],
+            m.r_axial[j],
+            m.r_angular[j],
+            m.s[j],
+        ]);
+        let base = slot::REACTION + 9 * j;
+        for i in 0..3 {
+            v[base + i] = r.reactions.f_r[j][i];
+            v[base + 3 + i] = r.reactions.m_r[j][i];
+            v[base + 6 + i] = r.reactions.f_s[j][i];
+        }
+    }
+    if let Some(e) = r.exact {
+        // The stored exact error is [Δα; Δp]; columns follow the err_* order (Δp first).
+        v[slot::EXACT..slot::EXACT + 3].copy_from_slice(&e[3..]);
+        v[slot::EXACT + 3..slot::EXACT + 6].copy_from_slice(&e[..3]);
+    }
+    v
+}
+
+fn float(name: impl Into<String>, unit: &'static str, slot: usize) -> FloatColumn {
+    FloatColumn { name: name.into(), unit, slot }
 }
 
 impl PoseSchema {
     /// The columns of `set`, plus the exact-error columns when `exact` is on.
     pub fn new(set: ColumnSet, exact: bool) -> Self {
         let mut f: Vec<FloatColumn> = Vec::new();
-        f.push(float("z", "m", Needs::Always, Box::new(|s, _| s.z[0])));
-        f.push(float("psi", "rad", Needs::Always, Box::new(|s, _| s.psi[0])));
-        f.push(float("theta", "rad", Needs::Always, Box::new(|s, _| s.theta[0])));
+        f.push(float("z", "m", slot::Z));
+        f.push(float("psi", "rad", slot::PSI));
+        f.push(float("theta", "rad", slot::THETA));
         if set >= ColumnSet::Standard {
-            f.push(float("x", "m", Needs::Always, Box::new(|_, r| r.x)));
-            f.push(float("y", "m", Needs::Always, Box::new(|_, r| r.y)));
-            f.push(float("phi", "rad", Needs::Always, Box::new(|_, r| r.phi)));
+            f.push(float("x", "m", slot::X));
+            f.push(float("y", "m", slot::Y));
+            f.push(float("phi", "rad", slot::PHI));
             for j in 0..3 {
-                f.push(float(format!("q{}", j + 1), "m", Needs::Reachable, Box::new(move |_, r| r.q[j])));
+                f.push(float(format!("q{}", j + 1), "m", slot::Q + j));
             }
         }
         for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-            f.push(float(format!("err_{c}"), unit, Needs::Ok, Box::new(move |_, r| err_part(&r.total, i))));
+            f.push(float(format!("err_{c}"), unit, slot::TOTAL + i));
         }
         if set >= ColumnSet::Standard {
             for kind in KINDS {
                 let k = kind.index();
                 for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-                    f.push(float(
-                        format!("err_{}_{c}", kind.name()),
-                        unit,
-                        Needs::Kind(k),
-                        Box::new(move |_, r| err_part(&r.errors[k], i)),
-                    ));
+                    f.push(float(format!("err_{}_{c}", kind.name()), unit, slot::KIND + 9 * k + i));
                 }
             }
             for j in 0..3 {
-                let l = j + 1;
-                f.push(float(
-                    format!("margin_r{l}_radial"),
-                    "N",
-                    Needs::Solved,
-                    Box::new(move |_, r| r.margins.r_radial[j]),
-                ));
-                f.push(float(
-                    format!("margin_r{l}_axial"),
-                    "N",
-                    Needs::Solved,
-                    Box::new(move |_, r| r.margins.r_axial[j]),
-                ));
-                f.push(float(
-                    format!("margin_r{l}_angular"),
-                    "N*m",
-                    Needs::Solved,
-                    Box::new(move |_, r| r.margins.r_angular[j]),
-                ));
-                f.push(float(format!("margin_s{l}"), "N", Needs::Solved, Box::new(move |_, r| r.margins.s[j])));
+                let (l, base) = (j + 1, slot::MARGIN + 4 * j);
+                f.push(float(format!("margin_r{l}_radial"), "N", base));
+                f.push(float(format!("margin_r{l}_axial"), "N", base + 1));
+                f.push(float(format!("margin_r{l}_angular"), "N*m", base + 2));
+                f.push(float(format!("margin_s{l}"), "N", base + 3));
             }
         }
         if set >= ColumnSet::Full {
             for j in 0..3 {
-                let l = j + 1;
-                for (i, c) in ["x", "y", "z"].iter().enumerate() {
-                    f.push(float(
-                        format!("f_r{l}_{c}"),
-                        "N",
-                        Needs::Solved,
-                        Box::new(move |_, r| r.reactions.f_r[j][i]),
-                    ));
-                }
-                for (i, c) in ["x", "y", "z"].iter().enumerate() {
-                    f.push(float(
-                        format!("m_r{l}_{c}"),
-                        "N*m",
-                        Needs::Solved,
-                        Box::new(move |_, r| r.reactions.m_r[j][i]),
-                    ));
-                }
-                for (i, c) in ["x", "y", "z"].iter().enumerate() {
-                    f.push(float(
-                        format!("f_s{l}_{c}"),
-                        "N",
-                        Needs::Solved,
-                        Box::new(move |_, r| r.reactions.f_s[j][i]),
-                    ));
+                let (l, base) = (j + 1, slot::REACTION + 9 * j);
+                for (b, (name, unit)) in [("f_r", "N"), ("m_r", "N*m"), ("f_s", "N")].into_iter().enumerate() {
+                    for (i, c) in ["x", "y", "z"].iter().enumerate() {
+                        f.push(float(format!("{name}{l}_{c}"), unit, base + 3 * b + i));
+                    }
                 }
             }
-            f.push(float("cond_a", "1", Needs::Reachable, Box::new(|_, r| r.cond_a)));
-            f.push(float("cond_jp", "1", Needs::Reachable, Box::new(|_, r| r.cond_jp)));
+            f.push(float("cond_a", "1", slot::COND_A));
+            f.push(float("cond_jp", "1", slot::COND_JP));
         }
         if exact {
             for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
-                // The stored exact error is [Δα; Δp]; columns follow the err_* order (Δp first).
-                let idx = if i < 3 { i + 3 } else { i - 3 };
-                f.push(float(
-                    format!("exact_err_{c}"),
-                    unit,
-                    Needs::Exact,
-                    Box::new(move |_, r| r.exact.map_or(f64::NAN, |e| e[idx])),
-                ));
+                f.push(float(format!("exact_err_{c}"), unit, slot::EXACT + i));
             }
         }
 
@@ -202,7 +214,8 @@ impl PoseSchema {
             Field::new("status", DataType::Utf8, false).with_metadata(unit("")),
         ];
         fields.extend(f.iter().map(|c| Field::new(&c.name, DataType::Float64, true).with_metadata(unit(c.unit))));
-        Self { schema: Arc::new(Schema::new(fields)), floats: f }
+        let slots = f.iter().map(|c| c.slot).collect();
+        Self { schema: Arc::new(Schema::new(fields)), floats: f, slots }
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -214,34 +227,97 @@ impl PoseSchema {
         self.schema.fields().iter().map(|f| f.name().as_str())
     }
 
+    /// Empty column buffers for `rows` rows, to be filled block by block.
+    pub fn columns(&self, rows: usize) -> UnitColumns {
+        UnitColumns {
+            sample: vec![0; rows],
+            t: vec![f64::NAN; rows],
+            status: vec![Status::Unreachable; rows],
+            floats: self.slots.iter().map(|_| vec![f64::NAN; rows]).collect(),
+        }
+    }
+
+    /// The record batch of filled column buffers.
+    pub fn finish(&self, mode: Mode, cols: UnitColumns) -> RecordBatch {
+        let float = |v: Vec<f64>| -> ArrayRef {
+            let valid = NullBuffer::from_iter(v.iter().map(|x| x.is_finite()));
+            let nulls = (valid.null_count() > 0).then_some(valid);
+            Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
+        };
+        let mut out: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 4);
+        out.push(Arc::new(StringArray::from_iter_values(cols.status.iter().map(|_| mode.name()))));
+        out.push(Arc::new(UInt64Array::from(cols.sample)));
+        out.push(float(cols.t));
+        out.push(Arc::new(StringArray::from_iter_values(cols.status.iter().map(|s| s.name()))));
+        out.extend(cols.floats.into_iter().map(float));
+        RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
+    }
+
     /// One record batch from the rows of one mode.
     pub fn batch(&self, mode: Mode, rows: &[(Sample, PoseResult)]) -> RecordBatch {
-        let mut cols: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 4);
-        cols.push(Arc::new(StringArray::from_iter_values(rows.iter().map(|_| mode.name()))));
-        cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|(s, _)| s.index))));
-        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|(s, _)| s.t))));
-        cols.push(Arc::new(StringArray::from_iter_values(rows.iter().map(|(_, r)| r.status.name()))));
-        // Columns are independent: build them on the rayon pool.
-        let floats: Vec<ArrayRef> = self
-            .floats
-            .par_iter()
-            .map(|c| {
-                let values = rows.iter().map(|(s, r)| {
-                    let filled = match c.needs {
-                        Needs::Always => true,
-                        Needs::Reachable => r.status != Status::Unreachable,
-                        Needs::Solved => matches!(r.status, Status::Ok | Status::IndeterminateContact),
-                        Needs::Kind(k) => matches!(r.status, Status::Ok | Status::IndeterminateContact) && r.kind_ok[k],
-                        Needs::Ok => r.status == Status::Ok,
-                        Needs::Exact => r.exact.is_some(),
-                    };
-                    let v = if filled { (c.get)(s, r) } else { f64::NAN };
-                    v.is_finite().then_some(v)
-                });
-                Arc::new(Float64Array::from_iter(values)) as ArrayRef
-            })
+        let mut cols = self.columns(rows.len());
+        if let Some(mut sink) = cols.blocks(self, rows.len().max(1)).pop() {
+            for (i, (s, r)) in rows.iter().enumerate() {
+                sink.put(i, s, r);
+            }
+        }
+        self.finish(mode, cols)
+    }
+}
+
+/// The column buffers of one part file, before they become a record batch.
+pub struct UnitColumns {
+    sample: Vec<u64>,
+    t: Vec<f64>,
+    status: Vec<Status>,
+    floats: Vec<Vec<f64>>,
+}
+
+impl UnitColumns {
+    /// Disjoint writers for consecutive blocks of `block` rows, to fill in parallel.
+    pub fn blocks<'a>(&'a mut self, schema: &'a PoseSchema, block: usize) -> Vec<BlockSink<'a>> {
+        let mut sinks: Vec<BlockSink<'a>> = self
+            .sample
+            .chunks_mut(block)
+            .zip(self.t.chunks_mut(block))
+            .zip(self.status.chunks_mut(block))
+            .map(|((sample, t), status)| BlockSink { sample, t, status, floats: Vec::new(), slots: &schema.slots })
             .collect();
-        cols.extend(floats);
-        RecordBatch::try_new(self.schema.clone(), cols).expect("columns match the schema")
+        for col in &mut self.floats {
+            for (sink, part) in sinks.iter_mut().zip(col.chunks_mut(block)) {
+                sink.floats.push(part);
+            }
+        }
+        sinks
+    }
+}
+
+/// Writes the rows of one block into their column buffers.
+pub struct BlockSink<'a> {
+    sample: &'a mut [u64],
+    t: &'a mut [f64],
+    status: &'a mut [Status],
+    floats: Vec<&'a mut [f64]>,
+    slots: &'a [usize],
+}
+
+impl BlockSink<'_> {
+    /// Row `i` of the block.
+    pub fn put(&mut self, i: usize, s: &Sample, r: &PoseResult) {
+        self.sample[i] = s.index;
+        self.t[i] = s.t.unwrap_or(f64::NAN);
+        self.status[i] = r.status;
+        let v = row_values(s, r);
+        for (col, &slot) in self.floats.iter_mut().zip(self.slots) {
+            col[i] = v[slot];
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.sample.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.sample.is_empty()
     }
 }

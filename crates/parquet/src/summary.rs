@@ -1,8 +1,8 @@
 //! Error statistics of one (variant, mode): mergeable partial sums, so that each
 //! part file carries its own and a resumed or sharded run adds them up.
 //!
-//! Percentiles come from a log-spaced histogram (2¹⁶ bins over 1e-18 … 1e2, a bin
-//! 0.07 % wide), reported at the geometric centre of the bin where the rank falls.
+//! Percentiles come from a log-spaced histogram (2¹¹ bins per octave, a bin 0.05 %
+//! wide), reported at the geometric centre of the bin where the rank falls.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -14,12 +14,25 @@ use clearance_model::KINDS;
 use clearance_solver::{PoseError, PoseResult, Status};
 use serde::{Deserialize, Serialize};
 
-const BINS: u32 = 1 << 16;
-const LOG_MIN: f64 = -18.0;
-const LOG_MAX: f64 = 2.0;
+/// Values at or below this count as zeros (a rigid kind's exact zeros).
+const ZERO: f64 = 1e-18;
+/// A bin is a positive double's bit pattern shifted right by this: its exponent
+/// and top 11 mantissa bits, 2¹¹ bins per octave, each 0.05 % wide, found without
+/// a logarithm.
+const BIN_SHIFT: u32 = 41;
+
+fn bin_of(v: f64) -> u32 {
+    (v.to_bits() >> BIN_SHIFT) as u32
+}
+
+/// Lower and upper edges of a bin.
+fn bin_edges(b: u32) -> (f64, f64) {
+    (f64::from_bits(u64::from(b) << BIN_SHIFT), f64::from_bits(u64::from(b + 1) << BIN_SHIFT))
+}
 
 /// Max, RMS and percentiles of one non-negative series.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(from = "SeriesFile", into = "SeriesFile")]
 pub struct Series {
     pub count: u64,
     pub sum_sq: f64,
@@ -27,7 +40,43 @@ pub struct Series {
     /// Values at or below 1e-18 (a rigid kind's exact zeros).
     pub zeros: u64,
     /// Sparse histogram: bin → count.
-    pub bins: BTreeMap<u32, u64>,
+    bins: BTreeMap<u32, u64>,
+    /// Bins of values pushed since the last [`Series::flush`]; pushing stays cheap,
+    /// and a whole part's worth is counted at once.
+    pending: Vec<u32>,
+}
+
+/// A [`Series`] as stored in a part's statistics file.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SeriesFile {
+    count: u64,
+    sum_sq: f64,
+    max: f64,
+    zeros: u64,
+    /// Named for its binning, so that statistics of an engine that binned
+    /// otherwise are refused, not mixed.
+    bins_log2_2048: BTreeMap<u32, u64>,
+}
+
+impl From<SeriesFile> for Series {
+    fn from(f: SeriesFile) -> Self {
+        Self {
+            count: f.count,
+            sum_sq: f.sum_sq,
+            max: f.max,
+            zeros: f.zeros,
+            bins: f.bins_log2_2048,
+            pending: Vec::new(),
+        }
+    }
+}
+
+impl From<Series> for SeriesFile {
+    fn from(mut s: Series) -> Self {
+        s.flush();
+        Self { count: s.count, sum_sq: s.sum_sq, max: s.max, zeros: s.zeros, bins_log2_2048: s.bins }
+    }
 }
 
 impl Series {
@@ -35,12 +84,38 @@ impl Series {
         self.count += 1;
         self.sum_sq += v * v;
         self.max = self.max.max(v);
-        if v <= 10f64.powf(LOG_MIN) {
+        if v <= ZERO {
             self.zeros += 1;
         } else {
-            let x = ((v.log10() - LOG_MIN) / (LOG_MAX - LOG_MIN) * BINS as f64).floor();
-            *self.bins.entry(x.clamp(0.0, (BINS - 1) as f64) as u32).or_insert(0) += 1;
+            self.pending.push(bin_of(v));
         }
+    }
+
+    /// Moves the pending bins into the histogram, counting them in a dense array
+    /// over their range (or sorted, if the range is much wider than their number).
+    pub fn flush(&mut self) {
+        let (Some(&lo), Some(&hi)) = (self.pending.iter().min(), self.pending.iter().max()) else {
+            return;
+        };
+        let range = (hi - lo) as usize + 1;
+        if range > 4 * self.pending.len() + (1 << 16) {
+            self.pending.sort_unstable();
+            for run in self.pending.chunk_by(|a, b| a == b) {
+                *self.bins.entry(run[0]).or_insert(0) += run.len() as u64;
+            }
+            self.pending.clear();
+            return;
+        }
+        let mut dense = vec![0u64; range];
+        for &b in &self.pending {
+            dense[(b - lo) as usize] += 1;
+        }
+        for (i, &c) in dense.iter().enumerate() {
+            if c > 0 {
+                *self.bins.entry(lo + i as u32).or_insert(0) += c;
+            }
+        }
+        self.pending.clear();
     }
 
     pub fn merge(&mut self, o: &Series) {
@@ -51,6 +126,7 @@ impl Series {
         for (b, c) in &o.bins {
             *self.bins.entry(*b).or_insert(0) += c;
         }
+        self.pending.extend_from_slice(&o.pending);
     }
 
     pub fn rms(&self) -> Option<f64> {
@@ -61,22 +137,23 @@ impl Series {
         (self.count > 0).then_some(self.max)
     }
 
-    /// The `q`-quantile by nearest rank.
+    /// The `q`-quantile by nearest rank, at the geometric centre of its bin.
     pub fn quantile(&self, q: f64) -> Option<f64> {
         if self.count == 0 {
             return None;
         }
+        let mut flushed = self.clone();
+        flushed.flush();
         let rank = ((q * self.count as f64).ceil() as u64).clamp(1, self.count);
         if rank <= self.zeros {
             return Some(0.0);
         }
         let mut seen = self.zeros;
-        for (b, c) in &self.bins {
+        for (b, c) in &flushed.bins {
             seen += c;
             if seen >= rank {
-                let lo = LOG_MIN + (*b as f64) / BINS as f64 * (LOG_MAX - LOG_MIN);
-                let width = (LOG_MAX - LOG_MIN) / BINS as f64;
-                return Some(10f64.powf(lo + 0.5 * width).min(self.max));
+                let (lo, hi) = bin_edges(*b);
+                return Some((lo * hi).sqrt().min(self.max));
             }
         }
         Some(self.max)
@@ -243,5 +320,29 @@ mod tests {
         }
         assert_eq!(zeros.quantile(0.95), Some(0.0));
         assert_eq!(Series::default().quantile(0.5), None);
+    }
+
+    /// A part's statistics file holds every pushed value, whichever way the
+    /// pending bins are counted, and files of another binning are refused.
+    #[test]
+    fn statistics_files_round_trip() {
+        let mut wide = Series::default();
+        let mut narrow = Series::default();
+        for i in 0..2000 {
+            // 1e-17 .. 1e100 (sorted path) and 1e-3 .. 2e-3 (dense path).
+            wide.push(10f64.powf(-17.0 + 117.0 * i as f64 / 1999.0));
+            narrow.push(1e-3 * (1.0 + i as f64 / 1999.0));
+        }
+        for s in [wide, narrow] {
+            let text = serde_json::to_string(&s).unwrap();
+            let back: Series = serde_json::from_str(&text).unwrap();
+            let mut flushed = s.clone();
+            flushed.flush();
+            assert_eq!(back, flushed);
+            assert_eq!(back.bins.values().sum::<u64>(), 2000);
+            assert_eq!(back.quantile(0.5), s.quantile(0.5));
+        }
+        let old = r#"{"count":1,"sum_sq":1.0,"max":1.0,"zeros":0,"bins":{"40000":1}}"#;
+        assert!(serde_json::from_str::<Series>(old).is_err());
     }
 }

@@ -3,9 +3,10 @@
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
+use arrow::datatypes::{DataType, Schema};
 use arrow::record_batch::RecordBatch;
 use parquet::arrow::ArrowWriter;
-use parquet::basic::{Compression, ZstdLevel};
+use parquet::basic::{Compression, Encoding, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 use parquet::schema::types::ColumnPath;
@@ -46,11 +47,15 @@ pub struct WriteOptions {
     /// Rows per row group.
     pub row_group_rows: usize,
     pub codec: Codec,
+    /// `fsync` before the rename. Part files leave it off: they are only started
+    /// on their way to the disk, so that writing overlaps computing, and a run syncs
+    /// them all before it declares itself complete (`clearance run`).
+    pub durable: bool,
 }
 
 impl Default for WriteOptions {
     fn default() -> Self {
-        Self { metadata: Vec::new(), row_group_rows: 128 * 1024, codec: Codec::default() }
+        Self { metadata: Vec::new(), row_group_rows: 128 * 1024, codec: Codec::default(), durable: true }
     }
 }
 
@@ -95,11 +100,20 @@ impl Codec {
     }
 }
 
-fn properties(opts: &WriteOptions, extra: &[(String, String)]) -> WriterProperties {
+fn properties(schema: &Schema, opts: &WriteOptions, extra: &[(String, String)]) -> WriterProperties {
     let kv = opts.metadata.iter().chain(extra).map(|(k, v)| KeyValue::new(k.clone(), v.clone())).collect();
     // Floats rarely repeat, so dictionaries only cost time; the two string
     // columns repeat a handful of values and keep theirs.
-    WriterProperties::builder()
+    // Byte-stream split puts the exponent bytes of neighbouring doubles together,
+    // which is what lets a codec find repeats in smooth engine output (a standard
+    // part: 537 bytes a pose uncompressed, 509 with LZ4 alone, 377 with both).
+    let mut builder = WriterProperties::builder();
+    if opts.codec != Codec::None {
+        for f in schema.fields().iter().filter(|f| f.data_type() == &DataType::Float64) {
+            builder = builder.set_column_encoding(ColumnPath::from(f.name().as_str()), Encoding::BYTE_STREAM_SPLIT);
+        }
+    }
+    builder
         .set_compression(opts.codec.compression())
         .set_dictionary_enabled(false)
         .set_column_dictionary_enabled(ColumnPath::from("mode"), true)
@@ -108,6 +122,20 @@ fn properties(opts: &WriteOptions, extra: &[(String, String)]) -> WriterProperti
         .set_max_row_group_row_count(Some(opts.row_group_rows))
         .set_key_value_metadata(Some(kv))
         .build()
+}
+
+/// Asks the kernel to start writing the file's dirty pages now, without waiting.
+fn start_writeback(file: &File) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        // SAFETY: a valid descriptor; the call only schedules I/O on it.
+        unsafe {
+            libc::sync_file_range(file.as_raw_fd(), 0, 0, libc::SYNC_FILE_RANGE_WRITE);
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = file;
 }
 
 /// Writes `batches` to `path` via a temporary sibling and an atomic rename.
@@ -125,14 +153,19 @@ pub fn write_parquet(
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
         let enc = |e| ParquetError::from_parquet(path, e);
         let file = File::create(&tmp).map_err(io)?;
-        let mut writer = ArrowWriter::try_new(file, schema, Some(properties(opts, extra))).map_err(enc)?;
+        let props = properties(&schema, opts, extra);
+        let mut writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(enc)?;
         for b in batches {
             writer.write(b).map_err(enc)?;
         }
         // `finish` writes the footer and flushes the buffer with the I/O error
         // intact (`into_inner` would turn a full disk into a string).
         writer.finish().map_err(enc)?;
-        writer.inner().sync_all().map_err(io)?;
+        if opts.durable {
+            writer.inner().sync_all().map_err(io)?;
+        } else {
+            start_writeback(writer.inner());
+        }
         drop(writer);
         std::fs::rename(&tmp, path).map_err(io)
     })();
