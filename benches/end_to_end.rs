@@ -34,12 +34,11 @@ const CLI_SIDE: u64 = 200;
 
 /// Grid → poses part files (standard columns) in `out`, as `clearance run` does.
 fn run_poses(job: &JobSpec, model: &Model, source: &SampleSource, schema: &PoseSchema, out: &Path) {
-    let opts =
-        WriteOptions {
-            metadata: vec![("clearance.job".into(), job.to_toml_string())],
-            row_group_rows: CHUNK as usize,
-            ..WriteOptions::default()
-        };
+    let opts = WriteOptions {
+        metadata: vec![("clearance.job".into(), job.to_toml_string())],
+        row_group_rows: CHUNK as usize,
+        ..WriteOptions::default()
+    };
     let dir = out.join("poses").join("variant=0");
     std::fs::create_dir_all(&dir).expect("create the output directory");
     let mut total = SummaryStats::default();

@@ -146,12 +146,11 @@ fn parquet(c: &mut Criterion) {
     let rows: Vec<_> =
         common::samples(&job).into_iter().map(|s| (s, solve_pose(&model, &s, Mode::Kinetostatic, &mut ws))).collect();
     let schema = PoseSchema::new(ColumnSet::Standard, false);
-    let opts =
-        WriteOptions {
-            metadata: vec![("clearance.job".into(), job.to_toml_string())],
-            row_group_rows: rows.len(),
-            ..WriteOptions::default()
-        };
+    let opts = WriteOptions {
+        metadata: vec![("clearance.job".into(), job.to_toml_string())],
+        row_group_rows: rows.len(),
+        ..WriteOptions::default()
+    };
     let batch = schema.batch(Mode::Kinetostatic, &rows);
     let dir = tempfile::tempdir().expect("a temporary directory");
     let path = dir.path().join("part-kinetostatic-000000.parquet");
