@@ -5,11 +5,17 @@ use std::path::{Path, PathBuf};
 
 use arrow::datatypes::{DataType, Schema};
 use arrow::record_batch::RecordBatch;
-use parquet::arrow::ArrowWriter;
+use std::sync::Arc;
+
+use parquet::arrow::arrow_writer::{ArrowColumnChunk, ArrowRowGroupWriterFactory, compute_leaves};
+use parquet::arrow::{ArrowSchemaConverter, add_encoded_arrow_schema_to_metadata};
+
 use parquet::basic::{Compression, Encoding, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
+use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::ColumnPath;
+use rayon::prelude::*;
 
 /// A file that could not be written. The temporary file is removed.
 ///
@@ -153,10 +159,41 @@ pub fn write_parquet(
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
         let enc = |e| ParquetError::from_parquet(path, e);
         let file = File::create(&tmp).map_err(io)?;
-        let props = properties(&schema, opts, extra);
-        let mut writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(enc)?;
+        let mut props = properties(&schema, opts, extra);
+        // What `ArrowWriter` does, so that readers get the Arrow types and units back.
+        add_encoded_arrow_schema_to_metadata(&schema, &mut props);
+        let parquet_schema =
+            ArrowSchemaConverter::new().with_coerce_types(props.coerce_types()).convert(&schema).map_err(enc)?;
+        let props = Arc::new(props);
+        let mut writer = SerializedFileWriter::new(file, parquet_schema.root_schema_ptr(), props).map_err(enc)?;
+        let factory = ArrowRowGroupWriterFactory::new(&writer, schema.clone());
+        let mut row_group = 0;
         for b in batches {
-            writer.write(b).map_err(enc)?;
+            let mut offset = 0;
+            while offset < b.num_rows() {
+                let slice = b.slice(offset, (b.num_rows() - offset).min(opts.row_group_rows.max(1)));
+                offset += slice.num_rows();
+                // Columns are encoded independently, on the rayon pool: the pool's
+                // threads are all the threads a run uses.
+                let mut leaves = Vec::new();
+                for (field, array) in schema.fields().iter().zip(slice.columns()) {
+                    leaves.extend(compute_leaves(field, array).map_err(enc)?);
+                }
+                let chunks: Vec<ArrowColumnChunk> = factory
+                    .create_column_writers(row_group)
+                    .map_err(enc)?
+                    .into_par_iter()
+                    .zip(leaves)
+                    .map(|(mut w, leaf)| w.write(&leaf).and_then(|_| w.close()))
+                    .collect::<Result<_, _>>()
+                    .map_err(enc)?;
+                let mut rg = writer.next_row_group().map_err(enc)?;
+                for chunk in chunks {
+                    chunk.append_to_row_group(&mut rg).map_err(enc)?;
+                }
+                rg.close().map_err(enc)?;
+                row_group += 1;
+            }
         }
         // `finish` writes the footer and flushes the buffer with the I/O error
         // intact (`into_inner` would turn a full disk into a string).
