@@ -56,7 +56,7 @@ enum Command {
         #[arg(long, default_value = "fast", value_parser = parse_solver)]
         solver: SolverKind,
         /// Parquet page compression: none, lz4 or zstd (benches/README.md has the trade-off).
-        #[arg(long, default_value = "none", value_parser = parse_codec)]
+        #[arg(long, default_value = "zstd", value_parser = parse_codec)]
         compression: Codec,
         /// No progress output.
         #[arg(long, short)]
@@ -93,7 +93,7 @@ enum Command {
         #[arg(long, default_value = "fast", value_parser = parse_solver)]
         solver: SolverKind,
         /// Parquet compression of the end-to-end measurement.
-        #[arg(long, default_value = "none", value_parser = parse_codec)]
+        #[arg(long, default_value = "zstd", value_parser = parse_codec)]
         compression: Codec,
     },
 }

@@ -65,15 +65,15 @@ impl Default for WriteOptions {
     }
 }
 
-/// Page compression. Engine output is mostly doubles with noisy mantissas, which
-/// no general-purpose codec shrinks much (zstd saves about 12 % of a standard part
-/// file, LZ4 about 9 %) while encoding costs several times more than writing
-/// (benches/README.md), so the default is none.
+/// Page compression, with byte-stream-split doubles. On a standard part file of
+/// the bench job: none 537 bytes a pose, LZ4 377, zstd (level 1) 377; zstd costs
+/// about 4 % of end-to-end throughput on 2 cores (benches/README.md), which 30 %
+/// less disk for an overnight sweep is worth, so it is the default.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Codec {
-    #[default]
     None,
     Lz4,
+    #[default]
     Zstd,
 }
 
