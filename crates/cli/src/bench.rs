@@ -41,6 +41,19 @@ pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
     n as f64 / secs
 }
 
+/// Bytes of the files under `dir`, recursively (0 if it is missing).
+fn dir_size(dir: &std::path::Path) -> u64 {
+    let Ok(entries) = std::fs::read_dir(dir) else { return 0 };
+    entries
+        .filter_map(|e| e.ok())
+        .map(|e| match e.metadata() {
+            Ok(m) if m.is_dir() => dir_size(&e.path()),
+            Ok(m) => m.len(),
+            Err(_) => 0,
+        })
+        .sum()
+}
+
 pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec) -> Result<()> {
     let job = bench_job(poses);
     let n = job.sample_count();
@@ -64,12 +77,16 @@ pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec) -> 
     let start = Instant::now();
     let report = run(&job, "bench.toml", &opts);
     let secs = start.elapsed().as_secs_f64();
+    let bytes = dir_size(&dir.join("poses"));
     let _ = std::fs::remove_dir_all(&dir);
     report?;
     let e2e = n as f64 / secs;
+    // What the disk must take per pose: with the disk's write rate, a ceiling on
+    // end-to-end throughput that no amount of computing lifts.
+    let bytes_per_pose = bytes as f64 / n as f64;
     if json {
         println!(
-            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\", \"compression\": \"{}\"}}",
+            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\", \"compression\": \"{}\", \"bytes_per_pose\": {bytes_per_pose:.1}}}",
             if solver == SolverKind::Fast { "fast" } else { "general" },
             compression.name()
         );
@@ -78,6 +95,7 @@ pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec) -> 
         println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
         println!("kernel, general faer path:              {kernel_general:>12.0} poses/s");
         println!("end to end (grid -> Parquet, standard):  {e2e:>12.0} poses/s");
+        println!("Parquet written ({}):                {bytes_per_pose:>12.1} bytes/pose", compression.name());
     }
     Ok(())
 }

@@ -250,3 +250,21 @@ fn unwritable_output_fails_with_exit_1_and_no_final_file() {
     assert!(err.contains("out") && err.lines().count() <= 2, "{err}");
     assert_eq!(std::fs::read(&blocker).unwrap(), b"not a directory");
 }
+
+/// `bench --json` prints one JSON object with INTERFACE.md's keys, every rate a
+/// positive number and the Parquet size per pose that of the standard columns
+/// (at least a byte a column, at most eight and some overhead uncompressed).
+#[test]
+fn bench_json_has_the_interface_keys() {
+    let o = run(&["bench", "--json", "--poses", "3000", "--threads", "1", "--compression", "none"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+    for key in ["kernel_poses_per_s", "kernel_general_poses_per_s", "end_to_end_poses_per_s"] {
+        let rate = v[key].as_f64().unwrap_or_else(|| panic!("{key} missing: {v}"));
+        assert!(rate.is_finite() && rate > 0.0, "{key} = {rate}");
+    }
+    assert_eq!(v["threads"], 1);
+    assert_eq!(v["compression"], "none");
+    let bytes = v["bytes_per_pose"].as_f64().unwrap();
+    assert!((70.0..=9.0 * 70.0).contains(&bytes), "{bytes} bytes a pose for 70 columns");
+}
