@@ -23,7 +23,7 @@
 mod minimise;
 mod paths;
 
-pub use minimise::{bisect, brent_min, brent_root};
+pub use minimise::{brent_min, brent_root};
 pub use paths::{Along, Path, paths};
 
 use clearance_grid::{Sample, SampleSource};

@@ -1,8 +1,10 @@
 //! One-dimensional root and minimum refinement.
 
 /// Bisection of a sign change of `f` in `[a, b]` (`f(a)` and `f(b)` of opposite
-/// signs) until the bracket is at most `tol` wide; returns its midpoint.
-pub fn bisect(mut a: f64, mut b: f64, fa: f64, tol: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
+/// signs) until the bracket is at most `tol` wide; returns its midpoint. The
+/// yardstick that [`brent_root`] is tested against.
+#[cfg(test)]
+fn bisect(mut a: f64, mut b: f64, fa: f64, tol: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
     let mut sa = fa.signum();
     while (b - a).abs() > tol {
         let m = 0.5 * (a + b);
