@@ -267,14 +267,6 @@ fn search_options(variant: &Variant) -> SearchOptions {
     SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() }
 }
 
-/// The traces of a unit whose trace file is missing, by solving its poses.
-fn unit_traces(model: &Model, source: &SampleSource, u: &Unit, search: &SearchOptions) -> Vec<Trace> {
-    (u.range.start..u.range.end)
-        .into_par_iter()
-        .map_init(Workspace::new, |ws, i| trace(&solve_pose(model, &source.sample(i), u.mode, ws), model, search))
-        .collect()
-}
-
 /// After every part is written: the discontinuity search and the summary, then
 /// `discontinuities.parquet` and `summary.parquet`.
 fn finalize(
@@ -303,7 +295,10 @@ fn finalize(
                 let len = (u.range.end - u.range.start) as usize;
                 match read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len) {
                     Some(t) => traces.extend(t),
-                    None => traces.extend(unit_traces(model, source, u, &search)),
+                    // A part written without its traces: solve its poses again.
+                    None => {
+                        traces.extend(clearance_discontinuity::traces(model, source, mode, &search, u.range.clone()))
+                    }
                 }
             }
             let found = find_discontinuities_traced(model, source, mode, &traces);

@@ -135,6 +135,11 @@ struct Evaluator<'a> {
 }
 
 impl Evaluator<'_> {
+    /// The `k`-th sample of the path.
+    fn node(&self, k: usize) -> Sample {
+        self.source.sample(self.path.sample_index(k))
+    }
+
     fn at(&self, p: f64, ws: &mut Workspace) -> (Sample, PoseResult) {
         let s = self.path.sample_at(self.source, p);
         let r = solve_pose(self.model, &s, self.mode, ws);
@@ -211,12 +216,9 @@ pub fn trace(r: &PoseResult, model: &Model, opts: &SearchOptions) -> Trace {
     t
 }
 
-/// The solved samples of one path, solved when first asked for.
+/// The samples of one path, solved when first asked for.
 struct Solved<'a> {
-    model: &'a Model,
-    source: &'a SampleSource,
-    path: &'a Path,
-    mode: Mode,
+    ev: &'a Evaluator<'a>,
     cache: HashMap<usize, PoseResult>,
     /// Reactions only, for following load magnitudes.
     reactions: Vec<Option<JointReactions>>,
@@ -225,16 +227,15 @@ struct Solved<'a> {
 impl Solved<'_> {
     /// The reactions at the `k`-th sample (a solvable one).
     fn reactions(&mut self, k: usize, ws: &mut Workspace) -> JointReactions {
-        let (model, source, path, mode) = (self.model, self.source, self.path, self.mode);
-        *self.reactions[k].get_or_insert_with(|| {
-            solve_reactions(model, &source.sample(path.sample_index(k)), mode, ws).unwrap_or_default()
-        })
+        let ev = self.ev;
+        *self.reactions[k]
+            .get_or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
     }
 
-    /// The `k`-th sample of the path.
+    /// The `k`-th sample of the path, solved.
     fn get(&mut self, k: usize, ws: &mut Workspace) -> PoseResult {
-        let (model, source, path, mode) = (self.model, self.source, self.path, self.mode);
-        *self.cache.entry(k).or_insert_with(|| solve_pose(model, &source.sample(path.sample_index(k)), mode, ws))
+        let ev = self.ev;
+        *self.cache.entry(k).or_insert_with(|| solve_pose(ev.model, &ev.node(k), ev.mode, ws))
     }
 }
 
@@ -250,7 +251,7 @@ pub fn search_path(
 ) -> Vec<Discontinuity> {
     let ev = Evaluator { model, source, path, mode };
     let traces: Vec<Trace> = (0..path.len()).map(|k| trace_of(path.sample_index(k))).collect();
-    let mut solved = Solved { model, source, path, mode, cache: HashMap::new(), reactions: vec![None; path.len()] };
+    let mut solved = Solved { ev: &ev, cache: HashMap::new(), reactions: vec![None; path.len()] };
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
@@ -353,9 +354,15 @@ fn vector_switches(
     }
 }
 
-/// The [`Trace`] of every sample of a (variant, mode), solving each once.
-pub fn traces(model: &Model, source: &SampleSource, mode: Mode, opts: &SearchOptions) -> Vec<Trace> {
-    (0..source.len())
+/// The [`Trace`] of the samples in `range` of a (variant, mode), solving each once.
+pub fn traces(
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    opts: &SearchOptions,
+    range: std::ops::Range<u64>,
+) -> Vec<Trace> {
+    range
         .into_par_iter()
         .map_init(Workspace::new, |ws, i| trace(&solve_pose(model, &source.sample(i), mode, ws), model, opts))
         .collect()
@@ -384,5 +391,5 @@ pub fn find_discontinuities(
     mode: Mode,
     opts: &SearchOptions,
 ) -> Vec<Discontinuity> {
-    find_discontinuities_traced(model, source, mode, &traces(model, source, mode, opts))
+    find_discontinuities_traced(model, source, mode, &traces(model, source, mode, opts, 0..source.len()))
 }
