@@ -68,22 +68,38 @@ impl Lu6 {
         Some(Self { lu: a, perm })
     }
 
-    /// `A·x = b`.
-    fn solve(&self, b: &[f64; 6]) -> [f64; 6] {
+    /// `A·X = B` for `K` right-hand sides at once (row `i` of `B` holds component `i`
+    /// of every right-hand side): `x = P·b`, then `L` forward and `U` backward, a whole
+    /// row at a time so the compiler vectorises across right-hand sides.
+    fn solve_rows<const K: usize>(&self, b: &[[f64; K]; 6]) -> [[f64; K]; 6] {
         let lu = &self.lu;
         let mut x = self.perm.map(|p| b[p]);
         for i in 1..6 {
             for j in 0..i {
-                x[i] -= lu[i][j] * x[j];
+                let (row, l) = (x[j], lu[i][j]);
+                for (xi, r) in x[i].iter_mut().zip(row) {
+                    *xi -= l * r;
+                }
             }
         }
         for i in (0..6).rev() {
             for j in i + 1..6 {
-                x[i] -= lu[i][j] * x[j];
+                let (row, u) = (x[j], lu[i][j]);
+                for (xi, r) in x[i].iter_mut().zip(row) {
+                    *xi -= u * r;
+                }
             }
-            x[i] /= lu[i][i];
+            let pivot = lu[i][i];
+            for xi in &mut x[i] {
+                *xi /= pivot;
+            }
         }
         x
+    }
+
+    /// `A·x = b`.
+    fn solve(&self, b: &[f64; 6]) -> [f64; 6] {
+        self.solve_rows(&b.map(|v| [v])).map(|[v]| v)
     }
 
     /// `Aᵀ·x = d` for `K` right-hand sides at once (row `i` of `d` holds component
@@ -119,34 +135,13 @@ impl Lu6 {
         x
     }
 
-    /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse `U⁻¹·L⁻¹·P`, computed a
-    /// whole row at a time.
+    /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse.
     fn inverse_norms(&self) -> (f64, f64) {
-        let lu = &self.lu;
-        let mut x = [[0.0; 6]; 6];
-        for i in 0..6 {
-            x[i][self.perm[i]] = 1.0;
+        let mut identity = [[0.0; 6]; 6];
+        for (i, row) in identity.iter_mut().enumerate() {
+            row[i] = 1.0;
         }
-        for i in 1..6 {
-            for j in 0..i {
-                let (row, l) = (x[j], lu[i][j]);
-                for (xi, r) in x[i].iter_mut().zip(row) {
-                    *xi -= l * r;
-                }
-            }
-        }
-        for i in (0..6).rev() {
-            for j in i + 1..6 {
-                let (row, u) = (x[j], lu[i][j]);
-                for (xi, r) in x[i].iter_mut().zip(row) {
-                    *xi -= u * r;
-                }
-            }
-            let pivot = lu[i][i];
-            for xi in &mut x[i] {
-                *xi /= pivot;
-            }
-        }
+        let x = self.solve_rows(&identity);
         let mut col_sums = [0.0f64; 6];
         let mut row_max = 0.0f64;
         for row in &x {
@@ -189,17 +184,13 @@ pub struct Reduced {
     /// `n_j = y_j × e_j`.
     n: [Vector3<f64>; 3],
     g: Option<Lu6>,
-    /// `‖G‖₁` and `‖G‖∞`.
-    norm_one: f64,
-    norm_inf: f64,
     /// `κ₁(G)` and `κ₁(M)`; infinite when singular.
     pub cond_g: f64,
     pub cond_m: f64,
 }
 
-/// Builds and factors `G` for the posture, without its conditioning (NaN): enough
-/// for the reactions of a posture already known to be regular.
-pub fn factor(model: &Model, pose: &Posture) -> Reduced {
+/// `n_j` and `G` of the posture.
+fn build(model: &Model, pose: &Posture) -> ([Vector3<f64>; 3], A6) {
     let y = &model.geometry.y;
     let n = [0, 1, 2].map(|j| y[j].cross(&pose.e[j]));
     let mut g = [[0.0; 6]; 6];
@@ -212,23 +203,31 @@ pub fn factor(model: &Model, pose: &Posture) -> Reduced {
             }
         }
     }
-    let (norm_one, norm_inf) = norms(&g);
-    Reduced { n, g: Lu6::new(g), norm_one, norm_inf, cond_g: f64::NAN, cond_m: f64::NAN }
+    (n, g)
+}
+
+/// Builds and factors `G` for the posture, without its conditioning (NaN): enough
+/// for the reactions of a posture already known to be regular.
+pub fn factor(model: &Model, pose: &Posture) -> Reduced {
+    let (n, g) = build(model, pose);
+    Reduced { n, g: Lu6::new(g), cond_g: f64::NAN, cond_m: f64::NAN }
 }
 
 /// Builds and factors `G` for the posture (`M` comes with it) and both
 /// condition numbers.
 pub fn reduce(model: &Model, pose: &Posture) -> Reduced {
-    let mut r = factor(model, pose);
+    let (n, g) = build(model, pose);
+    let (norm_one, norm_inf) = norms(&g);
+    let g = Lu6::new(g);
     let finite = |c: f64| if c.is_finite() { c } else { f64::INFINITY };
-    (r.cond_g, r.cond_m) = match &r.g {
+    let (cond_g, cond_m) = match &g {
         Some(lu) => {
             let (inv_one, inv_inf) = lu.inverse_norms();
-            (finite(r.norm_one * inv_one), finite(r.norm_inf * inv_inf))
+            (finite(norm_one * inv_one), finite(norm_inf * inv_inf))
         }
         None => (f64::INFINITY, f64::INFINITY),
     };
-    r
+    Reduced { n, g, cond_g, cond_m }
 }
 
 impl Reduced {
