@@ -102,6 +102,21 @@ fn part_complete(path: &Path) -> bool {
     check().unwrap_or(false)
 }
 
+/// The statistics file of a part, parsed.
+fn read_stats(path: &Path) -> Result<SummaryStats> {
+    let text =
+        std::fs::read(path).with_context(|| format!("missing {}: finish the run with --resume", path.display()))?;
+    serde_json::from_slice(&text).with_context(|| format!("corrupt {}", path.display()))
+}
+
+/// Whether `--resume` can keep a unit: its part is whole and its statistics file
+/// (written before it, and like it synced only at the end) parses. A missing trace
+/// is rebuilt at the end instead.
+fn unit_complete(out: &Path, u: &Unit) -> bool {
+    part_complete(&part_path(out, u.variant, u.mode, u.chunk))
+        && read_stats(&stats_path(out, u.variant, u.mode, u.chunk)).is_ok()
+}
+
 /// Flushes the files of `units` (those that exist) and their directories to the
 /// disk, so that a marker written after this covers data that survives a power cut.
 fn sync_units(out: &Path, units: &[Unit]) -> Result<()> {
@@ -288,10 +303,7 @@ fn finalize(
             let mut stats = SummaryStats::default();
             let mut traces: Vec<Trace> = Vec::with_capacity(source.len() as usize);
             for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
-                let path = stats_path(&opts.out, u.variant, u.mode, u.chunk);
-                let text = std::fs::read(&path)
-                    .with_context(|| format!("missing {}: finish the run with --resume", path.display()))?;
-                stats.merge(&serde_json::from_slice(&text).with_context(|| format!("corrupt {}", path.display()))?);
+                stats.merge(&read_stats(&stats_path(&opts.out, u.variant, u.mode, u.chunk))?);
                 let len = (u.range.end - u.range.start) as usize;
                 match read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len) {
                     Some(t) => traces.extend(t),
@@ -333,11 +345,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
 
     let all = units(job, opts.chunk_size);
     let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
-    let todo: Vec<Unit> = mine
-        .iter()
-        .filter(|u| !(opts.resume && part_complete(&part_path(&opts.out, u.variant, u.mode, u.chunk))))
-        .cloned()
-        .collect();
+    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && unit_complete(&opts.out, u))).cloned().collect();
     let mine_poses: u64 = mine.iter().map(|u| u.range.end - u.range.start).sum();
     let todo_poses: u64 = todo.iter().map(|u| u.range.end - u.range.start).sum();
     let total = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;

@@ -229,6 +229,8 @@ fn same_data_for_any_threads_chunks_shards_and_resume() {
     std::fs::OpenOptions::new().write(true).open(&torn).unwrap().set_len(len / 2).unwrap();
     std::fs::write(sharded.join("poses/variant=0/part-kinetostatic-000000.parquet"), b"").unwrap();
     std::fs::remove_file(sharded.join("_stats/variant=0/kinetostatic-000002.trace")).unwrap();
+    // A whole part whose statistics file was torn is computed again too.
+    std::fs::write(sharded.join("_stats/variant=0/kinetostatic-000003.json"), b"{\"samp").unwrap();
     let o = run(&["run", j, "--out", s, "--chunk-size", "40", "--resume", "-q"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(read_rows(&sharded), want, "resumed over torn parts");
