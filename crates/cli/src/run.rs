@@ -13,7 +13,9 @@ use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clearance_discontinuity::{SearchOptions, Trace, find_discontinuities_traced, trace};
+use clearance_discontinuity::{
+    Loads, SearchOptions, Trace, axes, find_discontinuities_traced, keep_local_minima, trace_loads,
+};
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
@@ -389,6 +391,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             }
             Ok(())
         });
+        // The load magnitudes of the unit being computed, reused from unit to unit.
+        let mut loads: Vec<Loads> = Vec::new();
         for unit in &todo {
             let (model, source) = &models[unit.variant as usize];
             let variant = &variants[unit.variant as usize];
@@ -397,24 +401,28 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let n = (unit.range.end - unit.range.start) as usize;
             let mut cols = schema.columns(n);
             let mut traces: Vec<Trace> = vec![0; n];
+            loads.resize(n, [0.0; 12]);
             let block_stats: Vec<SummaryStats> = cols
                 .blocks(&schema, BLOCK)
                 .into_par_iter()
-                .zip(traces.par_chunks_mut(BLOCK))
+                .zip(traces.par_chunks_mut(BLOCK).zip(loads.par_chunks_mut(BLOCK)))
                 .enumerate()
-                .map_init(Workspace::new, |ws, (b, (mut sink, block_traces))| {
+                .map_init(Workspace::new, |ws, (b, (mut sink, (block_traces, block_loads)))| {
                     let mut stats = SummaryStats::default();
                     let first = unit.range.start + (b * BLOCK) as u64;
-                    for (i, t) in block_traces.iter_mut().enumerate() {
+                    for (i, (t, l)) in block_traces.iter_mut().zip(block_loads.iter_mut()).enumerate() {
                         let s = source.sample(first + i as u64);
                         let r = solve_pose(model, &s, unit.mode, ws);
                         sink.put(i, &s, &r);
                         stats.push(&r);
-                        *t = trace(&r, model, &search);
+                        (*t, *l) = trace_loads(&r, model, &search);
                     }
                     stats
                 })
                 .collect();
+            // With the whole unit in hand, most samples are seen not to be load
+            // minima, so the search at the end solves only the others.
+            keep_local_minima(&axes(source), unit.range.start, &mut traces, &loads[..n]);
             let mut stats = SummaryStats::default();
             for b in &block_stats {
                 stats.merge(b);

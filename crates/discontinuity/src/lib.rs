@@ -22,9 +22,13 @@
 
 mod minimise;
 mod paths;
+mod trace;
 
 pub use minimise::{brent_min, brent_root};
-pub use paths::{Along, Path, paths};
+pub use paths::{Along, Axis, Path, axes, paths};
+pub use trace::{Loads, Trace, keep_local_minima, trace, trace_loads, traces};
+
+use trace::{SOLVABLE, det_bit, low_bit};
 
 use clearance_grid::{Sample, SampleSource};
 use clearance_model::{ClearanceKind, KINDS, Mode};
@@ -174,48 +178,6 @@ impl Evaluator<'_> {
     }
 }
 
-/// What the search needs to know of one sample without solving it again, as bits:
-/// whether it is solvable, and per (kind, limb) whether the deciding load is
-/// determinate and whether it is "low" (axial: negative; vector loads: below the dip
-/// threshold). A run records it for every pose as it goes, so the search solves
-/// only the few samples around a switch.
-pub type Trace = u32;
-
-const SOLVABLE: Trace = 1;
-
-fn det_bit(kind: ClearanceKind, j: usize) -> Trace {
-    1 << (1 + 3 * kind.index() + j)
-}
-
-fn low_bit(kind: ClearanceKind, j: usize) -> Trace {
-    1 << (13 + 3 * kind.index() + j)
-}
-
-/// The [`Trace`] of one solved sample.
-pub fn trace(r: &PoseResult, model: &Model, opts: &SearchOptions) -> Trace {
-    if !solvable(r) {
-        return 0;
-    }
-    let mut t = SOLVABLE;
-    for kind in KINDS {
-        for j in 0..3 {
-            let l = load(r, model, kind, j);
-            let magnitude = l.magnitude();
-            if magnitude > model.indeterminate_floor {
-                t |= det_bit(kind, j);
-            }
-            let low = match l {
-                Load::Scalar(s) => s.is_sign_negative(),
-                Load::Vector(_) => magnitude < opts.dip_threshold,
-            };
-            if low {
-                t |= low_bit(kind, j);
-            }
-        }
-    }
-    t
-}
-
 /// The samples of one path, solved when first asked for.
 struct Solved<'a> {
     ev: &'a Evaluator<'a>,
@@ -326,7 +288,7 @@ fn vector_switches(
     };
     for k in 1..det.len().saturating_sub(1) {
         // An interior local minimum (the first sample of a flat bottom) below the
-        // dip threshold.
+        // dip threshold; the trace has ruled out most other samples already.
         if !below[k] {
             continue;
         }
@@ -352,20 +314,6 @@ fn vector_switches(
             out.push(ev.record(kind, j, p, ws, &rl, &rr));
         }
     }
-}
-
-/// The [`Trace`] of the samples in `range` of a (variant, mode), solving each once.
-pub fn traces(
-    model: &Model,
-    source: &SampleSource,
-    mode: Mode,
-    opts: &SearchOptions,
-    range: std::ops::Range<u64>,
-) -> Vec<Trace> {
-    range
-        .into_par_iter()
-        .map_init(Workspace::new, |ws, i| trace(&solve_pose(model, &source.sample(i), mode, ws), model, opts))
-        .collect()
 }
 
 /// All switches of one (variant, mode) from the traces of its samples (indexed by

@@ -82,56 +82,61 @@ fn values(r: &RangeSpec) -> Arc<[f64]> {
     (0..r.len()).map(|i| r.value(i)).collect()
 }
 
-/// Every path of the source (MODEL.md §8).
-pub fn paths(source: &SampleSource) -> Vec<Path> {
+/// One input that varies over the samples: sample `i` is node `(i / stride) % n`
+/// of it. Its paths are the lines that step through it with the others fixed.
+#[derive(Clone, Debug)]
+pub struct Axis {
+    pub along: Along,
+    pub stride: u64,
+    /// Nodes along it (more than one).
+    pub n: u64,
+    /// The input's value at each node.
+    pub params: Arc<[f64]>,
+}
+
+impl Axis {
+    /// Whether sample `i` is a path's first or last node along this axis.
+    pub fn is_end(&self, i: u64) -> bool {
+        let node = (i / self.stride) % self.n;
+        node == 0 || node == self.n - 1
+    }
+}
+
+/// The inputs the samples vary (row-major z, psi, theta on a grid; t along a
+/// trajectory), fastest last.
+pub fn axes(source: &SampleSource) -> Vec<Axis> {
     match source {
         SampleSource::Trajectory(tr) => {
-            vec![Path { along: Along::T, params: values(&tr.time), origin: 0, stride: 1 }]
+            vec![Axis { along: Along::T, stride: 1, n: tr.time.len(), params: values(&tr.time) }]
         }
         SampleSource::Grid(g) => {
-            let (nz, np, nt) = (g.z.len(), g.psi.len(), g.theta.len());
-            let index = |iz: u64, ip: u64, it: u64| (iz * np + ip) * nt + it;
-            let mut out = Vec::new();
-            if nt > 1 {
-                let params = values(&g.theta);
-                for iz in 0..nz {
-                    for ip in 0..np {
-                        out.push(Path {
-                            along: Along::Theta,
-                            params: params.clone(),
-                            origin: index(iz, ip, 0),
-                            stride: 1,
-                        });
-                    }
-                }
-            }
-            if np > 1 {
-                let params = values(&g.psi);
-                for iz in 0..nz {
-                    for it in 0..nt {
-                        out.push(Path {
-                            along: Along::Psi,
-                            params: params.clone(),
-                            origin: index(iz, 0, it),
-                            stride: nt,
-                        });
-                    }
-                }
-            }
-            if nz > 1 {
-                let params = values(&g.z);
-                for ip in 0..np {
-                    for it in 0..nt {
-                        out.push(Path {
-                            along: Along::Z,
-                            params: params.clone(),
-                            origin: index(0, ip, it),
-                            stride: np * nt,
-                        });
-                    }
-                }
-            }
-            out
+            let (np, nt) = (g.psi.len(), g.theta.len());
+            [(Along::Z, &g.z, np * nt), (Along::Psi, &g.psi, nt), (Along::Theta, &g.theta, 1)]
+                .into_iter()
+                .filter(|(_, r, _)| r.len() > 1)
+                .map(|(along, r, stride)| Axis { along, stride, n: r.len(), params: values(r) })
+                .collect()
         }
     }
+}
+
+/// Every path of the source (MODEL.md §8): along each axis, fastest first, one line
+/// per node of the other inputs, in order of its first sample.
+pub fn paths(source: &SampleSource) -> Vec<Path> {
+    let len = source.len();
+    let mut out = Vec::new();
+    for axis in axes(source).into_iter().rev() {
+        let span = axis.stride * axis.n;
+        for outer in 0..len / span {
+            for inner in 0..axis.stride {
+                out.push(Path {
+                    along: axis.along,
+                    params: axis.params.clone(),
+                    origin: outer * span + inner,
+                    stride: axis.stride,
+                });
+            }
+        }
+    }
+    out
 }

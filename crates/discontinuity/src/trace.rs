@@ -1,0 +1,137 @@
+//! What the search needs to know of each sample, recorded while a run solves it,
+//! so that the search afterwards solves only the few samples around a switch.
+
+use clearance_grid::SampleSource;
+use clearance_model::{ClearanceKind, KINDS, Mode};
+use clearance_solver::{Model, PoseResult, Workspace, solve_pose};
+use rayon::prelude::*;
+
+use crate::paths::{Axis, axes};
+use crate::{Load, SearchOptions, load, solvable};
+
+/// One sample's [`Trace`], as bits: whether it is solvable, and per (kind, limb)
+/// whether the deciding load is determinate and whether the sample is a candidate
+/// for the search:
+///
+/// - `r_axial`: the load is negative (a switch lies between samples of opposite sign);
+/// - vector loads: the magnitude is below the dip threshold and, as far as the
+///   samples in hand show ([`keep_local_minima`]), an interior local minimum along
+///   some path. Only those can be switches; the search checks them exactly.
+pub type Trace = u32;
+
+pub(crate) const SOLVABLE: Trace = 1;
+
+pub(crate) fn det_bit(kind: ClearanceKind, j: usize) -> Trace {
+    1 << (1 + 3 * kind.index() + j)
+}
+
+pub(crate) fn low_bit(kind: ClearanceKind, j: usize) -> Trace {
+    1 << (13 + 3 * kind.index() + j)
+}
+
+/// The deciding load magnitudes of one sample, by `3·kind.index() + limb`
+/// (zero where it is not solvable).
+pub type Loads = [f64; 12];
+
+/// The [`Trace`] of one solved sample, before [`keep_local_minima`], with its load
+/// magnitudes.
+pub fn trace_loads(r: &PoseResult, model: &Model, opts: &SearchOptions) -> (Trace, Loads) {
+    let mut loads = [0.0; 12];
+    if !solvable(r) {
+        return (0, loads);
+    }
+    let mut t = SOLVABLE;
+    for kind in KINDS {
+        for j in 0..3 {
+            let l = load(r, model, kind, j);
+            let magnitude = l.magnitude();
+            loads[3 * kind.index() + j] = magnitude;
+            if magnitude > model.indeterminate_floor {
+                t |= det_bit(kind, j);
+            }
+            let low = match l {
+                Load::Scalar(s) => s.is_sign_negative(),
+                Load::Vector(_) => magnitude < opts.dip_threshold,
+            };
+            if low {
+                t |= low_bit(kind, j);
+            }
+        }
+    }
+    (t, loads)
+}
+
+/// The [`Trace`] of one solved sample, with every low vector load still a candidate.
+pub fn trace(r: &PoseResult, model: &Model, opts: &SearchOptions) -> Trace {
+    trace_loads(r, model, opts).0
+}
+
+/// Relative slack of the comparisons in [`keep_local_minima`]: the search solves
+/// the samples again (reactions only), and a round-off difference must not hide a
+/// minimum it would find.
+const SLACK: f64 = 1e-9;
+
+/// Clears the vector-load candidate bits of the samples `first..first + traces.len()`
+/// that cannot be an interior local minimum along any path: the search then never
+/// solves them. A neighbour outside the range, not solvable or indeterminate leaves
+/// the sample a candidate (the search decides), so the result never depends on
+/// where a range starts or ends; only the work does.
+pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &mut [Trace], loads: &[Loads]) {
+    assert_eq!(traces.len(), loads.len(), "one load set per trace");
+    let n = traces.len();
+    for i in 0..n {
+        for kind in KINDS {
+            if kind == ClearanceKind::RAxial {
+                continue;
+            }
+            for j in 0..3 {
+                let (low, det) = (low_bit(kind, j), det_bit(kind, j));
+                if traces[i] & low == 0 {
+                    continue;
+                }
+                let slot = 3 * kind.index() + j;
+                let here = loads[i][slot];
+                // Whether the sample `k` steps away (if in hand) does not rule out a minimum here.
+                let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
+                    Some(k) => {
+                        traces[k] & SOLVABLE == 0 || traces[k] & det == 0 || here <= loads[k][slot] * (1.0 + SLACK)
+                    }
+                    None => true,
+                };
+                let candidate = axes.iter().any(|a| {
+                    let s = a.stride as usize;
+                    !a.is_end(first + i as u64) && allows(i.checked_sub(s)) && allows(i.checked_add(s))
+                });
+                if !candidate {
+                    traces[i] &= !low;
+                }
+            }
+        }
+    }
+}
+
+/// Samples whose traces [`traces`] settles together: bounds the memory of their
+/// load magnitudes.
+const TRACE_CHUNK: u64 = 1 << 16;
+
+/// The [`Trace`] of the samples in `range` of a (variant, mode), solving each once.
+pub fn traces(
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    opts: &SearchOptions,
+    range: std::ops::Range<u64>,
+) -> Vec<Trace> {
+    let axes = axes(source);
+    let mut out = Vec::with_capacity((range.end - range.start) as usize);
+    for chunk in clearance_grid::chunks(range.end - range.start, TRACE_CHUNK) {
+        let first = range.start + chunk.start;
+        let (mut t, loads): (Vec<Trace>, Vec<Loads>) = (first..range.start + chunk.end)
+            .into_par_iter()
+            .map_init(Workspace::new, |ws, i| trace_loads(&solve_pose(model, &source.sample(i), mode, ws), model, opts))
+            .unzip();
+        keep_local_minima(&axes, first, &mut t, &loads);
+        out.extend(t);
+    }
+    out
+}

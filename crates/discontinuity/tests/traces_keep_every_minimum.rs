@@ -1,0 +1,70 @@
+//! The candidates a run's traces keep ([`keep_local_minima`]) lose no switch: the
+//! search over pruned traces finds exactly what it finds when every low sample is
+//! a candidate, however the samples are cut into ranges, and the pruning does
+//! remove most candidates (otherwise it saves nothing).
+
+use clearance_discontinuity::{SearchOptions, Trace, find_discontinuities_traced, trace, traces};
+use clearance_grid::SampleSource;
+use clearance_model::{JobSpec, Mode};
+use clearance_solver::{Model, Workspace, solve_pose};
+
+/// Low candidate bits of the vector loads (s_radial, r_radial, r_angular).
+fn vector_candidates(t: &[Trace]) -> u32 {
+    let axial = 0b111 << (13 + 3 * 2);
+    t.iter().map(|t| ((t >> 13) << 13 & !axial).count_ones()).sum()
+}
+
+/// `prunes`: whether, with all samples in one range, at most a fifth of the low
+/// vector loads may stay candidates (not so where a load is flat along some axis).
+fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
+    let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
+    let model = Model::from_job(&job);
+    let source = SampleSource::new(&job);
+    let opts = SearchOptions { dip_threshold: job.analysis.discontinuity_load_fraction * job.weight() };
+    let n = source.len();
+    let mut ws = Workspace::new();
+    let every: Vec<Trace> =
+        (0..n).map(|i| trace(&solve_pose(&model, &source.sample(i), mode, &mut ws), &model, &opts)).collect();
+    let expected = find_discontinuities_traced(&model, &source, mode, &every);
+    assert!(!expected.is_empty(), "the case must have switches to lose");
+    for &len in ranges {
+        let mut pruned = Vec::new();
+        let mut start = 0;
+        while start < n {
+            let end = (start + len).min(n);
+            pruned.extend(traces(&model, &source, mode, &opts, start..end));
+            start = end;
+        }
+        assert_eq!(find_discontinuities_traced(&model, &source, mode, &pruned), expected, "ranges of {len}");
+        let (before, after) = (vector_candidates(&every), vector_candidates(&pruned));
+        if prunes && len >= n {
+            assert!(after * 5 < before, "ranges of {len}: {after} of {before} candidates left");
+        }
+    }
+}
+
+/// A grid in Z, Ψ and Θ with an added mass (radial switches) and a dip threshold
+/// of half the weight, so most vector loads are low. Some loads barely change
+/// with Z, so the middle Z node stays a candidate along Z.
+#[test]
+fn grid_switches_survive_pruning_in_any_ranges() {
+    let text = "[mass]\npoints = [{ mass = 30.0, at = [0.0, 0.0, 1.0] }]\n\
+        [clearance]\ns_radial = 1e-4\nr_radial = 1e-4\nr_axial = 1e-4\nr_angular = 1e-4\n\
+        [analysis]\ndiscontinuity_load_fraction = 0.5\n\
+        [grid]\nz = { start = 2.0, stop = 2.1, n = 3 }\n\
+        psi = { start = -0.5, stop = 0.5, n = 23 }\ntheta = { start = -0.5, stop = 0.5, n = 29 }\n";
+    check(text, Mode::Kinetostatic, &[1, 7, 29, 500, 2001], false);
+    let flat = text.replace("z = { start = 2.0, stop = 2.1, n = 3 }", "z = 2.05");
+    check(&flat, Mode::Kinetostatic, &[13, 300, 667], true);
+}
+
+/// A trajectory in dynamics, where the path is the time axis.
+#[test]
+fn trajectory_switches_survive_pruning_in_any_ranges() {
+    let text = "[mass]\npoints = [{ mass = 30.0, at = [0.0, 0.0, 1.0] }]\n\
+        [clearance]\nr_radial = 1e-4\nr_angular = 1e-4\n\
+        [analysis]\nmodes = [\"dynamic\"]\ndiscontinuity_load_fraction = 0.5\n\
+        [trajectory]\ntime = { start = 1.25, stop = 3.75, n = 801 }\nz = 2.05\npsi = 0.1\n\
+        theta = { harmonics = [ { amplitude = 0.5, period = 5.0 } ] }\n";
+    check(text, Mode::Dynamic, &[3, 100, 801], true);
+}
