@@ -21,6 +21,7 @@
 //! assert!(!schema.names().any(|n| n == "q1"));
 //! ```
 
+mod output;
 mod schema;
 mod summary;
 mod tables;

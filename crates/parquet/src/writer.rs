@@ -1,6 +1,6 @@
 //! Parquet files that appear under their final name only when complete.
 
-use std::fs::File;
+use crate::output::Output;
 use std::path::{Path, PathBuf};
 
 use arrow::datatypes::{DataType, Schema};
@@ -131,7 +131,7 @@ fn properties(schema: &Schema, opts: &WriteOptions, extra: &[(String, String)]) 
 }
 
 /// Asks the kernel to start writing the file's dirty pages now, without waiting.
-fn start_writeback(file: &File) {
+fn start_writeback(file: &std::fs::File) {
     #[cfg(target_os = "linux")]
     {
         use std::os::fd::AsRawFd;
@@ -158,7 +158,7 @@ pub fn write_parquet(
     let result = (|| {
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
         let enc = |e| ParquetError::from_parquet(path, e);
-        let file = File::create(&tmp).map_err(io)?;
+        let file = Output::create(&tmp).map_err(io)?;
         let mut props = properties(&schema, opts, extra);
         // What `ArrowWriter` does, so that readers get the Arrow types and units back.
         add_encoded_arrow_schema_to_metadata(&schema, &mut props);
@@ -198,10 +198,12 @@ pub fn write_parquet(
         // `finish` writes the footer and flushes the buffer with the I/O error
         // intact (`into_inner` would turn a full disk into a string).
         writer.finish().map_err(enc)?;
+        let out = writer.inner_mut();
+        out.finish().map_err(io)?;
         if opts.durable {
-            writer.inner().sync_all().map_err(io)?;
-        } else {
-            start_writeback(writer.inner());
+            out.file().sync_all().map_err(io)?;
+        } else if !out.is_direct() {
+            start_writeback(out.file());
         }
         drop(writer);
         std::fs::rename(&tmp, path).map_err(io)
