@@ -422,7 +422,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 .collect();
             // With the whole unit in hand, most samples are seen not to be load
             // minima, so the search at the end solves only the others.
-            keep_local_minima(&axes(source), unit.range.start, &mut traces, &loads[..n]);
+            let traces = keep_local_minima(&axes(source), unit.range.start, &traces, &loads[..n]);
             let mut stats = SummaryStats::default();
             for b in &block_stats {
                 stats.merge(b);

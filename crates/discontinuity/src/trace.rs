@@ -71,43 +71,50 @@ pub fn trace(r: &PoseResult, model: &Model, opts: &SearchOptions) -> Trace {
 /// minimum it would find.
 const SLACK: f64 = 1e-9;
 
-/// Clears the vector-load candidate bits of the samples `first..first + traces.len()`
-/// that cannot be an interior local minimum along any path: the search then never
-/// solves them. A neighbour outside the range, not solvable or indeterminate leaves
-/// the sample a candidate (the search decides), so the result never depends on
-/// where a range starts or ends; only the work does.
-pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &mut [Trace], loads: &[Loads]) {
+/// The traces of the samples `first..first + traces.len()` with the vector-load
+/// candidate bits cleared where the sample cannot be an interior local minimum
+/// along any path: the search then never solves it. A neighbour outside the range,
+/// not solvable or indeterminate leaves the sample a candidate (the search
+/// decides), so the result never depends on where a range starts or ends; only the
+/// work does. Samples are settled in parallel.
+pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[Loads]) -> Vec<Trace> {
     assert_eq!(traces.len(), loads.len(), "one load set per trace");
     let n = traces.len();
-    for i in 0..n {
-        for kind in KINDS {
-            if kind == ClearanceKind::RAxial {
-                continue;
-            }
-            for j in 0..3 {
-                let (low, det) = (low_bit(kind, j), det_bit(kind, j));
-                if traces[i] & low == 0 {
+    (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|i| {
+            let mut t = traces[i];
+            for kind in KINDS {
+                if kind == ClearanceKind::RAxial {
                     continue;
                 }
-                let slot = 3 * kind.index() + j;
-                let here = loads[i][slot];
-                // Whether the sample `k` steps away (if in hand) does not rule out a minimum here.
-                let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
-                    Some(k) => {
-                        traces[k] & SOLVABLE == 0 || traces[k] & det == 0 || here <= loads[k][slot] * (1.0 + SLACK)
+                for j in 0..3 {
+                    let (low, det) = (low_bit(kind, j), det_bit(kind, j));
+                    if t & low == 0 {
+                        continue;
                     }
-                    None => true,
-                };
-                let candidate = axes.iter().any(|a| {
-                    let s = a.stride as usize;
-                    !a.is_end(first + i as u64) && allows(i.checked_sub(s)) && allows(i.checked_add(s))
-                });
-                if !candidate {
-                    traces[i] &= !low;
+                    let slot = 3 * kind.index() + j;
+                    let here = loads[i][slot];
+                    // Whether the sample `k` (if in hand) does not rule out a minimum here.
+                    let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
+                        Some(k) => {
+                            traces[k] & SOLVABLE == 0 || traces[k] & det == 0 || here <= loads[k][slot] * (1.0 + SLACK)
+                        }
+                        None => true,
+                    };
+                    let candidate = axes.iter().any(|a| {
+                        let s = a.stride as usize;
+                        !a.is_end(first + i as u64) && allows(i.checked_sub(s)) && allows(i.checked_add(s))
+                    });
+                    if !candidate {
+                        t &= !low;
+                    }
                 }
             }
-        }
-    }
+            t
+        })
+        .collect()
 }
 
 /// Samples whose traces [`traces`] settles together: bounds the memory of their
@@ -126,12 +133,11 @@ pub fn traces(
     let mut out = Vec::with_capacity((range.end - range.start) as usize);
     for chunk in clearance_grid::chunks(range.end - range.start, TRACE_CHUNK) {
         let first = range.start + chunk.start;
-        let (mut t, loads): (Vec<Trace>, Vec<Loads>) = (first..range.start + chunk.end)
+        let (t, loads): (Vec<Trace>, Vec<Loads>) = (first..range.start + chunk.end)
             .into_par_iter()
             .map_init(Workspace::new, |ws, i| trace_loads(&solve_pose(model, &source.sample(i), mode, ws), model, opts))
             .unzip();
-        keep_local_minima(&axes, first, &mut t, &loads);
-        out.extend(t);
+        out.extend(keep_local_minima(&axes, first, &t, &loads));
     }
     out
 }

@@ -10,6 +10,7 @@ use arrow::record_batch::RecordBatch;
 use clearance_grid::Sample;
 use clearance_model::{KINDS, Mode};
 use clearance_solver::{PoseError, PoseResult, Status};
+use rayon::prelude::*;
 
 /// Which columns to write (INTERFACE.md `--columns`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -229,11 +230,14 @@ impl PoseSchema {
 
     /// Empty column buffers for `rows` rows, to be filled block by block.
     pub fn columns(&self, rows: usize) -> UnitColumns {
+        // Every value is written by `BlockSink::put`, so zeroed memory will do: the
+        // allocator hands it out untouched, and its pages are first touched by the
+        // threads that fill them rather than by one thread beforehand.
         UnitColumns {
             sample: vec![0; rows],
-            t: vec![f64::NAN; rows],
+            t: vec![0.0; rows],
             status: vec![Status::Unreachable; rows],
-            floats: self.slots.iter().map(|_| vec![f64::NAN; rows]).collect(),
+            floats: self.slots.iter().map(|_| vec![0.0; rows]).collect(),
         }
     }
 
@@ -250,7 +254,8 @@ impl PoseSchema {
         out.push(Arc::new(UInt64Array::from(cols.sample)));
         out.push(float(cols.t));
         out.push(Arc::new(StringArray::from_iter_values(cols.status.iter().map(|s| s.name()))));
-        out.extend(cols.floats.into_iter().map(float));
+        // Columns on the pool: a serial pass over a whole unit would leave it idle.
+        out.par_extend(cols.floats.into_par_iter().map(float));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 
