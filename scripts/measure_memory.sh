@@ -10,7 +10,9 @@
 # directory under /tmp that is deleted afterwards, and is measured with
 # `/usr/bin/time -v` ("Maximum resident set size"). The binary is
 # target/release/clearance (override: CLEARANCE_BIN=...).
-# Prints: poses, seconds, poses/s, peak RSS in MiB, output size in MiB.
+# Prints: poses, seconds, poses/s, CPU seconds (user + system, all threads) and CPU
+# microseconds a pose (steadier than wall time on a shared machine), peak RSS in MiB,
+# output size in MiB.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -48,12 +50,14 @@ start=$(date +%s.%N)
 end=$(date +%s.%N)
 
 rss_kb=$(awk -F: '/Maximum resident set size/ { gsub(/ /, "", $2); print $2 }' "$tmp/time.txt")
+cpu=$(awk -F: '/(User|System) time \(seconds\)/ { s += $2 } END { print s }' "$tmp/time.txt")
 out_bytes=$(du -sb "$tmp/out" | cut -f1)
-awk -v p="$poses" -v s="$side" -v t0="$start" -v t1="$end" -v kb="$rss_kb" -v ob="$out_bytes" -v c="$columns" 'BEGIN {
+awk -v p="$poses" -v s="$side" -v t0="$start" -v t1="$end" -v kb="$rss_kb" -v ob="$out_bytes" -v c="$columns" -v cpu="$cpu" 'BEGIN {
     secs = t1 - t0
     printf "poses:         %d (%d x %d grid, --columns %s)\n", p, s, s, c
     printf "seconds:       %.1f\n", secs
     printf "poses/s:       %.0f\n", p / secs
+    printf "CPU seconds:   %.2f (%.2f us a pose)\n", cpu, cpu / p * 1e6
     printf "peak RSS:      %.1f MiB\n", kb / 1024
     printf "output size:   %.1f MiB\n", ob / 1048576
 }'

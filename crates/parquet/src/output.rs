@@ -7,7 +7,9 @@
 //! from an aligned staging buffer, so the copy costs a user-space `memcpy` into
 //! that buffer instead. File systems without direct I/O (tmpfs, some network
 //! mounts) refuse the flag at `open` or at the first `write`; the file then goes on
-//! buffered, so the choice never shows in the bytes written.
+//! buffered, so the choice never shows in the bytes written. `CLEARANCE_BUFFERED_IO`
+//! set (to anything) makes every file buffered, for a file system that accepts
+//! direct I/O and then misbehaves with it.
 
 use std::fs::File;
 use std::io::{self, Write};

@@ -53,9 +53,9 @@ pub struct WriteOptions {
     /// Rows per row group.
     pub row_group_rows: usize,
     pub codec: Codec,
-    /// `fsync` before the rename. Part files leave it off: they are only started
-    /// on their way to the disk, so that writing overlaps computing, and a run syncs
-    /// them all before it declares itself complete (`clearance run`).
+    /// `fsync` before the rename. Part files leave it off, so that writing
+    /// overlaps computing: a run syncs them all before it declares itself complete
+    /// (`clearance run`).
     pub durable: bool,
 }
 
@@ -65,10 +65,11 @@ impl Default for WriteOptions {
     }
 }
 
-/// Page compression, with byte-stream-split doubles. On a standard part file of
-/// the bench job: none 537 bytes a pose, LZ4 377, zstd (level 1) 377; zstd costs
-/// about 4 % of end-to-end throughput on 2 cores (benches/README.md), which 30 %
-/// less disk for an overnight sweep is worth, so it is the default.
+/// Page compression, with byte-stream-split doubles. On the standard part files
+/// of the bench job: none 537 bytes a pose, LZ4 376, zstd (level 1) 369. Zstd costs
+/// about a fifth of end-to-end throughput on 2 cores (benches/README.md); it is the
+/// default because sweeps are kept and moved, often over shared file systems, where
+/// a third less data counts for more.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Codec {
     None,
