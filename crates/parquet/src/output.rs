@@ -5,9 +5,9 @@
 //! it; on this machine that copy was 13 % of a one-thread end-to-end run
 //! (`perf`, benches/README.md). With `O_DIRECT` the disk takes the bytes straight
 //! from an aligned staging buffer, so the copy costs a user-space `memcpy` into
-//! that buffer instead. File systems without direct I/O (tmpfs, some network
-//! mounts) refuse the flag at `open` or at the first `write`; the file then goes on
-//! buffered, so the choice never shows in the bytes written. `CLEARANCE_BUFFERED_IO`
+//! that buffer instead. Only local disk file systems get it ([`local_disk`]); one
+//! that refuses the flag at `open` or at a `write` gets the file buffered instead,
+//! so the choice never shows in the bytes written. `CLEARANCE_BUFFERED_IO`
 //! set (to anything) makes every file buffered, for a file system that accepts
 //! direct I/O and then misbehaves with it.
 
@@ -42,6 +42,29 @@ impl Staging {
     }
 }
 
+/// Whether the directory of `path` is on a local disk file system (ext2/3/4, XFS,
+/// Btrfs), where direct writes go straight to the device. On network and cluster
+/// file systems a direct write can wait for a round trip each time, and the page
+/// cache is what lets writing overlap; tmpfs has no disk to bypass to.
+#[cfg(target_os = "linux")]
+fn local_disk(path: &Path) -> bool {
+    use std::os::unix::ffi::OsStrExt;
+    const LOCAL: [u64; 3] = [0xEF53, 0x5846_5342, 0x9123_683E];
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let Ok(c) = std::ffi::CString::new(dir.as_os_str().as_bytes()) else { return false };
+    let mut fs = std::mem::MaybeUninit::<libc::statfs>::uninit();
+    // SAFETY: `c` is a NUL-terminated path and `fs` a buffer of the size statfs fills.
+    if unsafe { libc::statfs(c.as_ptr(), fs.as_mut_ptr()) } != 0 {
+        return false;
+    }
+    // SAFETY: statfs returned 0, so it filled the buffer.
+    let kind = unsafe { fs.assume_init() }.f_type as u64 & 0xFFFF_FFFF;
+    LOCAL.contains(&kind)
+}
+
 /// A file opened for writing, direct where possible. Call [`Output::finish`] once
 /// everything is written: a direct file's tail is still in memory until then.
 pub(crate) struct Output {
@@ -56,7 +79,7 @@ impl Output {
     /// Creates (or truncates) `path`.
     pub fn create(path: &Path) -> io::Result<Self> {
         #[cfg(target_os = "linux")]
-        if std::env::var_os("CLEARANCE_BUFFERED_IO").is_none() {
+        if std::env::var_os("CLEARANCE_BUFFERED_IO").is_none() && local_disk(path) {
             use std::os::unix::fs::OpenOptionsExt;
             let direct = std::fs::OpenOptions::new()
                 .write(true)
@@ -162,17 +185,29 @@ mod tests {
     use super::*;
 
     /// Bytes of awkward sizes, some larger than the staging buffer, end up in the
-    /// file exactly, direct or not: in the temp dir (often tmpfs, no direct I/O) and
-    /// under `target/` (a disk).
+    /// file exactly, direct or not: under `target/` (a disk: direct), in the temp dir
+    /// and in /dev/shm (tmpfs: buffered) where they exist.
     #[test]
     fn writes_exactly_the_bytes_given() {
         let name = format!("clearance-output-{}", std::process::id());
         let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target");
-        for dir in [std::env::temp_dir().join(&name), target.join(&name)] {
+        let shm = Path::new("/dev/shm");
+        let mut dirs = vec![std::env::temp_dir().join(&name), target.join(&name)];
+        if shm.is_dir() {
+            dirs.push(shm.join(&name));
+        }
+        for dir in dirs {
             std::fs::create_dir_all(&dir).unwrap();
             let path = dir.join("f.bin");
             let mut expected = Vec::new();
             let mut out = Output::create(&path).unwrap();
+            #[cfg(target_os = "linux")]
+            assert_eq!(
+                out.is_direct(),
+                local_disk(&path) && std::env::var_os("CLEARANCE_BUFFERED_IO").is_none(),
+                "{}",
+                dir.display()
+            );
             let mut state = 7u64;
             for size in [1usize, 4095, 4097, STAGING - 3, 10, 3 * STAGING + 17, 0, 12345] {
                 let chunk: Vec<u8> = (0..size)
