@@ -231,9 +231,18 @@ pub fn search_path(
                 continue;
             }
             for j in 0..3 {
+                let (d, l) = (det_bit(kind, j), low_bit(kind, j));
+                let segment = &traces[start..end];
+                // Nothing to find: no candidate among the vector loads, or an axial
+                // load of one sign throughout.
+                let low_det = segment.iter().any(|&t| t & d != 0 && t & l != 0);
+                let high_det = segment.iter().any(|&t| t & d != 0 && t & l == 0);
+                if !low_det || (kind == ClearanceKind::RAxial && !high_det) {
+                    continue;
+                }
                 // Determinate samples of this segment, for this joint and kind.
-                let det: Vec<usize> = (start..end).filter(|&i| traces[i] & det_bit(kind, j) != 0).collect();
-                let low: Vec<bool> = det.iter().map(|&i| traces[i] & low_bit(kind, j) != 0).collect();
+                let det: Vec<usize> = (start..end).filter(|&i| traces[i] & d != 0).collect();
+                let low: Vec<bool> = det.iter().map(|&i| traces[i] & l != 0).collect();
                 if kind == ClearanceKind::RAxial {
                     axial_switches(&ev, &mut solved, &det, &low, j, ws, &mut out);
                 } else {
