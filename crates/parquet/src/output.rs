@@ -111,14 +111,23 @@ impl Output {
     fn write_staged(&mut self, len: usize) -> io::Result<()> {
         let Some(staging) = self.staging.as_mut() else { return Ok(()) };
         let data = &staging.buf()[..len];
-        match self.file.write_all(data) {
-            Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {
-                let data = data.to_vec();
-                self.leave_direct()?;
-                self.file.write_all(&data)
+        // By hand rather than `write_all`: on a refusal, only what was not yet
+        // written goes again, buffered.
+        let mut done = 0;
+        while done < len {
+            match self.file.write(&data[done..]) {
+                Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
+                Ok(n) => done += n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {
+                    let rest = data[done..].to_vec();
+                    self.leave_direct()?;
+                    return self.file.write_all(&rest);
+                }
+                Err(e) => return Err(e),
             }
-            other => other,
         }
+        Ok(())
     }
 
     /// Turns `O_DIRECT` off for the rest of the file.
