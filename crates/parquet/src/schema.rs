@@ -230,9 +230,10 @@ impl PoseSchema {
 
     /// Empty column buffers for `rows` rows, to be filled block by block.
     pub fn columns(&self, rows: usize) -> UnitColumns {
-        // Every value is written by `BlockSink::put`, so zeroed memory will do: the
-        // allocator hands it out untouched, and its pages are first touched by the
-        // threads that fill them rather than by one thread beforehand.
+        // Every value is written by `BlockSink::put`, so zeroed memory will do: fresh
+        // pages come zeroed (reused ones cost the allocator one memset), and they are
+        // first touched by the threads that fill them rather than by one thread
+        // beforehand, as a NaN fill did.
         UnitColumns {
             sample: vec![0; rows],
             t: vec![0.0; rows],
