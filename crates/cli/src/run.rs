@@ -22,7 +22,7 @@ use clearance_parquet::{
     Codec, ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch,
     summary_batch, write_parquet,
 };
-use clearance_solver::{Model, SolverKind, Workspace, solve_pose};
+use clearance_solver::{Model, PoseResult, SolverKind, Workspace, solve_poses};
 use rayon::prelude::*;
 
 use crate::progress::Progress;
@@ -407,18 +407,28 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 .into_par_iter()
                 .zip(traces.par_chunks_mut(BLOCK).zip(loads.par_chunks_mut(BLOCK)))
                 .enumerate()
-                .map_init(Workspace::new, |ws, (b, (mut sink, (block_traces, block_loads)))| {
-                    let mut stats = SummaryStats::default();
-                    let first = unit.range.start + (b * BLOCK) as u64;
-                    for (i, (t, l)) in block_traces.iter_mut().zip(block_loads.iter_mut()).enumerate() {
-                        let s = source.sample(first + i as u64);
-                        let r = solve_pose(model, &s, unit.mode, ws);
-                        sink.put(i, &s, &r);
-                        stats.push(&r);
-                        (*t, *l) = trace_loads(&r, model, &search);
-                    }
-                    stats
-                })
+                .map_init(
+                    || (Workspace::new(), Vec::new(), Vec::new()),
+                    |(ws, samples, results), (b, (mut sink, (block_traces, block_loads)))| {
+                        let mut stats = SummaryStats::default();
+                        let first = unit.range.start + (b * BLOCK) as u64;
+                        samples.clear();
+                        samples.extend((0..block_traces.len() as u64).map(|i| source.sample(first + i)));
+                        results.resize(samples.len(), PoseResult::default());
+                        solve_poses(model, samples, unit.mode, ws, results);
+                        for (i, ((s, r), (t, l))) in samples
+                            .iter()
+                            .zip(&*results)
+                            .zip(block_traces.iter_mut().zip(block_loads.iter_mut()))
+                            .enumerate()
+                        {
+                            sink.put(i, s, r);
+                            stats.push(r);
+                            (*t, *l) = trace_loads(r, model, &search);
+                        }
+                        stats
+                    },
+                )
                 .collect();
             // With the whole unit in hand, most samples are seen not to be load
             // minima, so the search at the end solves only the others.

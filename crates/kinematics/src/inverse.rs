@@ -2,7 +2,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::jet::{Jet, Real};
+use crate::jet::{Elementary, Jet, Real};
 use clearance_model::{LIMB_ANGLES, MechanismSpec};
 
 /// The robot's geometry with the limb frames precomputed.
@@ -95,22 +95,30 @@ pub struct Motion {
 
 /// The parasitic motions `(X, Y, Φ)` for `(Ψ, Θ)` and platform radius `r_p`.
 #[inline(always)]
-pub fn parasitic<T: Real>(r_p: f64, psi: T, theta: T) -> (T, T, T) {
-    let (sps, cps) = (psi.sin(), psi.cos());
-    let (sth, cth) = (theta.sin(), theta.cos());
+pub fn parasitic<T: Elementary>(r_p: f64, psi: T, theta: T) -> (T, T, T) {
+    let (x, y, phi, _) = parasitic_sc(r_p, psi.sin_cos(), theta.sin_cos());
+    (x, y, phi)
+}
+
+/// [`parasitic`] from `(sin Ψ, cos Ψ)` and `(sin Θ, cos Θ)`; also returns `(sin Φ, cos Φ)`.
+#[inline(always)]
+pub fn parasitic_sc<T: Elementary>(r_p: f64, (sps, cps): (T, T), (sth, cth): (T, T)) -> (T, T, T, (T, T)) {
     let phi = (sps * sth).atan2(cps + cth);
-    let (sph, cph) = (phi.sin(), phi.cos());
+    let (sph, cph) = phi.sin_cos();
     let y = -(cps * sph).scale(r_p);
     let x = (cth * cph - cph * cps + sps * sth * sph).scale(0.5 * r_p);
-    (x, y, phi)
+    (x, y, phi, (sph, cph))
 }
 
 /// `R = R_y(Θ)·R_x(Ψ)·R_z(Φ)`, row-major.
 #[inline(always)]
-pub fn rotation<T: Real>(phi: T, psi: T, theta: T) -> [[T; 3]; 3] {
-    let (sf, cf) = (phi.sin(), phi.cos());
-    let (sp, cp) = (psi.sin(), psi.cos());
-    let (st, ct) = (theta.sin(), theta.cos());
+pub fn rotation<T: Elementary>(phi: T, psi: T, theta: T) -> [[T; 3]; 3] {
+    rotation_sc(phi.sin_cos(), psi.sin_cos(), theta.sin_cos())
+}
+
+/// [`rotation`] from the sine and cosine of each angle.
+#[inline(always)]
+pub fn rotation_sc<T: Elementary>((sf, cf): (T, T), (sp, cp): (T, T), (st, ct): (T, T)) -> [[T; 3]; 3] {
     let zero = T::constant(0.0);
     // R_x(Ψ)·R_z(Φ)
     let m = [[cf, -sf, zero], [cp * sf, cp * cf, -sp], [sp * sf, sp * cf, cp]];
@@ -141,30 +149,44 @@ struct Generic<T> {
 
 #[inline(always)]
 fn solve<T: Real>(geom: &Geometry, z: T, psi: T, theta: T) -> Result<Generic<T>, Unreachable> {
-    let (x, y, phi) = parasitic(geom.platform_radius, psi, theta);
-    let rot = rotation(phi, psi, theta);
+    let (sc_psi, sc_theta) = (psi.sin_cos(), theta.sin_cos());
+    let (x, y, phi, sc_phi) = parasitic_sc(geom.platform_radius, sc_psi, sc_theta);
+    let rot = rotation_sc(sc_phi, sc_psi, sc_theta);
     let p = [x, y, z];
-    let l2 = geom.leg_length * geom.leg_length;
     let zero = T::constant(0.0);
     let mut a = [[zero; 3]; 3];
     let mut b = [[zero; 3]; 3];
     let mut q = [zero; 3];
     for j in 0..3 {
-        let al = geom.a_local[j];
-        for k in 0..3 {
-            a[j][k] = p[k] + rot[k][0].scale(al.x) + rot[k][1].scale(al.y);
-        }
-        let xj = geom.x[j];
-        let rho = a[j][0].scale(xj.x) + a[j][1].scale(xj.y);
-        let d = rho - T::constant(geom.base_radius);
-        let disc = T::constant(l2) - d * d;
+        let disc;
+        (a[j], disc) = limb(geom, j, p, &rot);
         if disc.value() < 0.0 || disc.value().is_nan() {
             return Err(Unreachable { leg: j });
         }
-        q[j] = a[j][2] - disc.sqrt();
-        b[j] = [T::constant(geom.base_radius * xj.x), T::constant(geom.base_radius * xj.y), q[j]];
+        (q[j], b[j]) = slider(geom, j, a[j], disc);
     }
     Ok(Generic { x, y, phi, rot, a, b, q })
+}
+
+/// Limb `j` at platform position `p` and orientation `rot`: the spherical joint
+/// centre `A_j` and `L² − (ρ_j − R_b)²`, negative when the leg cannot reach.
+#[inline(always)]
+pub fn limb<T: Elementary>(geom: &Geometry, j: usize, p: [T; 3], rot: &[[T; 3]; 3]) -> ([T; 3], T) {
+    let al = geom.a_local[j];
+    let at = |k: usize| p[k] + rot[k][0].scale(al.x) + rot[k][1].scale(al.y);
+    let a = [at(0), at(1), at(2)];
+    let xj = geom.x[j];
+    let rho = a[0].scale(xj.x) + a[1].scale(xj.y);
+    let d = rho - T::constant(geom.base_radius);
+    (a, T::constant(geom.leg_length * geom.leg_length) - d * d)
+}
+
+/// The actuator position `q_j` and revolute centre `B_j` of a reachable limb.
+#[inline(always)]
+pub fn slider<T: Elementary>(geom: &Geometry, j: usize, a: [T; 3], disc: T) -> (T, [T; 3]) {
+    let xj = geom.x[j];
+    let q = a[2] - disc.sqrt();
+    (q, [T::constant(geom.base_radius * xj.x), T::constant(geom.base_radius * xj.y), q])
 }
 
 fn vec_of(v: [f64; 3]) -> Vector3<f64> {

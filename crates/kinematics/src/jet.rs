@@ -7,27 +7,40 @@
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-/// The scalar operations the kinematics needs; implemented by `f64` and [`Jet`].
-pub trait Real:
+/// The elementwise operations the closed forms need; implemented by `f64`, [`Jet`]
+/// and the solver's batches of poses (one value per lane).
+pub trait Elementary:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
     fn constant(v: f64) -> Self;
-    fn value(self) -> f64;
     fn sin(self) -> Self;
     fn cos(self) -> Self;
+    /// `(sin, cos)`, the same values as the two calls.
+    #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        (self.sin(), self.cos())
+    }
     fn sqrt(self) -> Self;
     fn atan2(self, x: Self) -> Self;
     fn scale(self, k: f64) -> Self;
 }
 
+/// A single value: `f64` or [`Jet`] (the nominal value of a jet).
+pub trait Real: Elementary {
+    fn value(self) -> f64;
+}
+
 impl Real for f64 {
-    #[inline(always)]
-    fn constant(v: f64) -> Self {
-        v
-    }
     #[inline(always)]
     fn value(self) -> f64 {
         self
+    }
+}
+
+impl Elementary for f64 {
+    #[inline(always)]
+    fn constant(v: f64) -> Self {
+        v
     }
     #[inline(always)]
     fn sin(self) -> Self {
@@ -115,12 +128,15 @@ impl Div for Jet {
 
 impl Real for Jet {
     #[inline(always)]
-    fn constant(v: f64) -> Self {
-        Jet::new(v, 0.0, 0.0)
-    }
-    #[inline(always)]
     fn value(self) -> f64 {
         self.v
+    }
+}
+
+impl Elementary for Jet {
+    #[inline(always)]
+    fn constant(v: f64) -> Self {
+        Jet::new(v, 0.0, 0.0)
     }
     #[inline(always)]
     fn sin(self) -> Self {

@@ -31,7 +31,7 @@ mod inverse;
 mod jet;
 
 pub use inverse::{
-    Geometry, Motion, Posture, Unreachable, euler_rates_matrix, inverse_kinematics, inverse_kinematics_motion,
-    parasitic, rotation,
+    Geometry, Motion, Posture, Unreachable, euler_rates_matrix, inverse_kinematics, inverse_kinematics_motion, limb,
+    parasitic, parasitic_sc, rotation, rotation_sc, slider,
 };
-pub use jet::{Jet, Real};
+pub use jet::{Elementary, Jet, Real};

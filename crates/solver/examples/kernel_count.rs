@@ -1,9 +1,10 @@
 //! The kernel on one thread, for instruction counts that a busy machine cannot
 //! disturb: `valgrind --tool=callgrind target/release/examples/kernel_count [N]`
-//! and divide `solve_pose`'s inclusive count by N (`benches/README.md`).
+//! and divide `solve_poses`'s inclusive count by N (`benches/README.md`);
+//! `KERNEL_ONE_BY_ONE=1` runs `solve_pose` pose by pose instead.
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
-use clearance_solver::{Model, Workspace, solve_pose};
+use clearance_solver::{Model, PoseResult, Workspace, solve_pose, solve_poses};
 
 fn main() {
     let n: u64 = std::env::args().nth(1).map_or(10_000, |a| a.parse().expect("a pose count"));
@@ -17,9 +18,21 @@ fn main() {
     let source = SampleSource::new(&job);
     let mut ws = Workspace::new();
     let mut checksum = 0.0;
-    for i in 0..source.len() {
-        let r = solve_pose(&model, &source.sample(i), Mode::Kinetostatic, &mut ws);
-        checksum += r.errors[0].dp.z + r.errors[3].dalpha.x;
+    let mut samples = Vec::new();
+    let mut out = vec![PoseResult::default(); 1024];
+    let one_by_one = std::env::var_os("KERNEL_ONE_BY_ONE").is_some();
+    for start in (0..source.len()).step_by(1024) {
+        samples.clear();
+        samples.extend((start..source.len().min(start + 1024)).map(|i| source.sample(i)));
+        let out = &mut out[..samples.len()];
+        if one_by_one {
+            for (s, r) in samples.iter().zip(out.iter_mut()) {
+                *r = solve_pose(&model, s, Mode::Kinetostatic, &mut ws);
+            }
+        } else {
+            solve_poses(&model, &samples, Mode::Kinetostatic, &mut ws, out);
+        }
+        checksum += out.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>();
     }
     println!("{} poses, checksum {checksum:e}", source.len());
 }

@@ -1,6 +1,7 @@
 //! The fast path: the same physics as [`equilibrium`](crate::equilibrium) and
 //! [`error_system`](crate::error_system), on two 6 × 6 systems instead of
-//! 24 × 24 and 12 × 12.
+//! 24 × 24 and 12 × 12, written once for one pose (`f64`) and for a batch of poses
+//! ([`F8`](crate::lanes::F8)), see [`lanes`](crate::lanes).
 //!
 //! **Equilibrium.** Eliminating leg j (`f_Rj = f_Sj + c_j`, `c_j = m_leg·(a_Gj − g)`)
 //! turns its moment equation into `m_Rj = h_j + L·e_j×f_Sj + L/2·e_j×c_j`; the revolute
@@ -18,67 +19,93 @@
 //! the 24 × 24 and 12 × 12 systems after elimination; the two paths agree to round-off
 //! (tested on random poses).
 
-use clearance_kinematics::Posture;
+use clearance_kinematics::{Geometry, Posture, limb, parasitic_sc, rotation_sc, slider};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::bodies::{Inertial, Model, leg_inertia_world};
 use crate::equilibrium::JointReactions;
 use crate::error_system::PoseError;
-use crate::takeup::TakeUp;
+use crate::lanes::{Lane, Mask, V3, each3, each4, each6, lane3, lane3v};
+use crate::takeup::TakeUps;
 
 /// A 6 × 6 matrix, row-major.
-type A6 = [[f64; 6]; 6];
+type A6<L> = [[L; 6]; 6];
 
-/// A 6 × 6 LU with partial pivoting (`P·A = L·U`), in place on plain arrays so
-/// that every loop has fixed bounds and unrolls.
-struct Lu6 {
-    lu: A6,
-    /// Row `i` of `P·A` is row `perm[i]` of `A`.
-    perm: [usize; 6],
+#[inline(always)]
+fn c<L: Lane>(v: f64) -> L {
+    L::constant(v)
 }
 
-impl Lu6 {
-    /// `None` when a pivot is zero or not finite.
-    fn new(mut a: A6) -> Option<Self> {
-        let mut perm = [0, 1, 2, 3, 4, 5];
+/// A 6 × 6 LU with partial pivoting (`P·A = L·U`) on plain arrays, so that every
+/// loop has fixed bounds and unrolls. Each lane picks its own pivots: rows are
+/// exchanged by masks, not branches.
+struct Lu6<L: Lane> {
+    lu: A6<L>,
+    /// Row `i` of `P·A` is row `perm[i]` of `A` (an index held as a number).
+    perm: [L; 6],
+    /// Every pivot non-zero and finite.
+    regular: L::M,
+}
+
+impl<L: Lane> Lu6<L> {
+    #[inline(always)]
+    fn new(mut a: A6<L>) -> Self {
+        let mut perm: [L; 6] = each6(|i| c(i as f64));
+        let mut regular = L::M::splat(true);
         for k in 0..6 {
-            let mut p = k;
+            // The first row with the largest magnitude in column k.
+            let mut best = a[k][k].abs();
+            let mut p = c::<L>(k as f64);
             for i in k + 1..6 {
-                if a[i][k].abs() > a[p][k].abs() {
-                    p = i;
+                let v = a[i][k].abs();
+                let m = v.gt(best);
+                best = L::select(m, v, best);
+                p = L::select(m, c(i as f64), p);
+            }
+            for i in k + 1..6 {
+                let m = p.eq(c(i as f64));
+                for j in 0..6 {
+                    let (rk, ri) = (a[k][j], a[i][j]);
+                    a[k][j] = L::select(m, ri, rk);
+                    a[i][j] = L::select(m, rk, ri);
                 }
+                let (pk, pi) = (perm[k], perm[i]);
+                perm[k] = L::select(m, pi, pk);
+                perm[i] = L::select(m, pk, pi);
             }
-            if a[p][k] == 0.0 || !a[p][k].is_finite() {
-                return None;
-            }
-            if p != k {
-                a.swap(p, k);
-                perm.swap(p, k);
-            }
-            let inv = 1.0 / a[k][k];
-            let pivot_row = a[k];
-            for row in a.iter_mut().skip(k + 1) {
-                let l = row[k] * inv;
-                row[k] = l;
+            let pivot = a[k][k];
+            regular = regular & !pivot.eq(c(0.0)) & pivot.finite();
+            let inv = c::<L>(1.0) / pivot;
+            for i in k + 1..6 {
+                let l = a[i][k] * inv;
+                a[i][k] = l;
                 for j in k + 1..6 {
-                    row[j] -= l * pivot_row[j];
+                    a[i][j] = a[i][j] - l * a[k][j];
                 }
             }
         }
-        Some(Self { lu: a, perm })
+        Self { lu: a, perm, regular }
     }
 
     /// `A·X = B` for `K` right-hand sides at once (row `i` of `B` holds component `i`
-    /// of every right-hand side): `x = P·b`, then `L` forward and `U` backward, a whole
-    /// row at a time so the compiler vectorises across right-hand sides.
-    fn solve_rows<const K: usize>(&self, b: &[[f64; K]; 6]) -> [[f64; K]; 6] {
+    /// of every right-hand side): `x = P·b`, then `L` forward and `U` backward.
+    #[inline(always)]
+    fn solve_rows<const K: usize>(&self, b: &[[L; K]; 6]) -> [[L; K]; 6] {
         let lu = &self.lu;
-        let mut x = self.perm.map(|p| b[p]);
+        let mut x = [b[0]; 6];
+        for (xi, &p) in x.iter_mut().zip(&self.perm) {
+            for (r, br) in b.iter().enumerate().skip(1) {
+                let m = p.eq(c(r as f64));
+                for (v, &w) in xi.iter_mut().zip(br) {
+                    *v = L::select(m, w, *v);
+                }
+            }
+        }
         for i in 1..6 {
             for j in 0..i {
                 let (row, l) = (x[j], lu[i][j]);
                 for (xi, r) in x[i].iter_mut().zip(row) {
-                    *xi -= l * r;
+                    *xi = *xi - l * r;
                 }
             }
         }
@@ -86,84 +113,85 @@ impl Lu6 {
             for j in i + 1..6 {
                 let (row, u) = (x[j], lu[i][j]);
                 for (xi, r) in x[i].iter_mut().zip(row) {
-                    *xi -= u * r;
+                    *xi = *xi - u * r;
                 }
             }
             let pivot = lu[i][i];
             for xi in &mut x[i] {
-                *xi /= pivot;
+                *xi = *xi / pivot;
             }
         }
         x
     }
 
-    /// `A·x = b`.
-    fn solve(&self, b: &[f64; 6]) -> [f64; 6] {
-        self.solve_rows(&b.map(|v| [v])).map(|[v]| v)
-    }
-
     /// `Aᵀ·x = d` for `K` right-hand sides at once (row `i` of `d` holds component
-    /// `i` of every right-hand side): `Uᵀ·z = d`, `Lᵀ·w = z`, `x = Pᵀ·w`. Rows are
-    /// updated whole, so the compiler vectorises across right-hand sides.
-    fn solve_transposed<const K: usize>(&self, d: &[[f64; K]; 6]) -> [[f64; K]; 6] {
+    /// `i` of every right-hand side): `Uᵀ·z = d`, `Lᵀ·w = z`, `x = Pᵀ·w`.
+    #[inline(always)]
+    fn solve_transposed<const K: usize>(&self, d: &[[L; K]; 6]) -> [[L; K]; 6] {
         let lu = &self.lu;
         let mut w = *d;
         for i in 0..6 {
             for k in 0..i {
                 let (l, u) = (w[k], lu[k][i]);
                 for (wi, lk) in w[i].iter_mut().zip(l) {
-                    *wi -= u * lk;
+                    *wi = *wi - u * lk;
                 }
             }
             let pivot = lu[i][i];
             for wi in &mut w[i] {
-                *wi /= pivot;
+                *wi = *wi / pivot;
             }
         }
         for i in (0..5).rev() {
             for k in i + 1..6 {
                 let (l, f) = (w[k], lu[k][i]);
                 for (wi, lk) in w[i].iter_mut().zip(l) {
-                    *wi -= f * lk;
+                    *wi = *wi - f * lk;
                 }
             }
         }
-        let mut x = [[0.0; K]; 6];
-        for i in 0..6 {
-            x[self.perm[i]] = w[i];
+        // x[perm[i]] = w[i]: each row of x takes the one w whose index lands there.
+        let mut x = [w[0]; 6];
+        for (r, xr) in x.iter_mut().enumerate() {
+            for (wi, &p) in w.iter().zip(&self.perm).skip(1) {
+                let m = p.eq(c(r as f64));
+                for (v, &u) in xr.iter_mut().zip(wi) {
+                    *v = L::select(m, u, *v);
+                }
+            }
         }
         x
     }
 
     /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse.
-    fn inverse_norms(&self) -> (f64, f64) {
-        let mut identity = [[0.0; 6]; 6];
-        for (i, row) in identity.iter_mut().enumerate() {
-            row[i] = 1.0;
-        }
+    #[inline(always)]
+    fn inverse_norms(&self) -> (L, L) {
+        let identity: A6<L> = each6(|i| each6(|j| c(if i == j { 1.0 } else { 0.0 })));
         let x = self.solve_rows(&identity);
-        let mut col_sums = [0.0f64; 6];
-        let mut row_max = 0.0f64;
+        let mut col_sums = [c::<L>(0.0); 6];
+        let mut row_max = c::<L>(0.0);
         for row in &x {
-            let mut sum = 0.0;
-            for (c, v) in col_sums.iter_mut().zip(row) {
-                *c += v.abs();
-                sum += v.abs();
+            let mut sum = c::<L>(0.0);
+            for (s, v) in col_sums.iter_mut().zip(row) {
+                *s = *s + v.abs();
+                sum = sum + v.abs();
             }
             row_max = row_max.max(sum);
         }
-        (col_sums.iter().fold(0.0f64, |m, &s| m.max(s)), row_max)
+        (col_sums.iter().fold(c::<L>(0.0), |m, &s| m.max(s)), row_max)
     }
 }
 
-fn norms(a: &A6) -> (f64, f64) {
-    let mut one = 0.0f64;
-    let mut inf = 0.0f64;
+/// `‖A‖₁` and `‖A‖∞`.
+#[inline(always)]
+fn norms<L: Lane>(a: &A6<L>) -> (L, L) {
+    let mut one = c::<L>(0.0);
+    let mut inf = c::<L>(0.0);
     for k in 0..6 {
-        let (mut col, mut row) = (0.0, 0.0);
+        let (mut col, mut row) = (c::<L>(0.0), c::<L>(0.0));
         for i in 0..6 {
-            col += a[i][k].abs();
-            row += a[k][i].abs();
+            col = col + a[i][k].abs();
+            row = row + a[k][i].abs();
         }
         one = one.max(col);
         inf = inf.max(row);
@@ -171,95 +199,153 @@ fn norms(a: &A6) -> (f64, f64) {
     (one, inf)
 }
 
-fn six(a: Vector3<f64>, b: Vector3<f64>) -> [f64; 6] {
+#[inline(always)]
+fn six<L: Lane>(a: V3<L>, b: V3<L>) -> [L; 6] {
     [a.x, a.y, a.z, b.x, b.y, b.z]
 }
 
-/// The reduced equilibrium of a posture, factored once, and its conditioning.
-///
-/// `M = Gᵀ·S` with `S` the swap of the two three-row halves (row k of `M` is column
-/// k of `G` with its halves swapped), so one LU of `G` serves both systems and
-/// `κ₁(M) = ‖G‖∞·‖G⁻¹‖∞`: the explicit inverse gives both condition numbers.
-pub struct Reduced {
-    /// `n_j = y_j × e_j`.
-    n: [Vector3<f64>; 3],
-    g: Option<Lu6>,
-    /// `κ₁(G)` and `κ₁(M)`; infinite when singular.
-    pub cond_g: f64,
-    pub cond_m: f64,
+/// The nominal posture of one pose or of a batch, with what the solver needs of it.
+#[derive(Clone, Copy)]
+pub struct Pose<L: Lane> {
+    pub z: L,
+    pub psi: L,
+    pub theta: L,
+    /// `(sin, cos)` of Ψ and Θ.
+    pub sc_psi: (L, L),
+    pub sc_theta: (L, L),
+    /// Parasitic motions `X, Y, Φ`.
+    pub x: L,
+    pub y: L,
+    pub phi: L,
+    pub p: V3<L>,
+    /// `R`, row-major.
+    pub rot: [[L; 3]; 3],
+    pub a: [V3<L>; 3],
+    pub b: [V3<L>; 3],
+    pub e: [V3<L>; 3],
+    pub q: [L; 3],
+    /// Every leg reaches its slider line (where not, the other fields past the
+    /// parasitic motions are meaningless).
+    pub reachable: L::M,
 }
 
-/// `n_j` and `G` of the posture.
-fn build(model: &Model, pose: &Posture) -> ([Vector3<f64>; 3], A6) {
-    let y = &model.geometry.y;
-    let n = [0, 1, 2].map(|j| y[j].cross(&pose.e[j]));
-    let mut g = [[0.0; 6]; 6];
-    for j in 0..3 {
-        let r = pose.a[j] - pose.p;
-        for (c, f) in [pose.e[j], y[j]].into_iter().enumerate() {
-            let col = six(f, r.cross(&f));
-            for i in 0..6 {
-                g[i][2 * j + c] = col[i];
-            }
-        }
-    }
-    (n, g)
-}
-
-/// Builds and factors `G` for the posture, without its conditioning (NaN): enough
-/// for the reactions of a posture already known to be regular.
-pub fn factor(model: &Model, pose: &Posture) -> Reduced {
-    let (n, g) = build(model, pose);
-    Reduced { n, g: Lu6::new(g), cond_g: f64::NAN, cond_m: f64::NAN }
-}
-
-/// Builds and factors `G` for the posture (`M` comes with it) and both
-/// condition numbers.
-pub fn reduce(model: &Model, pose: &Posture) -> Reduced {
-    let (n, g) = build(model, pose);
-    let (norm_one, norm_inf) = norms(&g);
-    let g = Lu6::new(g);
-    let finite = |c: f64| if c.is_finite() { c } else { f64::INFINITY };
-    let (cond_g, cond_m) = match &g {
-        Some(lu) => {
-            let (inv_one, inv_inf) = lu.inverse_norms();
-            (finite(norm_one * inv_one), finite(norm_inf * inv_inf))
-        }
-        None => (f64::INFINITY, f64::INFINITY),
-    };
-    Reduced { n, g, cond_g, cond_m }
-}
-
-impl Reduced {
-    /// Whether `G` could be factored.
-    pub fn regular(&self) -> bool {
-        self.g.is_some()
-    }
-
-    fn lu(&self) -> &Lu6 {
-        self.g.as_ref().expect("solve only regular postures")
-    }
-
-    /// Joint reactions from the reduced equilibrium.
-    pub fn reactions(&self, model: &Model, pose: &Posture, inertial: &Inertial) -> JointReactions {
-        let geom = &model.geometry;
-        let mass = &model.mass;
-        let l = geom.leg_length;
-        let mut c = [Vector3::zeros(); 3];
-        let mut h = [Vector3::zeros(); 3];
-        let mut gamma = [0.0; 3];
+impl<L: Lane> Pose<L> {
+    /// The closed-form inverse kinematics of `inverse_kinematics`, lane by lane.
+    #[inline(always)]
+    pub fn new(geom: &Geometry, z: L, psi: L, theta: L) -> Self {
+        let (sc_psi, sc_theta) = (psi.sin_cos(), theta.sin_cos());
+        let (x, y, phi, sc_phi) = parasitic_sc(geom.platform_radius, sc_psi, sc_theta);
+        let rot = rotation_sc(sc_phi, sc_psi, sc_theta);
+        let p = [x, y, z];
+        let mut reachable = L::M::splat(true);
+        let (mut a, mut b, mut e, mut q) = ([V3::zero(); 3], [V3::zero(); 3], [V3::zero(); 3], [c(0.0); 3]);
         for j in 0..3 {
-            c[j] = mass.leg_mass * (inertial.leg_com_acc[j] - model.gravity);
+            let (aj, disc) = limb(geom, j, p, &rot);
+            // Also false for NaN.
+            reachable = reachable & c::<L>(0.0).le(disc);
+            let (qj, bj) = slider(geom, j, aj, disc);
+            (a[j], b[j], q[j]) = (V3::from_array(aj), V3::from_array(bj), qj);
+            let d = a[j] - b[j];
+            let l = c::<L>(geom.leg_length);
+            e[j] = V3::new(d.x / l, d.y / l, d.z / l);
+        }
+        let p = V3::from_array(p);
+        Self { z, psi, theta, sc_psi, sc_theta, x, y, phi, p, rot, a, b, e, q, reachable }
+    }
+
+    /// Lane `i` as a [`Posture`].
+    pub fn posture(&self, i: usize) -> Posture {
+        Posture {
+            z: self.z.get(i),
+            psi: self.psi.get(i),
+            theta: self.theta.get(i),
+            x: self.x.get(i),
+            y: self.y.get(i),
+            phi: self.phi.get(i),
+            p: self.p.get(i),
+            rot: Matrix3::from_fn(|r, k| self.rot[r][k].get(i)),
+            a: lane3v(&self.a, i),
+            b: lane3v(&self.b, i),
+            q: lane3(&self.q, i),
+            e: lane3v(&self.e, i),
+        }
+    }
+}
+
+impl Pose<f64> {
+    /// A posture computed elsewhere (the dynamic path's jets).
+    pub fn from_posture(pose: &Posture) -> Self {
+        let v = |w: &Vector3<f64>| V3::new(w.x, w.y, w.z);
+        Self {
+            z: pose.z,
+            psi: pose.psi,
+            theta: pose.theta,
+            sc_psi: pose.psi.sin_cos(),
+            sc_theta: pose.theta.sin_cos(),
+            x: pose.x,
+            y: pose.y,
+            phi: pose.phi,
+            p: v(&pose.p),
+            rot: std::array::from_fn(|r| std::array::from_fn(|k| pose.rot[(r, k)])),
+            a: pose.a.each_ref().map(v),
+            b: pose.b.each_ref().map(v),
+            e: pose.e.each_ref().map(v),
+            q: pose.q,
+            reachable: true,
+        }
+    }
+}
+
+/// The loads on the bodies other than the joint reactions: per leg `c_j` (weight and
+/// inertia force) and `h_j` (rate of angular momentum about its centre of mass); on
+/// the platform the force to balance and the couple about its centre of mass `C`.
+#[derive(Clone, Copy)]
+pub struct Loads<L: Lane> {
+    c: [V3<L>; 3],
+    h: [V3<L>; 3],
+    force: V3<L>,
+    moment_c: V3<L>,
+    /// `C − P`.
+    com: V3<L>,
+}
+
+#[inline(always)]
+fn rotate<L: Lane>(rot: &[[L; 3]; 3], v: &Vector3<f64>) -> V3<L> {
+    let row = |r: &[L; 3]| r[0].scale(v.x) + r[1].scale(v.y) + r[2].scale(v.z);
+    V3::new(row(&rot[0]), row(&rot[1]), row(&rot[2]))
+}
+
+impl<L: Lane> Loads<L> {
+    /// Kinetostatics: gravity and the external load only.
+    #[inline(always)]
+    pub fn statics(model: &Model, pose: &Pose<L>) -> Self {
+        let mass = &model.mass;
+        let leg = V3::splat(&(mass.leg_mass * -model.gravity));
+        let com = rotate(&pose.rot, &mass.com_local);
+        let force = V3::splat(&(mass.platform_mass * -model.gravity - model.load.force));
+        let e_point = rotate(&pose.rot, &model.load.at_local);
+        let moment_c = -(e_point - com).cross(V3::splat(&model.load.force)) - V3::splat(&model.load.moment);
+        Self { c: [leg; 3], h: [V3::zero(); 3], force, moment_c, com }
+    }
+}
+
+impl Loads<f64> {
+    /// Dynamics: the inertial loads of the motion as well.
+    pub fn dynamics(model: &Model, pose: &Posture, inertial: &Inertial) -> Self {
+        let mass = &model.mass;
+        let v = |w: Vector3<f64>| V3::new(w.x, w.y, w.z);
+        let mut c = [V3::zero(); 3];
+        let mut h = [V3::zero(); 3];
+        for j in 0..3 {
+            c[j] = v(mass.leg_mass * (inertial.leg_com_acc[j] - model.gravity));
             if inertial.moving {
                 let inertia: Matrix3<f64> = leg_inertia_world(mass, &pose.e[j]);
                 let w = inertial.leg_omega[j];
-                h[j] = inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w));
+                h[j] = v(inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w)));
             }
-            gamma[j] = -(h[j] + 0.5 * l * pose.e[j].cross(&c[j])).dot(&geom.y[j]) / l;
         }
-        let m = mass.platform_mass;
         let com = pose.rot * mass.com_local;
-        let force = m * (inertial.com_acc - model.gravity) - model.load.force;
+        let force = mass.platform_mass * (inertial.com_acc - model.gravity) - model.load.force;
         let e_point = pose.rot * model.load.at_local;
         let mut moment_c = -(e_point - com).cross(&model.load.force) - model.load.moment;
         if inertial.moving {
@@ -267,65 +353,181 @@ impl Reduced {
             let w = inertial.omega;
             moment_c += inertia * inertial.omega_dot + w.cross(&(inertia * w));
         }
+        Self { c, h, force: v(force), moment_c: v(moment_c), com: v(com) }
+    }
+}
+
+/// Joint reactions of one pose or a batch (see [`JointReactions`]).
+#[derive(Clone, Copy)]
+pub struct Reactions<L: Lane> {
+    pub f_r: [V3<L>; 3],
+    pub m_r: [V3<L>; 3],
+    pub f_s: [V3<L>; 3],
+}
+
+impl<L: Lane> Reactions<L> {
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> JointReactions {
+        JointReactions { f_r: lane3v(&self.f_r, i), m_r: lane3v(&self.m_r, i), f_s: lane3v(&self.f_s, i) }
+    }
+}
+
+impl Reactions<f64> {
+    pub fn from_joint(r: &JointReactions) -> Self {
+        let v = |w: &Vector3<f64>| V3::new(w.x, w.y, w.z);
+        Self { f_r: r.f_r.each_ref().map(v), m_r: r.m_r.each_ref().map(v), f_s: r.f_s.each_ref().map(v) }
+    }
+}
+
+/// The reduced equilibrium of a posture, factored once, and its conditioning.
+///
+/// `M = Gᵀ·S` with `S` the swap of the two three-row halves (row k of `M` is column
+/// k of `G` with its halves swapped), so one LU of `G` serves both systems and
+/// `κ₁(M) = ‖G‖∞·‖G⁻¹‖∞`: the explicit inverse gives both condition numbers.
+pub struct Reduced<L: Lane> {
+    /// `n_j = y_j × e_j`.
+    n: [V3<L>; 3],
+    g: Lu6<L>,
+    /// `κ₁(G)` and `κ₁(M)`; infinite when singular, NaN when not asked for.
+    pub cond_g: L,
+    pub cond_m: L,
+}
+
+impl<L: Lane> Reduced<L> {
+    /// Builds and factors `G` for the posture (`M` comes with it) and, with
+    /// `conditioning`, both condition numbers.
+    #[inline(always)]
+    pub fn new(model: &Model, pose: &Pose<L>, conditioning: bool) -> Self {
+        let y = each3(|j| V3::<L>::splat(&model.geometry.y[j]));
+        let n = each3(|j| y[j].cross(pose.e[j]));
+        let mut g = [[c::<L>(0.0); 6]; 6];
+        for j in 0..3 {
+            let r = pose.a[j] - pose.p;
+            for (k, f) in [pose.e[j], y[j]].into_iter().enumerate() {
+                let col = six(f, r.cross(f));
+                for i in 0..6 {
+                    g[i][2 * j + k] = col[i];
+                }
+            }
+        }
+        let (mut cond_g, mut cond_m) = (c::<L>(f64::NAN), c::<L>(f64::NAN));
+        let lu = if conditioning {
+            let (norm_one, norm_inf) = norms(&g);
+            let lu = Lu6::new(g);
+            let (inv_one, inv_inf) = lu.inverse_norms();
+            let finite = |k: L| L::select(lu.regular & k.finite(), k, c(f64::INFINITY));
+            (cond_g, cond_m) = (finite(norm_one * inv_one), finite(norm_inf * inv_inf));
+            lu
+        } else {
+            Lu6::new(g)
+        };
+        Self { n, g: lu, cond_g, cond_m }
+    }
+
+    /// Whether `G` could be factored.
+    pub fn regular(&self) -> L::M {
+        self.g.regular
+    }
+
+    /// Joint reactions from the reduced equilibrium (meaningless where not regular).
+    #[inline(always)]
+    pub fn reactions(&self, model: &Model, pose: &Pose<L>, loads: &Loads<L>) -> Reactions<L> {
+        let geom = &model.geometry;
+        let l = geom.leg_length;
+        let y = each3(|j| V3::<L>::splat(&geom.y[j]));
+        let (cl, h) = (&loads.c, &loads.h);
+        let gamma = each3(|j| -(h[j] + pose.e[j].cross(cl[j]).scale(0.5 * l)).dot(y[j]) / c(l));
         // About P: Σ r_j×f_Sj = M_C + (C − P)×Σ f_Sj.
-        let mut f = force;
-        let mut mo = moment_c + com.cross(&force);
+        let mut f = loads.force;
+        let mut mo = loads.moment_c + loads.com.cross(loads.force);
         for j in 0..3 {
-            let known = gamma[j] * self.n[j];
-            f -= known;
-            mo -= (pose.a[j] - pose.p).cross(&known);
+            let known = self.n[j].times(gamma[j]);
+            f = f - known;
+            mo = mo - (pose.a[j] - pose.p).cross(known);
         }
-        let u = self.lu().solve(&six(f, mo));
-        let mut out = JointReactions::default();
+        let b = six(f, mo);
+        let u = self.g.solve_rows(&each6(|i| [b[i]]));
+        let (mut f_r, mut m_r, mut f_s) = ([V3::zero(); 3], [V3::zero(); 3], [V3::zero(); 3]);
         for j in 0..3 {
-            let fs = u[2 * j] * pose.e[j] + u[2 * j + 1] * geom.y[j] + gamma[j] * self.n[j];
-            let mr = h[j] + l * pose.e[j].cross(&fs) + 0.5 * l * pose.e[j].cross(&c[j]);
-            out.f_s[j] = fs;
-            out.f_r[j] = fs + c[j];
+            let fs = pose.e[j].times(u[2 * j][0]) + y[j].times(u[2 * j + 1][0]) + self.n[j].times(gamma[j]);
+            let mr = h[j] + pose.e[j].cross(fs).scale(l) + pose.e[j].cross(cl[j]).scale(0.5 * l);
+            f_s[j] = fs;
+            f_r[j] = fs + cl[j];
             // The couple has no component about y_j: keep the exact form μ1·x_j + μ2·z.
-            out.m_r[j] = mr.dot(&geom.x[j]) * geom.x[j] + mr.z * Vector3::z();
+            let x = V3::splat(&geom.x[j]);
+            m_r[j] = x.times(mr.dot(x)) + V3::splat(&Vector3::z()).times(mr.z);
         }
-        out
+        Reactions { f_r, m_r, f_s }
     }
 
     /// Per-kind pose errors `[Δα; Δp]` (order of `KINDS`) from `M·t = d`, that is
     /// `Gᵀ·(S·t) = d`.
-    pub fn errors(&self, model: &Model, pose: &Posture, take: &TakeUp) -> [[f64; 6]; 4] {
-        let y = &model.geometry.y;
-        let lu = self.lu();
+    #[inline(always)]
+    pub fn errors(&self, model: &Model, pose: &Pose<L>, take: &TakeUps<L>) -> [[L; 6]; 4] {
+        let y = each3(|j| V3::<L>::splat(&model.geometry.y[j]));
         // Row i holds component i of every kind's right-hand side.
-        let mut rhs = [[0.0; 4]; 6];
+        let mut rhs = [[c::<L>(0.0); 4]; 6];
         for j in 0..3 {
             let r = pose.a[j] - pose.p;
             let rb = pose.b[j] - pose.p;
             // Velocity at A_j of each kind's clearance twist of limb j.
-            let at_a = [
-                take.s[j],
-                take.r_radial[j],
-                take.r_axial[j],
-                rb.cross(&take.r_angular[j]) + take.r_angular[j].cross(&r),
-            ];
-            for (c, f) in [pose.e[j], y[j]].into_iter().enumerate() {
-                rhs[2 * j + c] = at_a.map(|v| f.dot(&v));
+            let ang = take.r_angular[j];
+            let at_a = [take.s[j], take.r_radial[j], take.r_axial[j], rb.cross(ang) + ang.cross(r)];
+            for (k, f) in [pose.e[j], y[j]].into_iter().enumerate() {
+                rhs[2 * j + k] = each4(|kind| f.dot(at_a[kind]));
             }
         }
-        let s = lu.solve_transposed(&rhs);
+        let s = self.g.solve_transposed(&rhs);
         // t = S·s: the halves swap back.
-        [0, 1, 2, 3].map(|k| [s[3][k], s[4][k], s[5][k], s[0][k], s[1][k], s[2][k]])
+        each4(|k| [s[3][k], s[4][k], s[5][k], s[0][k], s[1][k], s[2][k]])
     }
 }
 
-/// Maps `Δα` to `(ΔΘ, ΔΨ, ΔΦ)`; NaN where the Euler rates are singular (cos Ψ = 0),
-/// which the writer turns into nulls.
-pub fn euler_inverse(pose: &Posture) -> Matrix3<f64> {
-    clearance_kinematics::euler_rates_matrix(pose.psi, pose.theta)
-        .try_inverse()
-        .unwrap_or_else(|| Matrix3::from_element(f64::NAN))
+/// A pose error of one pose or a batch (see [`PoseError`]).
+#[derive(Clone, Copy)]
+pub struct Errors<L: Lane> {
+    pub dalpha: V3<L>,
+    pub dp: V3<L>,
+    /// `(ΔΦ, ΔΨ, ΔΘ)`.
+    pub euler: [L; 3],
 }
 
-/// `[Δα; Δp]` → a [`PoseError`] with Euler angles.
-pub fn pose_error(t: [f64; 6], euler_inv: &Matrix3<f64>) -> PoseError {
-    let dalpha = Vector3::new(t[0], t[1], t[2]);
-    let e = euler_inv * dalpha;
-    PoseError { dalpha, dp: Vector3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
+impl<L: Lane> Errors<L> {
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> PoseError {
+        PoseError { dalpha: self.dalpha.get(i), dp: self.dp.get(i), euler: lane3(&self.euler, i) }
+    }
+}
+
+/// The inverse of `Δα = E·(ΔΘ, ΔΨ, ΔΦ)` (`euler_rates_matrix`), by cofactors; NaN
+/// where the Euler rates are singular (cos Ψ = 0), which the writer turns into nulls.
+#[inline(always)]
+pub fn euler_inverse<L: Lane>(pose: &Pose<L>) -> [[L; 3]; 3] {
+    let ((sp, cp), (st, ct)) = (pose.sc_psi, pose.sc_theta);
+    let (zero, one) = (c::<L>(0.0), c::<L>(1.0));
+    let m = [[zero, ct, cp * st], [one, zero, -sp], [zero, -st, cp * ct]];
+    let minor = |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r1][c0] * m[r0][c1];
+    let cof = [
+        [minor(1, 2, 1, 2), -minor(1, 2, 0, 2), minor(1, 2, 0, 1)],
+        [-minor(0, 2, 1, 2), minor(0, 2, 0, 2), -minor(0, 2, 0, 1)],
+        [minor(0, 1, 1, 2), -minor(0, 1, 0, 2), minor(0, 1, 0, 1)],
+    ];
+    let det = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
+    let singular = det.eq(zero);
+    // inverse = adjugate / det, the adjugate being the transposed cofactors.
+    each3(|r| each3(|k| L::select(singular, c(f64::NAN), cof[k][r] / det)))
+}
+
+/// `[Δα; Δp]` → [`Errors`] with Euler angles.
+#[inline(always)]
+pub fn pose_error<L: Lane>(t: [L; 6], euler_inv: &[[L; 3]; 3]) -> Errors<L> {
+    let dalpha = V3::new(t[0], t[1], t[2]);
+    let e = each3(|r| V3::from_array(euler_inv[r]).dot(dalpha));
+    Errors { dalpha, dp: V3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
+}
+
+/// The scalar form of [`euler_inverse`] for the general path.
+pub fn euler_inverse_of(pose: &Posture) -> Matrix3<f64> {
+    let m = euler_inverse(&Pose::from_posture(pose));
+    Matrix3::from_fn(|r, k| m[r][k])
 }

@@ -1,7 +1,7 @@
 //! One pose through the whole pipeline: kinematics → reactions → take-up → error.
 
 use clearance_grid::Sample;
-use clearance_kinematics::{Posture, Unreachable, inverse_kinematics, inverse_kinematics_motion, parasitic};
+use clearance_kinematics::{inverse_kinematics_motion, parasitic};
 use clearance_model::Mode;
 use faer::Mat;
 
@@ -10,9 +10,10 @@ use crate::bodies::{Inertial, Model};
 use crate::equilibrium::{self, JointReactions};
 use crate::error_system::{self, PoseError};
 use crate::exact::exact_error;
-use crate::fast;
+use crate::fast::{Loads, Pose, Reduced, euler_inverse, pose_error};
+use crate::lanes::{F8, LANES, Lane, Mask, each4, lane3};
 use crate::linalg::LuSolver;
-use crate::takeup::{Margins, take_up};
+use crate::takeup::{Margins, TakeUp, take_up, take_ups};
 
 /// What became of a pose (docs/conventions.md gives the precedence and what each
 /// status leaves null).
@@ -59,6 +60,13 @@ pub struct PoseResult {
     pub cond_jp: f64,
     /// Exact error `[Δα; Δp]` (only with `analysis.exact` on an `ok` pose).
     pub exact: Option<[f64; 6]>,
+}
+
+impl Default for PoseResult {
+    /// An unreachable pose at NaN parasitic motions: a placeholder to be overwritten.
+    fn default() -> Self {
+        Self::unreachable(f64::NAN, f64::NAN, f64::NAN)
+    }
 }
 
 impl PoseResult {
@@ -130,15 +138,18 @@ fn same_branch(exact: &[f64; 6], linear: &PoseError) -> bool {
     exact.iter().zip(lin).all(|(e, l)| (e - l).abs() <= size)
 }
 
-/// The nominal posture of a sample and, in dynamics, its inertial loads.
-fn posture(model: &Model, sample: &Sample, mode: Mode) -> Result<(Posture, Inertial), Unreachable> {
+/// The nominal posture of a sample, the loads on its bodies and their motion;
+/// `None` where a leg cannot reach.
+fn posture(model: &Model, sample: &Sample, mode: Mode) -> Option<(Pose<f64>, Loads<f64>, Inertial)> {
     let geom = &model.geometry;
-    let (z, psi, theta) = (sample.z[0], sample.psi[0], sample.theta[0]);
     match mode {
-        Mode::Kinetostatic => inverse_kinematics(geom, z, psi, theta).map(|p| (p, Inertial::default())),
-        Mode::Dynamic => inverse_kinematics_motion(geom, sample.z, sample.psi, sample.theta).map(|(p, m)| {
+        Mode::Kinetostatic => {
+            let pose = Pose::new(geom, sample.z[0], sample.psi[0], sample.theta[0]);
+            pose.reachable.then(|| (pose, Loads::statics(model, &pose), Inertial::default()))
+        }
+        Mode::Dynamic => inverse_kinematics_motion(geom, sample.z, sample.psi, sample.theta).ok().map(|(p, m)| {
             let inertial = Inertial::from_motion(&p, &m, &model.mass);
-            (p, inertial)
+            (Pose::from_posture(&p), Loads::dynamics(model, &p, &inertial), inertial)
         }),
     }
 }
@@ -151,66 +162,217 @@ pub fn solve_reactions(model: &Model, sample: &Sample, mode: Mode, ws: &mut Work
         let r = solve_pose(model, sample, mode, ws);
         return matches!(r.status, Status::Ok | Status::IndeterminateContact).then_some(r.reactions);
     }
-    let (pose, inertial) = posture(model, sample, mode).ok()?;
-    let reduced = fast::factor(model, &pose);
-    reduced.regular().then(|| reduced.reactions(model, &pose, &inertial))
+    let (pose, loads, _) = posture(model, sample, mode)?;
+    let reduced = Reduced::new(model, &pose, false);
+    reduced.regular().then(|| reduced.reactions(model, &pose, &loads).get(0))
 }
 
 /// Runs one sample in one mode. Never panics on a bad pose: it becomes a status.
 pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> PoseResult {
-    let geom = &model.geometry;
-    let (pose, inertial) = match posture(model, sample, mode) {
-        Ok(v) => v,
-        Err(_) => {
-            let (x, y, phi) = parasitic(geom.platform_radius, sample.psi[0], sample.theta[0]);
-            return PoseResult::unreachable(x, y, phi);
-        }
+    let Some((pose, loads, inertial)) = posture(model, sample, mode) else {
+        let (x, y, phi) = parasitic(model.geometry.platform_radius, sample.psi[0], sample.theta[0]);
+        return PoseResult::unreachable(x, y, phi);
     };
+    match model.solver {
+        SolverKind::Fast => {
+            let mut out = [PoseResult::unreachable(0.0, 0.0, 0.0)];
+            solve_fast(model, &pose, &loads, &mut out);
+            out[0]
+        }
+        SolverKind::General => solve_general(model, &pose, &inertial, ws),
+    }
+}
 
-    // Both paths judge conditioning on the reduced systems (docs/conventions.md).
-    let reduced = fast::reduce(model, &pose);
-    let (cond_a, cond_jp) = (reduced.cond_g, reduced.cond_m);
-    let mut result = PoseResult::unreachable(pose.x, pose.y, pose.phi);
-    result.q = pose.q;
-    result.cond_a = cond_a;
-    result.cond_jp = cond_jp;
-    if !(cond_a <= model.singular_cond && cond_jp <= model.singular_cond) {
-        result.status = Status::NearSingular;
-        return result;
+/// Solves the kinetostatic poses of `samples` into `out` (same length) with the fast
+/// solver, [`LANES`] at a time on the CPU's vector units: the same results, bit for
+/// bit, as [`solve_pose`] on each sample (the general solver and dynamics go pose by
+/// pose).
+pub fn solve_poses(model: &Model, samples: &[Sample], mode: Mode, ws: &mut Workspace, out: &mut [PoseResult]) {
+    assert_eq!(samples.len(), out.len(), "one result per sample");
+    if model.solver != SolverKind::Fast || mode != Mode::Kinetostatic {
+        for (s, o) in samples.iter().zip(out) {
+            *o = solve_pose(model, s, mode, ws);
+        }
+        return;
+    }
+    solve_batches(model, samples, out, Isa::best());
+}
+
+/// The instruction sets the batched kernel is compiled for; [`Isa::best`] is the
+/// widest this CPU has. Every choice gives the same bits (tested).
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    Portable,
+    Avx2,
+    Avx512,
+}
+
+impl Isa {
+    pub fn best() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Isa::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Portable
     }
 
-    let reactions = match model.solver {
-        SolverKind::Fast => reduced.reactions(model, &pose, &inertial),
-        SolverKind::General => {
-            equilibrium::assemble(model, &pose, &inertial, ws.a.as_mut(), ws.w.as_mut());
-            if !ws.lu_a.solve(ws.a.as_ref(), ws.w.as_mut()) {
-                result.status = Status::NearSingular;
-                return result;
-            }
-            equilibrium::reactions_from(model, &ws.w)
+    /// Those this CPU can run.
+    pub fn available() -> Vec<Self> {
+        [Isa::Portable, Isa::Avx2, Isa::Avx512].into_iter().filter(|&i| i <= Isa::best()).collect()
+    }
+}
+
+impl PartialOrd for Isa {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some((*self as u8).cmp(&(*o as u8)))
+    }
+}
+
+/// [`solve_poses`] for kinetostatic samples and the fast solver, with a chosen
+/// instruction set (falls back to the portable code for one this CPU lacks).
+#[doc(hidden)]
+pub fn solve_batches(model: &Model, samples: &[Sample], out: &mut [PoseResult], isa: Isa) {
+    assert_eq!(samples.len(), out.len(), "one result per sample");
+    let isa = if isa <= Isa::best() { isa } else { Isa::Portable };
+    for (s, o) in samples.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        match isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the CPU has AVX-512F (`isa <= Isa::best()`).
+            Isa::Avx512 => unsafe { solve_batch_avx512(model, s, o) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the CPU has AVX2 (`isa <= Isa::best()`).
+            Isa::Avx2 => unsafe { solve_batch_avx2(model, s, o) },
+            _ => solve_batch_lanes(model, s, o),
         }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn solve_batch_avx512(model: &Model, samples: &[Sample], out: &mut [PoseResult]) {
+    solve_batch_lanes(model, samples, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn solve_batch_avx2(model: &Model, samples: &[Sample], out: &mut [PoseResult]) {
+    solve_batch_lanes(model, samples, out)
+}
+
+/// Up to [`LANES`] kinetostatic samples; a short batch repeats its last sample.
+#[inline(always)]
+fn solve_batch_lanes(model: &Model, samples: &[Sample], out: &mut [PoseResult]) {
+    let last = samples.len() - 1;
+    let input = |f: fn(&Sample) -> f64| {
+        let mut v = [0.0; LANES];
+        for (i, x) in v.iter_mut().enumerate() {
+            *x = f(&samples[i.min(last)]);
+        }
+        F8(v)
     };
+    let pose = Pose::new(&model.geometry, input(|s| s.z[0]), input(|s| s.psi[0]), input(|s| s.theta[0]));
+    solve_fast(model, &pose, &Loads::statics(model, &pose), out);
+}
+
+/// The fast solver on one pose or a batch, into one result per lane of `out`.
+#[inline(always)]
+fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mut [PoseResult]) {
+    let any = |m: L::M| (0..out.len()).any(|i| m.get(i));
+    if !any(pose.reachable) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = PoseResult::unreachable(pose.x.get(i), pose.y.get(i), pose.phi.get(i));
+        }
+        return;
+    }
+    let reduced = Reduced::new(model, pose, true);
+    let conditioned = |k: L| k.le(L::constant(model.singular_cond));
+    let solvable = pose.reachable & conditioned(reduced.cond_g) & conditioned(reduced.cond_m);
+    if !any(solvable) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = unsolved(pose, &reduced, i);
+        }
+        return;
+    }
+    let reactions = reduced.reactions(model, pose, loads);
+    let take = take_ups(&model.geometry, &reactions, &model.clearance, model.indeterminate_floor);
+    let inv = euler_inverse(pose);
+    let t = reduced.errors(model, pose, &take);
+    let errors = each4(|k| pose_error(t[k], &inv));
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = unsolved(pose, &reduced, i);
+        if solvable.get(i) {
+            finish(model, pose, i, o, reactions.get(i), &take.get(i), each4(|k| errors[k].get(i)));
+        }
+    }
+}
+
+/// Lane `i`'s result up to its conditioning: unreachable, or near-singular until
+/// [`finish`]ed.
+#[inline(always)]
+fn unsolved<L: Lane>(pose: &Pose<L>, reduced: &Reduced<L>, i: usize) -> PoseResult {
+    let mut r = PoseResult::unreachable(pose.x.get(i), pose.y.get(i), pose.phi.get(i));
+    if pose.reachable.get(i) {
+        r.q = lane3(&pose.q, i);
+        r.cond_a = reduced.cond_g.get(i);
+        r.cond_jp = reduced.cond_m.get(i);
+        r.status = Status::NearSingular;
+    }
+    r
+}
+
+/// The general path: conditioning from the reduction, then the assembled 24 × 24
+/// and 12 × 12 systems solved by faer.
+fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut Workspace) -> PoseResult {
+    let geom = &model.geometry;
+    let reduced = Reduced::new(model, pose, true);
+    let posture = pose.posture(0);
+    let mut result = PoseResult::unreachable(pose.x, pose.y, pose.phi);
+    result.q = pose.q;
+    result.cond_a = reduced.cond_g;
+    result.cond_jp = reduced.cond_m;
+    result.status = Status::NearSingular;
+    if !(reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond) {
+        return result;
+    }
+    equilibrium::assemble(model, &posture, inertial, ws.a.as_mut(), ws.w.as_mut());
+    if !ws.lu_a.solve(ws.a.as_ref(), ws.w.as_mut()) {
+        return result;
+    }
+    let reactions = equilibrium::reactions_from(model, &ws.w);
     let take = take_up(geom, &reactions, &model.clearance, model.indeterminate_floor);
-    let errors = match model.solver {
-        SolverKind::Fast => {
-            let euler_inv = fast::euler_inverse(&pose);
-            reduced.errors(model, &pose, &take).map(|t| fast::pose_error(t, &euler_inv))
-        }
-        SolverKind::General => {
-            error_system::assemble(&pose, &geom.y, &take, ws.jp.as_mut(), ws.dq.as_mut());
-            if !ws.lu_jp.solve(ws.jp.as_ref(), ws.dq.as_mut()) {
-                result.status = Status::NearSingular;
-                return result;
-            }
-            error_system::errors_from(&pose, &geom.y, &take, &ws.dq)
-        }
-    };
+    error_system::assemble(&posture, &geom.y, &take, ws.jp.as_mut(), ws.dq.as_mut());
+    if !ws.lu_jp.solve(ws.jp.as_ref(), ws.dq.as_mut()) {
+        return result;
+    }
+    let errors = error_system::errors_from(&posture, &geom.y, &take, &ws.dq);
+    finish(model, pose, 0, &mut result, reactions, &take, errors);
+    result
+}
+
+/// Fills a solvable pose's result from its reactions, take-up and per-kind errors.
+#[inline(always)]
+fn finish<L: Lane>(
+    model: &Model,
+    pose: &Pose<L>,
+    i: usize,
+    r: &mut PoseResult,
+    reactions: JointReactions,
+    take: &TakeUp,
+    errors: [PoseError; 4],
+) {
     let total = error_system::total(&errors);
     let kind_ok = take.indeterminate.map(|i| !i);
     let status = if kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
-    let exact = (model.exact && status == Status::Ok)
-        .then(|| exact_error(geom, &pose, &take))
+    r.exact = (model.exact && status == Status::Ok)
+        .then(|| exact_error(&model.geometry, &pose.posture(i), take))
         .flatten()
         .filter(|e| same_branch(e, &total));
-    PoseResult { status, reactions, margins: take.margins, errors, kind_ok, total, exact, ..result }
+    (r.status, r.reactions, r.margins, r.errors, r.kind_ok, r.total) =
+        (status, reactions, take.margins, errors, kind_ok, total);
 }

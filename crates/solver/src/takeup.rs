@@ -14,6 +14,8 @@ use clearance_kinematics::Geometry;
 use nalgebra::Vector3;
 
 use crate::equilibrium::JointReactions;
+use crate::fast::Reactions;
+use crate::lanes::{Lane, Mask, V3, each3, each4, lane3, lane3v};
 
 /// The loads that decide each take-up, per limb (N or N·m).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -49,36 +51,75 @@ pub struct TakeUp {
     pub indeterminate: [bool; 4],
 }
 
+/// [`TakeUp`] of one pose or a batch.
+#[derive(Clone, Copy)]
+pub struct TakeUps<L: Lane> {
+    pub s: [V3<L>; 3],
+    pub r_radial: [V3<L>; 3],
+    pub r_axial: [V3<L>; 3],
+    pub r_angular: [V3<L>; 3],
+    /// Per kind (order of `KINDS`), per limb.
+    pub margins: [[L; 3]; 4],
+    pub indeterminate: [L::M; 4],
+}
+
+impl<L: Lane> TakeUps<L> {
+    /// Lane `i`.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> TakeUp {
+        let m = &self.margins;
+        let ind = &self.indeterminate;
+        TakeUp {
+            s: lane3v(&self.s, i),
+            r_radial: lane3v(&self.r_radial, i),
+            r_axial: lane3v(&self.r_axial, i),
+            r_angular: lane3v(&self.r_angular, i),
+            margins: Margins {
+                s: lane3(&m[0], i),
+                r_radial: lane3(&m[1], i),
+                r_axial: lane3(&m[2], i),
+                r_angular: lane3(&m[3], i),
+            },
+            indeterminate: [ind[0].get(i), ind[1].get(i), ind[2].get(i), ind[3].get(i)],
+        }
+    }
+}
+
 /// `−mag·v/|v|`, or zero when the load is at or below the floor (direction undefined).
-fn against(v: Vector3<f64>, norm: f64, mag: f64, floor: f64) -> Vector3<f64> {
-    if norm > floor && norm > 0.0 { -(mag / norm) * v } else { Vector3::zeros() }
+#[inline(always)]
+fn against<L: Lane>(v: V3<L>, norm: L, mag: f64, floor: L) -> V3<L> {
+    let defined = norm.gt(floor) & norm.gt(L::constant(0.0));
+    V3::select(defined, v.times(-(L::constant(mag) / norm)), V3::zero())
 }
 
 /// The take-up of every clearance for the given reactions. `clearance` is in the
 /// order of `KINDS`; `floor` is the indeterminate-load threshold.
-pub fn take_up(geom: &Geometry, r: &JointReactions, clearance: &[f64; 4], floor: f64) -> TakeUp {
-    let mut t = TakeUp::default();
+#[inline(always)]
+pub fn take_ups<L: Lane>(geom: &Geometry, r: &Reactions<L>, clearance: &[f64; 4], floor: f64) -> TakeUps<L> {
+    let floor = L::constant(floor);
     let [s, rr, ra, rang] = *clearance;
-    for j in 0..3 {
-        let y = geom.y[j];
-        let fs = r.f_s[j];
-        let fr = r.f_r[j];
-        let axial = fr.dot(&y);
-        let perp = fr - axial * y;
-        let (ns, np, na, nm) = (fs.norm(), perp.norm(), axial.abs(), r.m_r[j].norm());
-        t.margins.s[j] = ns;
-        t.margins.r_radial[j] = np;
-        t.margins.r_axial[j] = na;
-        t.margins.r_angular[j] = nm;
-        t.s[j] = against(fs, ns, s, floor);
-        t.r_radial[j] = against(perp, np, rr, floor);
-        t.r_axial[j] = if na > floor { -ra * axial.signum() * y } else { Vector3::zeros() };
-        t.r_angular[j] = against(r.m_r[j], nm, rang, floor);
-        for (k, (&mag, margin)) in clearance.iter().zip([ns, np, na, nm]).enumerate() {
-            if mag > 0.0 && margin <= floor {
-                t.indeterminate[k] = true;
-            }
-        }
+    let y = each3(|j| V3::<L>::splat(&geom.y[j]));
+    let axial = each3(|j| r.f_r[j].dot(y[j]));
+    let perp = each3(|j| r.f_r[j] - y[j].times(axial[j]));
+    let margins =
+        [each3(|j| r.f_s[j].norm()), each3(|j| perp[j].norm()), each3(|j| axial[j].abs()), each3(|j| r.m_r[j].norm())];
+    let indeterminate = each4(|k| {
+        let loose = L::M::splat(clearance[k] > 0.0);
+        loose & (margins[k][0].le(floor) | margins[k][1].le(floor) | margins[k][2].le(floor))
+    });
+    TakeUps {
+        s: each3(|j| against(r.f_s[j], margins[0][j], s, floor)),
+        r_radial: each3(|j| against(perp[j], margins[1][j], rr, floor)),
+        r_axial: each3(|j| {
+            V3::select(margins[2][j].gt(floor), y[j].times(L::constant(-ra) * axial[j].signum()), V3::zero())
+        }),
+        r_angular: each3(|j| against(r.m_r[j], margins[3][j], rang, floor)),
+        margins,
+        indeterminate,
     }
-    t
+}
+
+/// [`take_ups`] of one pose.
+pub fn take_up(geom: &Geometry, r: &JointReactions, clearance: &[f64; 4], floor: f64) -> TakeUp {
+    take_ups(geom, &Reactions::from_joint(r), clearance, floor).get(0)
 }

@@ -1,0 +1,70 @@
+//! The batched kinetostatic kernel (eight poses per call, SIMD) gives every pose the
+//! same bits as `solve_pose` on that pose alone, whatever the batch around it, its
+//! length, and the instruction set: statuses, reactions, margins, errors, condition
+//! numbers and exact errors alike.
+
+mod common;
+
+use clearance_grid::Sample;
+use clearance_kinematics::Geometry;
+use clearance_model::Mode;
+use clearance_solver::{Isa, Model, PoseResult, Status, Workspace, solve_batches, solve_pose, solve_poses};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Every field, floats by their shortest round-trip form: equal strings are equal
+/// bits (NaN aside, whose payload is not a result).
+fn bits(r: &PoseResult) -> String {
+    format!("{r:?}")
+}
+
+#[test]
+fn batches_give_each_pose_its_scalar_bits() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let mut ws = Workspace::new();
+    let isas = Isa::available();
+    let mut seen = [0usize; 4];
+    for case in 0..60 {
+        // Some kinds rigid, so their per-kind errors are exactly zero.
+        let clearance = [0, 1, 2, 3].map(|_| if rng.random_bool(0.2) { 0.0 } else { rng.random_range(1e-5..1e-3) });
+        let job = common::grid_job(&mut rng, clearance);
+        let mut model = Model::from_job(&job);
+        model.exact = case % 3 == 0;
+        // Tight thresholds, so that near-singular and indeterminate poses occur.
+        model.singular_cond = rng.random_range(20.0..400.0);
+        model.indeterminate_floor = model.weight * rng.random_range(0.0..0.1);
+        if case % 4 == 1 {
+            // Legs short enough that tilted poses cannot be reached.
+            let g = &model.geometry;
+            model.geometry = Geometry::new(g.base_radius, g.platform_radius, rng.random_range(0.15..0.3));
+        }
+        let n = rng.random_range(1..40);
+        let samples: Vec<Sample> = (0..n)
+            .map(|_| {
+                // Cos Ψ = 0 (singular Euler rates) now and then, and heights out of reach.
+                let psi = if rng.random_bool(0.05) { std::f64::consts::FRAC_PI_2 } else { rng.random_range(-1.2..1.2) };
+                common::static_sample(rng.random_range(1.2..2.6), psi, rng.random_range(-1.2..1.2))
+            })
+            .collect();
+        let scalar: Vec<String> =
+            samples.iter().map(|s| bits(&solve_pose(&model, s, Mode::Kinetostatic, &mut ws))).collect();
+        for &isa in &isas {
+            // From every offset, so each pose sits in several batches and positions.
+            for skip in 0..n.min(9) {
+                let mut out = vec![PoseResult::default(); n - skip];
+                solve_batches(&model, &samples[skip..], &mut out, isa);
+                for (i, r) in out.iter().enumerate() {
+                    assert_eq!(bits(r), scalar[skip + i], "case {case}, {isa:?}, pose {}", skip + i);
+                }
+            }
+        }
+        let mut out = vec![PoseResult::default(); n];
+        solve_poses(&model, &samples, Mode::Kinetostatic, &mut ws, &mut out);
+        for (r, s) in out.iter().zip(&scalar) {
+            assert_eq!(&bits(r), s);
+            seen[Status::ALL.iter().position(|&x| x == r.status).unwrap()] += 1;
+        }
+    }
+    // Every status went through the masks, and exact errors were compared.
+    assert!(seen.iter().all(|&k| k > 5), "statuses seen: {seen:?}");
+}
