@@ -5,7 +5,7 @@
 //! | `kinematics/inverse` | closed-form inverse kinematics of one grid pose |
 //! | `kinematics/inverse_motion` | the same with exact rates (second-order jets), one trajectory sample |
 //! | `pose/<mode>/<solver>` | `solve_pose`: kinematics → A·w = b → take-up → J_P·Δq_P = J_Cl·Δq_Cl, all four kinds, one thread |
-//! | `kernel/<solver>/<threads>` | the same kinetostatic kernel as `clearance bench`, spread over a rayon pool of 1 and 2 threads |
+//! | `kernel/<solver>/<threads>` | the same kinetostatic kernel as `clearance bench` (blocks of 1024 samples through `solve_poses`: eight poses per call with the fast solver), spread over a rayon pool of 1 and 2 threads |
 //! | `parquet/batch_standard` | `PoseSchema::batch`: one solved pose → one row of the standard columns (Arrow, nulls applied; rayon pool) |
 //! | `parquet/write_standard` | `write_parquet`: one row of a 65 536-row batch → zstd Parquet on disk (one thread, as `clearance run`'s writer) |
 //! | `discontinuity/grid_21x21` | `find_discontinuities` on a 21 × 21 grid (element = grid pose; includes the refinement solves) |
@@ -21,7 +21,7 @@ use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::{Geometry, inverse_kinematics, inverse_kinematics_motion};
 use clearance_model::Mode;
 use clearance_parquet::{ColumnSet, PoseSchema, WriteOptions, write_parquet};
-use clearance_solver::{Model, Workspace, solve_pose};
+use clearance_solver::{Blocks, Model, Workspace, solve_pose};
 use common::{Solve, for_each_solver};
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
@@ -123,11 +123,12 @@ fn kernel(c: &mut Criterion) {
             g.bench_function(BenchmarkId::new(name, format!("{threads}_threads")), |b| {
                 b.iter(|| {
                     pool.install(|| {
-                        (0..n)
+                        (0..n.div_ceil(1024))
                             .into_par_iter()
-                            .map_init(Workspace::new, |ws, i| {
-                                let r = solve_pose(&model, &source.sample(i), Mode::Kinetostatic, ws);
-                                r.errors[0].dp.z + r.errors[3].dalpha.x
+                            .map_init(Blocks::default, |blocks, b| {
+                                let range = b * 1024..n.min((b + 1) * 1024);
+                                let (_, results) = blocks.solve(&model, &source, range, Mode::Kinetostatic);
+                                results.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
                             })
                             .sum::<f64>()
                     })

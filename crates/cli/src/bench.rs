@@ -6,7 +6,7 @@ use anyhow::Result;
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
 use clearance_parquet::{Codec, ColumnSet};
-use clearance_solver::{Model, PoseResult, SolverKind, Workspace, solve_poses};
+use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
 
 use crate::run::{RunOptions, run};
@@ -32,16 +32,10 @@ pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
     let start = Instant::now();
     let checksum: f64 = (0..n.div_ceil(BLOCK))
         .into_par_iter()
-        .map_init(
-            || (Workspace::new(), Vec::new(), Vec::new()),
-            |(ws, samples, out), b| {
-                samples.clear();
-                samples.extend((b * BLOCK..n.min((b + 1) * BLOCK)).map(|i| source.sample(i)));
-                out.resize(samples.len(), PoseResult::default());
-                solve_poses(&model, samples, Mode::Kinetostatic, ws, out);
-                out.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
-            },
-        )
+        .map_init(Blocks::default, |blocks, b| {
+            let (_, results) = blocks.solve(&model, &source, b * BLOCK..n.min((b + 1) * BLOCK), Mode::Kinetostatic);
+            results.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
+        })
         .sum();
     let secs = start.elapsed().as_secs_f64();
     std::hint::black_box(checksum);

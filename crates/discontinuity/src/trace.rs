@@ -3,7 +3,7 @@
 
 use clearance_grid::SampleSource;
 use clearance_model::{ClearanceKind, KINDS, Mode};
-use clearance_solver::{Model, PoseResult, Workspace, solve_pose};
+use clearance_solver::{Blocks, Model, PoseResult};
 use rayon::prelude::*;
 
 use crate::paths::{Axis, axes};
@@ -120,6 +120,8 @@ pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[L
 /// Samples whose traces [`traces`] settles together: bounds the memory of their
 /// load magnitudes.
 const TRACE_CHUNK: u64 = 1 << 16;
+/// Samples solved together by one worker.
+const BLOCK: u64 = 1024;
 
 /// The [`Trace`] of the samples in `range` of a (variant, mode), solving each once.
 pub fn traces(
@@ -133,9 +135,16 @@ pub fn traces(
     let mut out = Vec::with_capacity((range.end - range.start) as usize);
     for chunk in clearance_grid::chunks(range.end - range.start, TRACE_CHUNK) {
         let first = range.start + chunk.start;
-        let (t, loads): (Vec<Trace>, Vec<Loads>) = (first..range.start + chunk.end)
+        let last = range.start + chunk.end;
+        let (t, loads): (Vec<Trace>, Vec<Loads>) = (first..last)
+            .step_by(BLOCK as usize)
+            .collect::<Vec<_>>()
             .into_par_iter()
-            .map_init(Workspace::new, |ws, i| trace_loads(&solve_pose(model, &source.sample(i), mode, ws), model, opts))
+            .map_init(Blocks::default, |blocks, start| {
+                let (_, results) = blocks.solve(model, source, start..last.min(start + BLOCK), mode);
+                results.iter().map(|r| trace_loads(r, model, opts)).collect::<Vec<_>>()
+            })
+            .flatten_iter()
             .unzip();
         out.extend(keep_local_minima(&axes, first, &t, &loads));
     }

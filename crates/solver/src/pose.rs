@@ -1,6 +1,6 @@
 //! One pose through the whole pipeline: kinematics → reactions → take-up → error.
 
-use clearance_grid::Sample;
+use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::{inverse_kinematics_motion, parasitic};
 use clearance_model::Mode;
 use faer::Mat;
@@ -196,6 +196,32 @@ pub fn solve_poses(model: &Model, samples: &[Sample], mode: Mode, ws: &mut Works
         return;
     }
     solve_batches(model, samples, out, Isa::best());
+}
+
+/// Scratch for solving runs of consecutive samples with [`solve_poses`], one per
+/// worker thread: the samples and results are reused from run to run.
+#[derive(Default)]
+pub struct Blocks {
+    ws: Workspace,
+    samples: Vec<Sample>,
+    results: Vec<PoseResult>,
+}
+
+impl Blocks {
+    /// Samples `range` of `source`, solved in `mode`: each sample beside its result.
+    pub fn solve(
+        &mut self,
+        model: &Model,
+        source: &SampleSource,
+        range: std::ops::Range<u64>,
+        mode: Mode,
+    ) -> (&[Sample], &[PoseResult]) {
+        self.samples.clear();
+        self.samples.extend(range.map(|i| source.sample(i)));
+        self.results.resize(self.samples.len(), PoseResult::default());
+        solve_poses(model, &self.samples, mode, &mut self.ws, &mut self.results);
+        (&self.samples, &self.results)
+    }
 }
 
 /// The instruction sets the batched kernel is compiled for; [`Isa::best`] is the
