@@ -43,6 +43,9 @@ struct Lu6<L: Lane> {
     lu: A6<L>,
     /// Row `i` of `P·A` is row `perm[i]` of `A` (an index held as a number).
     perm: [L; 6],
+    /// `1/U[i][i]`: substitutions multiply by it rather than divide (a vector division
+    /// costs as much as a dozen multiplications).
+    inv: [L; 6],
     /// Every pivot non-zero and finite.
     regular: L::M,
 }
@@ -52,6 +55,7 @@ impl<L: Lane> Lu6<L> {
     fn new(mut a: A6<L>) -> Self {
         let mut perm: [L; 6] = each6(|i| c(i as f64));
         let mut regular = L::M::splat(true);
+        let mut inv = [c::<L>(0.0); 6];
         for k in 0..6 {
             // The first row with the largest magnitude in column k.
             let mut best = a[k][k].abs();
@@ -75,16 +79,16 @@ impl<L: Lane> Lu6<L> {
             }
             let pivot = a[k][k];
             regular = regular & !pivot.eq(c(0.0)) & pivot.finite();
-            let inv = c::<L>(1.0) / pivot;
+            inv[k] = c::<L>(1.0) / pivot;
             for i in k + 1..6 {
-                let l = a[i][k] * inv;
+                let l = a[i][k] * inv[k];
                 a[i][k] = l;
                 for j in k + 1..6 {
                     a[i][j] = a[i][j] - l * a[k][j];
                 }
             }
         }
-        Self { lu: a, perm, regular }
+        Self { lu: a, perm, inv, regular }
     }
 
     /// `A·X = B` for `K` right-hand sides at once (row `i` of `B` holds component `i`
@@ -116,9 +120,8 @@ impl<L: Lane> Lu6<L> {
                     *xi = *xi - u * r;
                 }
             }
-            let pivot = lu[i][i];
             for xi in &mut x[i] {
-                *xi = *xi / pivot;
+                *xi = *xi * self.inv[i];
             }
         }
         x
@@ -137,9 +140,8 @@ impl<L: Lane> Lu6<L> {
                     *wi = *wi - u * lk;
                 }
             }
-            let pivot = lu[i][i];
             for wi in &mut w[i] {
-                *wi = *wi / pivot;
+                *wi = *wi * self.inv[i];
             }
         }
         for i in (0..5).rev() {
@@ -163,22 +165,46 @@ impl<L: Lane> Lu6<L> {
         x
     }
 
-    /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse.
+    /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse `(L·U)⁻¹`: `A⁻¹ = (L·U)⁻¹·P`
+    /// only reorders its columns, which changes neither norm.
     #[inline(always)]
     fn inverse_norms(&self) -> (L, L) {
-        let identity: A6<L> = each6(|i| each6(|j| c(if i == j { 1.0 } else { 0.0 })));
-        let x = self.solve_rows(&identity);
-        let mut col_sums = [c::<L>(0.0); 6];
-        let mut row_max = c::<L>(0.0);
+        let lu = &self.lu;
+        let zero = c::<L>(0.0);
+        // Y = L⁻¹, lower triangular with a unit diagonal: row i is zero past column i.
+        let mut x = [[zero; 6]; 6];
+        for i in 0..6 {
+            x[i][i] = c(1.0);
+            for j in 0..i {
+                let l = lu[i][j];
+                for k in 0..=j {
+                    x[i][k] = x[i][k] - l * x[j][k];
+                }
+            }
+        }
+        // X = U⁻¹·Y.
+        for i in (0..6).rev() {
+            for j in i + 1..6 {
+                let (row, u) = (x[j], lu[i][j]);
+                for (xi, r) in x[i].iter_mut().zip(row) {
+                    *xi = *xi - u * r;
+                }
+            }
+            for xi in &mut x[i] {
+                *xi = *xi * self.inv[i];
+            }
+        }
+        let mut col_sums = [zero; 6];
+        let mut row_max = zero;
         for row in &x {
-            let mut sum = c::<L>(0.0);
+            let mut sum = zero;
             for (s, v) in col_sums.iter_mut().zip(row) {
                 *s = *s + v.abs();
                 sum = sum + v.abs();
             }
             row_max = row_max.max(sum);
         }
-        (col_sums.iter().fold(c::<L>(0.0), |m, &s| m.max(s)), row_max)
+        (col_sums.iter().fold(zero, |m, &s| m.max(s)), row_max)
     }
 }
 
@@ -436,7 +462,10 @@ impl<L: Lane> Reduced<L> {
         let l = geom.leg_length;
         let y = each3(|j| V3::<L>::splat(&geom.y[j]));
         let (cl, h) = (&loads.c, &loads.h);
-        let gamma = each3(|j| -(h[j] + pose.e[j].cross(cl[j]).scale(0.5 * l)).dot(y[j]) / c(l));
+        let mut gamma = [c::<L>(0.0); 3];
+        for j in 0..3 {
+            gamma[j] = -(h[j] + pose.e[j].cross(cl[j]).scale(0.5 * l)).dot(y[j]) / c(l);
+        }
         // About P: Σ r_j×f_Sj = M_C + (C − P)×Σ f_Sj.
         let mut f = loads.force;
         let mut mo = loads.moment_c + loads.com.cross(loads.force);
@@ -515,14 +544,23 @@ pub fn euler_inverse<L: Lane>(pose: &Pose<L>) -> [[L; 3]; 3] {
     let det = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
     let singular = det.eq(zero);
     // inverse = adjugate / det, the adjugate being the transposed cofactors.
-    each3(|r| each3(|k| L::select(singular, c(f64::NAN), cof[k][r] / det)))
+    let mut inv = [[zero; 3]; 3];
+    for r in 0..3 {
+        for k in 0..3 {
+            inv[r][k] = L::select(singular, c(f64::NAN), cof[k][r] / det);
+        }
+    }
+    inv
 }
 
 /// `[Δα; Δp]` → [`Errors`] with Euler angles.
 #[inline(always)]
 pub fn pose_error<L: Lane>(t: [L; 6], euler_inv: &[[L; 3]; 3]) -> Errors<L> {
     let dalpha = V3::new(t[0], t[1], t[2]);
-    let e = each3(|r| V3::from_array(euler_inv[r]).dot(dalpha));
+    let mut e = [c::<L>(0.0); 3];
+    for r in 0..3 {
+        e[r] = V3::from_array(euler_inv[r]).dot(dalpha);
+    }
     Errors { dalpha, dp: V3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
 }
 

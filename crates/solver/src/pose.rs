@@ -11,7 +11,7 @@ use crate::equilibrium::{self, JointReactions};
 use crate::error_system::{self, PoseError};
 use crate::exact::exact_error;
 use crate::fast::{Loads, Pose, Reduced, euler_inverse, pose_error};
-use crate::lanes::{F8, LANES, Lane, Mask, each4, lane3};
+use crate::lanes::{F8, LANES, Lane, Mask, lane3};
 use crate::linalg::LuSolver;
 use crate::takeup::{Margins, TakeUp, take_up, take_ups};
 
@@ -329,12 +329,15 @@ fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mu
     let take = take_ups(&model.geometry, &reactions, &model.clearance, model.indeterminate_floor);
     let inv = euler_inverse(pose);
     let t = reduced.errors(model, pose, &take);
-    let errors = each4(|k| pose_error(t[k], &inv));
+    let errors = [pose_error(t[0], &inv), pose_error(t[1], &inv), pose_error(t[2], &inv), pose_error(t[3], &inv)];
     for (i, o) in out.iter_mut().enumerate() {
-        *o = unsolved(pose, &reduced, i);
-        if solvable.get(i) {
-            finish(model, pose, i, o, reactions.get(i), &take.get(i), each4(|k| errors[k].get(i)));
-        }
+        *o = if solvable.get(i) {
+            let cond = (reduced.cond_g.get(i), reduced.cond_m.get(i));
+            let e = [errors[0].get(i), errors[1].get(i), errors[2].get(i), errors[3].get(i)];
+            finish(model, pose, i, cond, reactions.get(i), &take.get(i), e)
+        } else {
+            unsolved(pose, &reduced, i)
+        };
     }
 }
 
@@ -377,28 +380,41 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
         return result;
     }
     let errors = error_system::errors_from(&posture, &geom.y, &take, &ws.dq);
-    finish(model, pose, 0, &mut result, reactions, &take, errors);
-    result
+    finish(model, pose, 0, (reduced.cond_g, reduced.cond_m), reactions, &take, errors)
 }
 
-/// Fills a solvable pose's result from its reactions, take-up and per-kind errors.
+/// A solvable pose's result from its reactions, take-up and per-kind errors.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn finish<L: Lane>(
     model: &Model,
     pose: &Pose<L>,
     i: usize,
-    r: &mut PoseResult,
+    cond: (f64, f64),
     reactions: JointReactions,
     take: &TakeUp,
     errors: [PoseError; 4],
-) {
+) -> PoseResult {
     let total = error_system::total(&errors);
     let kind_ok = take.indeterminate.map(|i| !i);
     let status = if kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
-    r.exact = (model.exact && status == Status::Ok)
+    let exact = (model.exact && status == Status::Ok)
         .then(|| exact_error(&model.geometry, &pose.posture(i), take))
         .flatten()
         .filter(|e| same_branch(e, &total));
-    (r.status, r.reactions, r.margins, r.errors, r.kind_ok, r.total) =
-        (status, reactions, take.margins, errors, kind_ok, total);
+    PoseResult {
+        status,
+        x: pose.x.get(i),
+        y: pose.y.get(i),
+        phi: pose.phi.get(i),
+        q: lane3(&pose.q, i),
+        reactions,
+        margins: take.margins,
+        errors,
+        kind_ok,
+        total,
+        cond_a: cond.0,
+        cond_jp: cond.1,
+        exact,
+    }
 }

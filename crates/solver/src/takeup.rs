@@ -15,7 +15,7 @@ use nalgebra::Vector3;
 
 use crate::equilibrium::JointReactions;
 use crate::fast::Reactions;
-use crate::lanes::{Lane, Mask, V3, each3, each4, lane3, lane3v};
+use crate::lanes::{Lane, Mask, V3, lane3, lane3v};
 
 /// The loads that decide each take-up, per limb (N or N·m).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -97,26 +97,38 @@ fn against<L: Lane>(v: V3<L>, norm: L, mag: f64, floor: L) -> V3<L> {
 #[inline(always)]
 pub fn take_ups<L: Lane>(geom: &Geometry, r: &Reactions<L>, clearance: &[f64; 4], floor: f64) -> TakeUps<L> {
     let floor = L::constant(floor);
+    let zero = L::constant(0.0);
+    let mut t = TakeUps {
+        s: [V3::zero(); 3],
+        r_radial: [V3::zero(); 3],
+        r_axial: [V3::zero(); 3],
+        r_angular: [V3::zero(); 3],
+        margins: [[zero; 3]; 4],
+        indeterminate: [L::M::splat(false); 4],
+    };
     let [s, rr, ra, rang] = *clearance;
-    let y = each3(|j| V3::<L>::splat(&geom.y[j]));
-    let axial = each3(|j| r.f_r[j].dot(y[j]));
-    let perp = each3(|j| r.f_r[j] - y[j].times(axial[j]));
-    let margins =
-        [each3(|j| r.f_s[j].norm()), each3(|j| perp[j].norm()), each3(|j| axial[j].abs()), each3(|j| r.m_r[j].norm())];
-    let indeterminate = each4(|k| {
-        let loose = L::M::splat(clearance[k] > 0.0);
-        loose & (margins[k][0].le(floor) | margins[k][1].le(floor) | margins[k][2].le(floor))
-    });
-    TakeUps {
-        s: each3(|j| against(r.f_s[j], margins[0][j], s, floor)),
-        r_radial: each3(|j| against(perp[j], margins[1][j], rr, floor)),
-        r_axial: each3(|j| {
-            V3::select(margins[2][j].gt(floor), y[j].times(L::constant(-ra) * axial[j].signum()), V3::zero())
-        }),
-        r_angular: each3(|j| against(r.m_r[j], margins[3][j], rang, floor)),
-        margins,
-        indeterminate,
+    for j in 0..3 {
+        let y = V3::splat(&geom.y[j]);
+        let (fs, fr, mr) = (r.f_s[j], r.f_r[j], r.m_r[j]);
+        let axial = fr.dot(y);
+        let perp = fr - y.times(axial);
+        let (ns, np, na, nm) = (fs.norm(), perp.norm(), axial.abs(), mr.norm());
+        t.margins[0][j] = ns;
+        t.margins[1][j] = np;
+        t.margins[2][j] = na;
+        t.margins[3][j] = nm;
+        t.s[j] = against(fs, ns, s, floor);
+        t.r_radial[j] = against(perp, np, rr, floor);
+        t.r_axial[j] = V3::select(na.gt(floor), y.times(L::constant(-ra) * axial.signum()), V3::zero());
+        t.r_angular[j] = against(mr, nm, rang, floor);
     }
+    for k in 0..4 {
+        if clearance[k] > 0.0 {
+            let m = &t.margins[k];
+            t.indeterminate[k] = m[0].le(floor) | m[1].le(floor) | m[2].le(floor);
+        }
+    }
+    t
 }
 
 /// [`take_ups`] of one pose.
