@@ -227,7 +227,7 @@ impl Blocks {
 /// The instruction sets the batched kernel is compiled for; [`Isa::best`] is the
 /// widest this CPU has. Every choice gives the same bits (tested).
 #[doc(hidden)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Isa {
     Portable,
     Avx2,
@@ -235,7 +235,21 @@ pub enum Isa {
 }
 
 impl Isa {
+    /// The widest this CPU has, capped by the environment variable `CLEARANCE_ISA`
+    /// (`portable`, `avx2` or `avx512`), read once.
     pub fn best() -> Self {
+        static BEST: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *BEST.get_or_init(|| {
+            let cap = match std::env::var("CLEARANCE_ISA").as_deref() {
+                Ok("portable") => Isa::Portable,
+                Ok("avx2") => Isa::Avx2,
+                _ => Isa::Avx512,
+            };
+            Self::detected().min(cap)
+        })
+    }
+
+    fn detected() -> Self {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx512f") {
@@ -250,13 +264,7 @@ impl Isa {
 
     /// Those this CPU can run.
     pub fn available() -> Vec<Self> {
-        [Isa::Portable, Isa::Avx2, Isa::Avx512].into_iter().filter(|&i| i <= Isa::best()).collect()
-    }
-}
-
-impl PartialOrd for Isa {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some((*self as u8).cmp(&(*o as u8)))
+        [Isa::Portable, Isa::Avx2, Isa::Avx512].into_iter().filter(|&i| i <= Isa::detected()).collect()
     }
 }
 
@@ -265,14 +273,14 @@ impl PartialOrd for Isa {
 #[doc(hidden)]
 pub fn solve_batches(model: &Model, samples: &[Sample], out: &mut [PoseResult], isa: Isa) {
     assert_eq!(samples.len(), out.len(), "one result per sample");
-    let isa = if isa <= Isa::best() { isa } else { Isa::Portable };
+    let isa = if isa <= Isa::detected() { isa } else { Isa::Portable };
     for (s, o) in samples.chunks(LANES).zip(out.chunks_mut(LANES)) {
         match isa {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: the CPU has AVX-512F (`isa <= Isa::best()`).
+            // SAFETY: the CPU has AVX-512F (`isa <= Isa::detected()`).
             Isa::Avx512 => unsafe { solve_batch_avx512(model, s, o) },
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: the CPU has AVX2 (`isa <= Isa::best()`).
+            // SAFETY: the CPU has AVX2 (`isa <= Isa::detected()`).
             Isa::Avx2 => unsafe { solve_batch_avx2(model, s, o) },
             _ => solve_batch_lanes(model, s, o),
         }
