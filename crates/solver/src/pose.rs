@@ -243,7 +243,11 @@ impl Isa {
             let cap = match std::env::var("CLEARANCE_ISA").as_deref() {
                 Ok("portable") => Isa::Portable,
                 Ok("avx2") => Isa::Avx2,
-                _ => Isa::Avx512,
+                Ok("avx512") | Err(_) => Isa::Avx512,
+                Ok(other) => {
+                    eprintln!("clearance: CLEARANCE_ISA={other:?} is not portable, avx2 or avx512; ignored");
+                    Isa::Avx512
+                }
             };
             Self::detected().min(cap)
         })
