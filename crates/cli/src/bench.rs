@@ -6,7 +6,7 @@ use anyhow::Result;
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
 use clearance_parquet::{Codec, ColumnSet};
-use clearance_solver::{Blocks, Model, SolverKind};
+use clearance_solver::{Blocks, Isa, Model, SolverKind};
 use rayon::prelude::*;
 
 use crate::run::{RunOptions, run};
@@ -57,6 +57,7 @@ fn dir_size(dir: &std::path::Path) -> u64 {
 
 pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec) -> Result<()> {
     let job = bench_job(poses);
+    let isa = Isa::best().name();
     let n = job.sample_count();
     let threads = rayon::current_num_threads();
     kernel_rate(&bench_job(10_000), SolverKind::Fast); // warm up
@@ -87,12 +88,12 @@ pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec) -> 
     let bytes_per_pose = bytes as f64 / n as f64;
     if json {
         println!(
-            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\", \"compression\": \"{}\", \"bytes_per_pose\": {bytes_per_pose:.1}}}",
+            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\", \"compression\": \"{}\", \"bytes_per_pose\": {bytes_per_pose:.1}, \"isa\": \"{isa}\"}}",
             if solver == SolverKind::Fast { "fast" } else { "general" },
             compression.name()
         );
     } else {
-        println!("poses per measurement: {n}, threads: {threads}");
+        println!("poses per measurement: {n}, threads: {threads}, vector instructions: {isa}");
         println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
         println!("kernel, general faer path:              {kernel_general:>12.0} poses/s");
         println!("end to end (grid -> Parquet, standard):  {e2e:>12.0} poses/s");

@@ -240,17 +240,24 @@ impl Isa {
     pub fn best() -> Self {
         static BEST: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
         *BEST.get_or_init(|| {
-            let cap = match std::env::var("CLEARANCE_ISA").as_deref() {
-                Ok("portable") => Isa::Portable,
-                Ok("avx2") => Isa::Avx2,
-                Ok("avx512") | Err(_) => Isa::Avx512,
-                Ok(other) => {
-                    eprintln!("clearance: CLEARANCE_ISA={other:?} is not portable, avx2 or avx512; ignored");
+            let all = [Isa::Portable, Isa::Avx2, Isa::Avx512];
+            let cap = match std::env::var("CLEARANCE_ISA") {
+                Err(_) => Isa::Avx512,
+                Ok(v) => all.into_iter().find(|i| i.name() == v).unwrap_or_else(|| {
+                    eprintln!("clearance: CLEARANCE_ISA={v:?} is not portable, avx2 or avx512; ignored");
                     Isa::Avx512
-                }
+                }),
             };
             Self::detected().min(cap)
         })
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Portable => "portable",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
     }
 
     fn detected() -> Self {
