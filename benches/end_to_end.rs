@@ -21,7 +21,7 @@ use std::sync::mpsc::sync_channel;
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode};
 use clearance_parquet::{ColumnSet, PoseSchema, SummaryStats, WriteOptions, write_parquet};
-use clearance_solver::{Blocks, Model};
+use clearance_solver::{Model, solve_in_blocks};
 use common::for_each_solver;
 use criterion::{BatchSize, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use rayon::prelude::*;
@@ -52,18 +52,11 @@ fn run_poses(job: &JobSpec, model: &Model, source: &SampleSource, schema: &PoseS
             }
         });
         for (k, range) in chunks(source.len(), CHUNK).enumerate() {
-            let range_end = range.end;
-            let rows: Vec<_> = range
-                .step_by(1024)
-                .collect::<Vec<_>>()
-                .into_par_iter()
-                .map_init(Blocks::default, |blocks, start| {
-                    let (samples, results) =
-                        blocks.solve(model, source, start..(start + 1024).min(range_end), Mode::Kinetostatic);
-                    samples.iter().copied().zip(results.iter().copied()).collect::<Vec<_>>()
-                })
-                .flatten_iter()
-                .collect();
+            let rows: Vec<_> = solve_in_blocks(model, source, range, Mode::Kinetostatic, 1024, |samples, results| {
+                samples.iter().copied().zip(results.iter().copied()).collect::<Vec<_>>()
+            })
+            .flatten_iter()
+            .collect();
             let batch = schema.batch(Mode::Kinetostatic, &rows);
             let mut stats = SummaryStats::default();
             for (_, r) in &rows {

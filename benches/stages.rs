@@ -21,7 +21,7 @@ use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::{Geometry, inverse_kinematics, inverse_kinematics_motion};
 use clearance_model::Mode;
 use clearance_parquet::{ColumnSet, PoseSchema, WriteOptions, write_parquet};
-use clearance_solver::{Blocks, Model, Workspace, solve_pose};
+use clearance_solver::{Model, Workspace, solve_in_blocks, solve_pose};
 use common::{Solve, for_each_solver};
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
@@ -123,14 +123,10 @@ fn kernel(c: &mut Criterion) {
             g.bench_function(BenchmarkId::new(name, format!("{threads}_threads")), |b| {
                 b.iter(|| {
                     pool.install(|| {
-                        (0..n.div_ceil(1024))
-                            .into_par_iter()
-                            .map_init(Blocks::default, |blocks, b| {
-                                let range = b * 1024..n.min((b + 1) * 1024);
-                                let (_, results) = blocks.solve(&model, &source, range, Mode::Kinetostatic);
-                                results.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
-                            })
-                            .sum::<f64>()
+                        solve_in_blocks(&model, &source, 0..n, Mode::Kinetostatic, 1024, |_, results| {
+                            results.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
+                        })
+                        .sum::<f64>()
                     })
                 })
             });

@@ -6,7 +6,7 @@ use anyhow::Result;
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
 use clearance_parquet::{Codec, ColumnSet};
-use clearance_solver::{Blocks, Isa, Model, SolverKind};
+use clearance_solver::{Isa, Model, SolverKind, solve_in_blocks};
 use rayon::prelude::*;
 
 use crate::run::{RunOptions, run};
@@ -24,19 +24,15 @@ pub fn bench_job(poses: u64) -> JobSpec {
 
 /// Kinetostatic pose → reactions → take-up → error, all kinds, no I/O. Returns poses/s.
 pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
-    const BLOCK: u64 = 1024;
     let mut model = Model::from_job(job);
     model.solver = solver;
     let source = SampleSource::new(job);
     let n = source.len();
     let start = Instant::now();
-    let checksum: f64 = (0..n.div_ceil(BLOCK))
-        .into_par_iter()
-        .map_init(Blocks::default, |blocks, b| {
-            let (_, results) = blocks.solve(&model, &source, b * BLOCK..n.min((b + 1) * BLOCK), Mode::Kinetostatic);
-            results.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
-        })
-        .sum();
+    let checksum: f64 = solve_in_blocks(&model, &source, 0..n, Mode::Kinetostatic, 1024, |_, results| {
+        results.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
+    })
+    .sum();
     let secs = start.elapsed().as_secs_f64();
     std::hint::black_box(checksum);
     n as f64 / secs

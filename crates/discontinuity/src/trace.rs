@@ -3,7 +3,7 @@
 
 use clearance_grid::SampleSource;
 use clearance_model::{ClearanceKind, KINDS, Mode};
-use clearance_solver::{Blocks, Model, PoseResult};
+use clearance_solver::{Model, PoseResult, solve_in_blocks};
 use rayon::prelude::*;
 
 use crate::paths::{Axis, axes};
@@ -136,16 +136,11 @@ pub fn traces(
     for chunk in clearance_grid::chunks(range.end - range.start, TRACE_CHUNK) {
         let first = range.start + chunk.start;
         let last = range.start + chunk.end;
-        let (t, loads): (Vec<Trace>, Vec<Loads>) = (first..last)
-            .step_by(BLOCK as usize)
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map_init(Blocks::default, |blocks, start| {
-                let (_, results) = blocks.solve(model, source, start..last.min(start + BLOCK), mode);
-                results.iter().map(|r| trace_loads(r, model, opts)).collect::<Vec<_>>()
-            })
-            .flatten_iter()
-            .unzip();
+        let (t, loads): (Vec<Trace>, Vec<Loads>) = solve_in_blocks(model, source, first..last, mode, BLOCK, |_, rs| {
+            rs.iter().map(|r| trace_loads(r, model, opts)).collect::<Vec<_>>()
+        })
+        .flatten_iter()
+        .unzip();
         out.extend(keep_local_minima(&axes, first, &t, &loads));
     }
     out

@@ -13,6 +13,7 @@ use clearance_kinematics::Posture;
 use faer::{Mat, MatMut};
 use nalgebra::{Vector3, Vector6};
 
+use crate::fast;
 use crate::takeup::TakeUp;
 
 /// A pose error `ΔΓ = [Δα; Δp]` with its Euler-angle form.
@@ -83,15 +84,13 @@ pub fn assemble(
 pub fn errors_from(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, dq: &Mat<f64>) -> [PoseError; 4] {
     let screws = passive_screws(pose, &y[0], 0);
     let cl = clearance_twists(pose, take, 0);
-    let euler_inv = crate::fast::euler_inverse_of(pose);
+    let euler_inv = fast::euler_inverse(&fast::Pose::from_posture(pose));
     [0, 1, 2, 3].map(|k| {
         let mut t = cl[k];
         for (u, s) in screws.iter().enumerate() {
             t += s * dq[(u, k)];
         }
-        let dalpha = Vector3::new(t[0], t[1], t[2]);
-        let e = euler_inv * dalpha;
-        PoseError { dalpha, dp: Vector3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
+        fast::pose_error([t[0], t[1], t[2], t[3], t[4], t[5]], &euler_inv).get(0)
     })
 }
 

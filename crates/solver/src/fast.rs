@@ -301,7 +301,7 @@ impl<L: Lane> Pose<L> {
 impl Pose<f64> {
     /// A posture computed elsewhere (the dynamic path's jets).
     pub fn from_posture(pose: &Posture) -> Self {
-        let v = |w: &Vector3<f64>| V3::new(w.x, w.y, w.z);
+        let v = V3::splat;
         Self {
             z: pose.z,
             psi: pose.psi,
@@ -359,7 +359,7 @@ impl Loads<f64> {
     /// Dynamics: the inertial loads of the motion as well.
     pub fn dynamics(model: &Model, pose: &Posture, inertial: &Inertial) -> Self {
         let mass = &model.mass;
-        let v = |w: Vector3<f64>| V3::new(w.x, w.y, w.z);
+        let v = |w: Vector3<f64>| V3::splat(&w);
         let mut c = [V3::zero(); 3];
         let mut h = [V3::zero(); 3];
         for j in 0..3 {
@@ -400,7 +400,7 @@ impl<L: Lane> Reactions<L> {
 
 impl Reactions<f64> {
     pub fn from_joint(r: &JointReactions) -> Self {
-        let v = |w: &Vector3<f64>| V3::new(w.x, w.y, w.z);
+        let v = V3::splat;
         Self { f_r: r.f_r.each_ref().map(v), m_r: r.m_r.each_ref().map(v), f_s: r.f_s.each_ref().map(v) }
     }
 }
@@ -562,10 +562,4 @@ pub fn pose_error<L: Lane>(t: [L; 6], euler_inv: &[[L; 3]; 3]) -> Errors<L> {
         e[r] = V3::from_array(euler_inv[r]).dot(dalpha);
     }
     Errors { dalpha, dp: V3::new(t[3], t[4], t[5]), euler: [e[2], e[1], e[0]] }
-}
-
-/// The scalar form of [`euler_inverse`] for the general path.
-pub fn euler_inverse_of(pose: &Posture) -> Matrix3<f64> {
-    let m = euler_inverse(&Pose::from_posture(pose));
-    Matrix3::from_fn(|r, k| m[r][k])
 }

@@ -286,7 +286,7 @@ impl<L: Lane> V3<L> {
     pub fn from_array(v: [L; 3]) -> Self {
         Self::new(v[0], v[1], v[2])
     }
-    /// The same vector in every lane.
+    /// The same vector in every lane (for `f64`, the vector itself).
     #[inline(always)]
     pub fn splat(v: &Vector3<f64>) -> Self {
         Self::new(L::constant(v.x), L::constant(v.y), L::constant(v.z))

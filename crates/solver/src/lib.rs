@@ -53,5 +53,8 @@ pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
 pub use equilibrium::JointReactions;
 pub use error_system::PoseError;
 pub use linalg::LuSolver;
-pub use pose::{Blocks, Isa, PoseResult, Status, Workspace, solve_batches, solve_pose, solve_poses, solve_reactions};
+pub use pose::{
+    Blocks, Isa, PoseResult, Status, Workspace, solve_batches, solve_in_blocks, solve_pose, solve_poses,
+    solve_reactions,
+};
 pub use takeup::{Margins, TakeUp};

@@ -4,6 +4,7 @@ use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::{inverse_kinematics_motion, parasitic};
 use clearance_model::Mode;
 use faer::Mat;
+use rayon::prelude::*;
 
 use crate::bodies::SolverKind;
 use crate::bodies::{Inertial, Model};
@@ -175,7 +176,7 @@ pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace
     };
     match model.solver {
         SolverKind::Fast => {
-            let mut out = [PoseResult::unreachable(0.0, 0.0, 0.0)];
+            let mut out = [PoseResult::default()];
             solve_fast(model, &pose, &loads, &mut out);
             out[0]
         }
@@ -222,6 +223,25 @@ impl Blocks {
         solve_poses(model, &self.samples, mode, &mut self.ws, &mut self.results);
         (&self.samples, &self.results)
     }
+}
+
+/// Samples `range` of `source` solved in `mode`, in runs of `block` consecutive
+/// samples spread over the rayon pool (one [`Blocks`] per worker); `f` maps each run,
+/// its samples beside their results (collecting the outputs keeps the runs in order).
+pub fn solve_in_blocks<'a, T: Send>(
+    model: &'a Model,
+    source: &'a SampleSource,
+    range: std::ops::Range<u64>,
+    mode: Mode,
+    block: u64,
+    f: impl Fn(&[Sample], &[PoseResult]) -> T + Sync + Send + 'a,
+) -> impl ParallelIterator<Item = T> + 'a {
+    let (start, end) = (range.start, range.end);
+    (0..(end - start).div_ceil(block)).into_par_iter().map_init(Blocks::default, move |blocks, b| {
+        let first = start + b * block;
+        let (samples, results) = blocks.solve(model, source, first..end.min(first + block), mode);
+        f(samples, results)
+    })
 }
 
 /// The instruction sets the batched kernel is compiled for; [`Isa::best`] is the
