@@ -22,6 +22,7 @@
 //! ```
 
 mod output;
+mod pages;
 mod schema;
 mod summary;
 mod tables;

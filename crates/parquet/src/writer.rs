@@ -1,18 +1,22 @@
 //! Parquet files that appear under their final name only when complete.
 
 use crate::output::Output;
+use crate::pages;
 use std::path::{Path, PathBuf};
 
+use arrow::array::Float64Array;
 use arrow::datatypes::{DataType, Schema};
 use arrow::record_batch::RecordBatch;
 use std::sync::Arc;
 
-use parquet::arrow::arrow_writer::{ArrowColumnChunk, ArrowRowGroupWriterFactory, compute_leaves};
+use parquet::arrow::arrow_writer::{
+    ArrowColumnChunk, ArrowColumnWriter, ArrowLeafColumn, ArrowRowGroupWriterFactory, compute_leaves,
+};
 use parquet::arrow::{ArrowSchemaConverter, add_encoded_arrow_schema_to_metadata};
 
 use parquet::basic::{Compression, Encoding, ZstdLevel};
 use parquet::file::metadata::KeyValue;
-use parquet::file::properties::WriterProperties;
+use parquet::file::properties::{EnabledStatistics, WriterProperties};
 use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::ColumnPath;
 use rayon::prelude::*;
@@ -78,6 +82,9 @@ pub enum Codec {
     Zstd,
 }
 
+/// The zstd level of [`Codec::Zstd`].
+pub(crate) const ZSTD_LEVEL: i32 = 1;
+
 impl Codec {
     pub const NAMES: [&str; 3] = ["none", "lz4", "zstd"];
 
@@ -98,11 +105,11 @@ impl Codec {
         }
     }
 
-    fn compression(self) -> Compression {
+    pub(crate) fn compression(self) -> Compression {
         match self {
             Codec::None => Compression::UNCOMPRESSED,
             Codec::Lz4 => Compression::LZ4_RAW,
-            Codec::Zstd => Compression::ZSTD(ZstdLevel::try_new(1).expect("level 1 is valid")),
+            Codec::Zstd => Compression::ZSTD(ZstdLevel::try_new(ZSTD_LEVEL).expect("the level is valid")),
         }
     }
 }
@@ -123,12 +130,28 @@ fn properties(schema: &Schema, opts: &WriteOptions, extra: &[(String, String)]) 
     builder
         .set_compression(opts.codec.compression())
         .set_dictionary_enabled(false)
+        // Row-group statistics only, and no page index: the double columns are
+        // written by `pages`, which keeps none per page, and the others follow.
+        .set_statistics_enabled(EnabledStatistics::Chunk)
+        .set_offset_index_disabled(true)
         .set_column_dictionary_enabled(ColumnPath::from("mode"), true)
         .set_column_dictionary_enabled(ColumnPath::from("status"), true)
         .set_column_dictionary_enabled(ColumnPath::from("kind"), true)
         .set_max_row_group_row_count(Some(opts.row_group_rows))
         .set_key_value_metadata(Some(kv))
         .build()
+}
+
+/// A column of a row group, to encode.
+enum Job<'a> {
+    Arrow(Box<(ArrowColumnWriter, ArrowLeafColumn)>),
+    Doubles(parquet::schema::types::ColumnDescPtr, &'a Float64Array),
+}
+
+/// A column of a row group, encoded.
+enum Chunk {
+    Arrow(ArrowColumnChunk),
+    Doubles(bytes::Bytes, parquet::column::writer::ColumnCloseResult),
 }
 
 /// Asks the kernel to start writing the file's dirty pages now, without waiting.
@@ -175,22 +198,49 @@ pub fn write_parquet(
                 let slice = b.slice(offset, (b.num_rows() - offset).min(opts.row_group_rows.max(1)));
                 offset += slice.num_rows();
                 // Columns are encoded independently, on the rayon pool: the pool's
-                // threads are all the threads a run uses.
-                let mut leaves = Vec::new();
-                for (field, array) in schema.fields().iter().zip(slice.columns()) {
-                    leaves.extend(compute_leaves(field, array).map_err(enc)?);
+                // threads are all the threads a run uses. Flat double columns are
+                // written by `pages`; the others by `parquet`'s Arrow writer.
+                let mut jobs = Vec::with_capacity(slice.num_columns());
+                let mut arrow_writers = factory.create_column_writers(row_group).map_err(enc)?.into_iter();
+                for (i, (field, array)) in schema.fields().iter().zip(slice.columns()).enumerate() {
+                    let descr = writer.schema_descr().column(i);
+                    let doubles = array.as_any().downcast_ref::<Float64Array>();
+                    match doubles {
+                        Some(a) if pages::handles(&descr) && descr.path().parts() == [field.name().as_str()] => {
+                            arrow_writers.next();
+                            jobs.push(Job::Doubles(descr, a));
+                        }
+                        _ => {
+                            let leaves = compute_leaves(field, array).map_err(enc)?;
+                            for leaf in leaves {
+                                let w = arrow_writers.next().ok_or_else(|| {
+                                    enc(parquet::errors::ParquetError::General("more leaves than columns".into()))
+                                })?;
+                                jobs.push(Job::Arrow(Box::new((w, leaf))));
+                            }
+                        }
+                    }
                 }
-                let chunks: Vec<ArrowColumnChunk> = factory
-                    .create_column_writers(row_group)
-                    .map_err(enc)?
+                let chunks: Vec<Chunk> = jobs
                     .into_par_iter()
-                    .zip(leaves)
-                    .map(|(mut w, leaf)| w.write(&leaf).and_then(|_| w.close()))
+                    .map(|job| match job {
+                        Job::Arrow(job) => {
+                            let (mut w, leaf) = *job;
+                            w.write(&leaf).and_then(|_| w.close()).map(Chunk::Arrow)
+                        }
+                        Job::Doubles(descr, a) => {
+                            pages::encode_doubles(descr, a, opts.codec).map(|(b, c)| Chunk::Doubles(b, c))
+                        }
+                    })
                     .collect::<Result<_, _>>()
                     .map_err(enc)?;
                 let mut rg = writer.next_row_group().map_err(enc)?;
                 for chunk in chunks {
-                    chunk.append_to_row_group(&mut rg).map_err(enc)?;
+                    match chunk {
+                        Chunk::Arrow(c) => c.append_to_row_group(&mut rg),
+                        Chunk::Doubles(bytes, close) => rg.append_column(&bytes, close),
+                    }
+                    .map_err(enc)?;
                 }
                 rg.close().map_err(enc)?;
                 row_group += 1;
