@@ -13,8 +13,8 @@
 //!   nulls, else the validity bitmap itself, which is their bit-packed form;
 //! - values `PLAIN`, or `BYTE_STREAM_SPLIT` when compressed (as the Arrow path did);
 //! - chunk statistics: minimum and maximum in IEEE 754 total order (the column
-//!   order the file declares for doubles), null count and NaN count (0: a value
-//!   that is not finite is null in the engine's output).
+//!   order the file declares for doubles) of the values that are numbers, null
+//!   count and NaN count, as `parquet` writes them.
 //!
 //! The file's footer, schema and column metadata are still written by `parquet`
 //! ([`SerializedRowGroupWriter::append_column`](parquet::file::writer::SerializedRowGroupWriter::append_column)).
@@ -77,7 +77,7 @@ pub(crate) fn encode_doubles(
     let split = codec != Codec::None;
     let mut out = Vec::with_capacity(values.len() * 8 / if split { 2 } else { 1 } + 64);
     let mut uncompressed_total = 0usize;
-    let mut range = KeyRange::default();
+    let mut range = Range::default();
     SCRATCH.with_borrow_mut(|s| -> Result<(), ParquetError> {
         for start in (0..values.len()).step_by(PAGE_ROWS) {
             let rows = PAGE_ROWS.min(values.len() - start);
@@ -132,7 +132,7 @@ pub(crate) fn encode_doubles(
     let null_count = nulls.map_or(0, |n| n.null_count()) as u64;
     let (min, max) = range.bounds();
     let statistics = ValueStatistics::new(min, max, None, Some(null_count), false)
-        .with_nan_count(Some(0))
+        .with_nan_count(Some(range.nans))
         .with_backwards_compatible_min_max(true);
     let mut encodings = vec![if split { Encoding::BYTE_STREAM_SPLIT } else { Encoding::PLAIN }];
     if optional {
@@ -231,54 +231,65 @@ fn transpose8(w: &mut [u64; 8]) {
     }
 }
 
-/// Minimum and maximum in IEEE 754 total order (−0 below +0), as integer keys:
-/// the bits of a double, with every bit but the sign flipped when it is negative,
-/// compare as signed integers in that order.
+/// Minimum and maximum in IEEE 754 total order (−0 below +0), and the NaN count.
+/// Compared as doubles (which vectorises, where 64-bit integer comparisons do not
+/// before SSE 4.2); a zero extreme then takes its sign from the values.
 #[derive(Clone, Copy, Debug)]
-struct KeyRange {
-    lo: i64,
-    hi: i64,
-    any: bool,
+struct Range {
+    lo: f64,
+    hi: f64,
+    /// Valid values seen, NaN included.
+    count: usize,
+    nans: u64,
+    /// Whether −0 and +0 were among the values: set only when an extreme is zero.
+    neg_zero: bool,
+    pos_zero: bool,
 }
 
-impl Default for KeyRange {
+impl Default for Range {
     fn default() -> Self {
-        Self { lo: i64::MAX, hi: i64::MIN, any: false }
+        Self { lo: f64::INFINITY, hi: f64::NEG_INFINITY, count: 0, nans: 0, neg_zero: false, pos_zero: false }
     }
 }
 
-#[inline(always)]
-fn total_order_key(bits: u64) -> i64 {
-    let b = bits as i64;
-    b ^ (((b >> 63) as u64) >> 1) as i64
-}
-
-impl KeyRange {
+impl Range {
     fn extend(&mut self, values: &[f64]) {
-        // Eight running extremes, so the loop vectorises.
-        let (mut lo, mut hi) = ([i64::MAX; 8], [i64::MIN; 8]);
+        // Eight running extremes, so the loop vectorises; a NaN never replaces one.
+        let (mut lo, mut hi, mut nans) = ([f64::INFINITY; 8], [f64::NEG_INFINITY; 8], [0u64; 8]);
         let mut chunks = values.chunks_exact(8);
         for c in &mut chunks {
             for j in 0..8 {
-                let k = total_order_key(c[j].to_bits());
-                lo[j] = lo[j].min(k);
-                hi[j] = hi[j].max(k);
+                let v = c[j];
+                lo[j] = if v < lo[j] { v } else { lo[j] };
+                hi[j] = if v > hi[j] { v } else { hi[j] };
+                nans[j] += u64::from(v.is_nan());
             }
         }
-        for v in chunks.remainder() {
-            let k = total_order_key(v.to_bits());
-            lo[0] = lo[0].min(k);
-            hi[0] = hi[0].max(k);
+        for &v in chunks.remainder() {
+            lo[0] = if v < lo[0] { v } else { lo[0] };
+            hi[0] = if v > hi[0] { v } else { hi[0] };
+            nans[0] += u64::from(v.is_nan());
         }
-        self.lo = lo.into_iter().fold(self.lo, i64::min);
-        self.hi = hi.into_iter().fold(self.hi, i64::max);
-        self.any |= !values.is_empty();
+        let (lo, hi) = (lo.into_iter().fold(f64::INFINITY, f64::min), hi.into_iter().fold(f64::NEG_INFINITY, f64::max));
+        if lo == 0.0 || hi == 0.0 {
+            // Only zeros can tie: which signs are present decides the extremes.
+            self.neg_zero |= values.iter().any(|v| v.to_bits() == (-0.0f64).to_bits());
+            self.pos_zero |= values.iter().any(|v| v.to_bits() == 0);
+        }
+        self.lo = self.lo.min(lo);
+        self.hi = self.hi.max(hi);
+        self.count += values.len();
+        self.nans += nans.iter().sum::<u64>();
     }
 
+    /// `(min, max)`, `None` when no value is a number.
     fn bounds(self) -> (Option<f64>, Option<f64>) {
-        // The key map is its own inverse.
-        let value = |k: i64| f64::from_bits(total_order_key(k as u64) as u64);
-        if self.any { (Some(value(self.lo)), Some(value(self.hi))) } else { (None, None) }
+        if self.count as u64 == self.nans {
+            return (None, None);
+        }
+        let lo = if self.lo == 0.0 { if self.neg_zero { -0.0 } else { 0.0 } } else { self.lo };
+        let hi = if self.hi == 0.0 { if self.pos_zero { 0.0 } else { -0.0 } } else { self.hi };
+        (Some(lo), Some(hi))
     }
 }
 
@@ -331,20 +342,35 @@ mod tests {
     }
 
     #[test]
-    fn key_range_is_total_order() {
-        let mut values = vec![3.5, -0.0, 0.0, -2.0, f64::MIN_POSITIVE, -f64::MAX, 1e300, -1e-300];
-        let mut r = KeyRange::default();
-        r.extend(&values);
+    fn range_is_total_order_without_nans() {
+        let mut values =
+            vec![3.5, -0.0, 0.0, -2.0, f64::NAN, f64::MIN_POSITIVE, -f64::MAX, 1e300, -1e-300, f64::INFINITY];
+        let mut r = Range::default();
+        r.extend(&values[..5]);
+        r.extend(&values[5..]);
+        values.retain(|v| !v.is_nan());
         values.sort_by(f64::total_cmp);
         let (lo, hi) = r.bounds();
-        assert_eq!(lo.unwrap().to_bits(), values[0].to_bits());
-        assert_eq!(hi.unwrap().to_bits(), values[values.len() - 1].to_bits());
-        for (zeros, lo, hi) in [([-0.0, 0.0], -0.0, 0.0), ([0.0, 0.0], 0.0, 0.0), ([-0.0, -0.0], -0.0, -0.0)] {
-            let mut r = KeyRange::default();
+        assert_eq!(
+            (lo.unwrap().to_bits(), hi.unwrap().to_bits()),
+            (values[0].to_bits(), values[values.len() - 1].to_bits())
+        );
+        assert_eq!(r.nans, 1);
+        for (zeros, lo, hi) in [
+            (vec![-0.0, 0.0], -0.0, 0.0),
+            (vec![0.0; 9], 0.0, 0.0),
+            (vec![-0.0; 11], -0.0, -0.0),
+            (vec![-1.0, 0.0, -0.0], -1.0, 0.0),
+            (vec![-0.0, 2.0], -0.0, 2.0),
+        ] {
+            let mut r = Range::default();
             r.extend(&zeros);
             let (a, b) = r.bounds();
-            assert_eq!((a.unwrap().to_bits(), b.unwrap().to_bits()), (f64::to_bits(lo), f64::to_bits(hi)));
+            assert_eq!((a.unwrap().to_bits(), b.unwrap().to_bits()), (f64::to_bits(lo), f64::to_bits(hi)), "{zeros:?}");
         }
-        assert_eq!(KeyRange::default().bounds(), (None, None));
+        assert_eq!(Range::default().bounds(), (None, None));
+        let mut r = Range::default();
+        r.extend(&[f64::NAN; 3]);
+        assert_eq!((r.bounds(), r.nans), ((None, None), 3));
     }
 }

@@ -2,7 +2,7 @@
 //! `parquet` crate's own reader, as the values, nulls and statistics written: for
 //! every codec, page and row-group boundaries that cut bytes of the validity
 //! bitmap, columns with no nulls, only nulls or some, required columns, and
-//! values whose order is delicate (±0, subnormals, the extremes).
+//! values whose order is delicate (±0, subnormals, the extremes, NaN).
 
 use std::sync::Arc;
 
@@ -16,7 +16,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn value(rng: &mut ChaCha8Rng) -> f64 {
-    match rng.random_range(0..10) {
+    match rng.random_range(0..40) {
+        4 => f64::NAN,
         0 => 0.0,
         1 => -0.0,
         2 => f64::MIN_POSITIVE / 8.0,
@@ -36,9 +37,9 @@ fn column(rng: &mut ChaCha8Rng, n: usize, p_null: f64) -> Float64Array {
     (0..n).map(|_| (!rng.random_bool(p_null)).then(|| value(rng))).collect()
 }
 
-/// Total order extremes of the valid values, `None` when there are none.
+/// Total order extremes of the valid values that are numbers, `None` when there are none.
 fn expected_range(a: &Float64Array) -> Option<(f64, f64)> {
-    let mut v: Vec<f64> = a.iter().flatten().collect();
+    let mut v: Vec<f64> = a.iter().flatten().filter(|v| !v.is_nan()).collect();
     v.sort_by(f64::total_cmp);
     Some((*v.first()?, *v.last()?))
 }
