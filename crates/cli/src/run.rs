@@ -19,7 +19,7 @@ use clearance_discontinuity::{
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    Codec, ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch,
+    Codec, ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch, recycle,
     summary_batch, write_parquet,
 };
 use clearance_solver::{Blocks, Model, SolverKind};
@@ -380,6 +380,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
+    // Column buffers of written parts, for the units still to compute.
+    let spare = &std::sync::Mutex::new(Vec::new());
     std::thread::scope(|scope| -> Result<()> {
         let (tx, rx) = sync_channel::<Part>(1);
         let schema_ref = schema.schema();
@@ -391,7 +393,10 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 }
                 write_atomic(&part.trace_path, &encode_traces(&part.traces))?;
                 write_atomic(&part.stats_path, &serde_json::to_vec(&part.stats)?)?;
-                write_parquet(&part.path, schema_ref.clone(), &[part.batch], write_opts, &part.extra)?;
+                let batches = [part.batch];
+                write_parquet(&part.path, schema_ref.clone(), &batches, write_opts, &part.extra)?;
+                let [batch] = batches;
+                recycle(batch, &mut spare.lock().expect("no panic while held"));
             }
             Ok(())
         });
@@ -403,7 +408,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             progress.set_message(format!("variant {} {}", unit.variant, unit.mode.name()));
             let search = search_options(variant);
             let n = (unit.range.end - unit.range.start) as usize;
-            let mut cols = schema.columns(n);
+            let mut cols = schema.columns_reusing(n, &mut spare.lock().expect("no panic while held"));
             let mut traces: Vec<Trace> = vec![0; n];
             loads.resize(n, [0.0; 12]);
             let block_stats: Vec<SummaryStats> = cols
@@ -412,7 +417,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 .zip(traces.par_chunks_mut(BLOCK).zip(loads.par_chunks_mut(BLOCK)))
                 .enumerate()
                 .map_init(Blocks::default, |blocks, (b, (mut sink, (block_traces, block_loads)))| {
-                    let mut stats = SummaryStats::default();
+                    let mut stats = SummaryStats::with_capacity(block_traces.len());
                     let first = unit.range.start + (b * BLOCK) as u64;
                     // A few batches at a time, so that results are used while in cache.
                     for (k, (ts, ls)) in block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE)).enumerate() {

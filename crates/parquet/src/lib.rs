@@ -28,7 +28,7 @@ mod summary;
 mod tables;
 mod writer;
 
-pub use schema::{BlockSink, ColumnSet, PoseSchema, UnitColumns};
+pub use schema::{BlockSink, ColumnSet, PoseSchema, UnitColumns, recycle};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
 pub use tables::discontinuity_batch;
 pub use writer::{Codec, ParquetError, WriteOptions, write_parquet};

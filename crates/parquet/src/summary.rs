@@ -181,6 +181,16 @@ fn norms(e: &PoseError) -> (f64, f64) {
 }
 
 impl SummaryStats {
+    /// Empty statistics with room for `n` poses' values before a flush, so that
+    /// pushing them never grows a buffer.
+    pub fn with_capacity(n: usize) -> Self {
+        let mut s = Self::default();
+        for series in [&mut s.dp, &mut s.dalpha].into_iter().chain(&mut s.dp_kind).chain(&mut s.dalpha_kind) {
+            series.pending.reserve_exact(n);
+        }
+        s
+    }
+
     pub fn push(&mut self, r: &PoseResult) {
         self.samples += 1;
         let si = Status::ALL.iter().position(|s| *s == r.status).expect("a known status");

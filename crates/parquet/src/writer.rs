@@ -127,6 +127,12 @@ fn properties(schema: &Schema, opts: &WriteOptions, extra: &[(String, String)]) 
             builder = builder.set_column_encoding(ColumnPath::from(f.name().as_str()), Encoding::BYTE_STREAM_SPLIT);
         }
     }
+    // Top-level doubles are encoded by `pages`, with `opts.codec`; the Arrow column
+    // writers made for them (and left unused) then need no compression context
+    // each, which cost megabytes of allocation a part.
+    for f in schema.fields().iter().filter(|f| f.data_type() == &DataType::Float64) {
+        builder = builder.set_column_compression(ColumnPath::from(f.name().as_str()), Compression::UNCOMPRESSED);
+    }
     builder
         .set_compression(opts.codec.compression())
         .set_dictionary_enabled(false)
