@@ -2,6 +2,7 @@
 
 use std::collections::HashMap;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use arrow::array::{ArrayRef, Float64Array, StringArray, UInt64Array};
 use arrow::buffer::{BooleanBuffer, NullBuffer, ScalarBuffer};
@@ -256,26 +257,28 @@ impl PoseSchema {
             t: buffer(),
             status: vec![Status::Unreachable; rows],
             floats: self.slots.iter().map(|_| buffer()).collect(),
+            nulls: (0..=self.slots.len()).map(|_| AtomicBool::new(false)).collect(),
         }
     }
 
     /// The record batch of filled column buffers.
     pub fn finish(&self, mode: Mode, cols: UnitColumns) -> RecordBatch {
-        let float = |v: Vec<f64>| -> ArrayRef {
-            // Most columns of most parts have no null: one vectorised pass finds out
-            // (whole chunks at a time: a loop that can stop early does not vectorise).
-            let all_finite = v.chunks(512).all(|c| c.iter().fold(true, |ok, x| ok & x.is_finite()));
-            let nulls =
-                (!all_finite).then(|| NullBuffer::new(BooleanBuffer::collect_bool(v.len(), |i| v[i].is_finite())));
+        // A column gets a validity bitmap only if `put` saw a value that is not
+        // finite in it: most columns of most parts have none, and are not read again.
+        let float = |(v, nulls): (Vec<f64>, &AtomicBool)| -> ArrayRef {
+            let nulls = nulls
+                .load(Ordering::Relaxed)
+                .then(|| NullBuffer::new(BooleanBuffer::collect_bool(v.len(), |i| v[i].is_finite())));
             Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
         };
+        let (t_nulls, float_nulls) = cols.nulls.split_first().expect("t has a flag");
         let mut out: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 4);
         out.push(Arc::new(StringArray::from_iter_values(cols.status.iter().map(|_| mode.name()))));
         out.push(Arc::new(UInt64Array::from(cols.sample)));
-        out.push(float(cols.t));
+        out.push(float((cols.t, t_nulls)));
         out.push(Arc::new(StringArray::from_iter_values(cols.status.iter().map(|s| s.name()))));
         // Columns on the pool: a serial pass over a whole unit would leave it idle.
-        out.par_extend(cols.floats.into_par_iter().map(float));
+        out.par_extend(cols.floats.into_par_iter().zip(float_nulls).map(float));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 
@@ -310,6 +313,8 @@ pub struct UnitColumns {
     t: Vec<f64>,
     status: Vec<Status>,
     floats: Vec<Vec<f64>>,
+    /// Whether `t` (first), then each float column, holds a value that is not finite.
+    nulls: Vec<AtomicBool>,
 }
 
 impl UnitColumns {
@@ -327,6 +332,7 @@ impl UnitColumns {
                 floats: Vec::new(),
                 slots: &schema.slots,
                 row: [0.0; slot::COUNT],
+                nulls: &self.nulls,
             })
             .collect();
         for col in &mut self.floats {
@@ -347,18 +353,32 @@ pub struct BlockSink<'a> {
     slots: &'a [usize],
     /// The slots of the row being put.
     row: [f64; slot::COUNT],
+    /// The unit's flags of columns with a value that is not finite (`t` first).
+    nulls: &'a [AtomicBool],
 }
 
 impl BlockSink<'_> {
     /// Row `i` of the block.
     pub fn put(&mut self, i: usize, s: &Sample, r: &PoseResult) {
         self.sample[i] = s.index;
-        self.t[i] = s.t.unwrap_or(f64::NAN);
+        let t = s.t.unwrap_or(f64::NAN);
+        self.t[i] = t;
         self.status[i] = r.status;
         let v = &mut self.row;
         row_values(s, r, v);
+        let mut finite = t.is_finite();
         for (col, &slot) in self.floats.iter_mut().zip(self.slots) {
             col[i] = v[slot];
+            finite &= v[slot].is_finite();
+        }
+        if !finite {
+            // Rare: flag the columns this row leaves null.
+            let values = std::iter::once(t).chain(self.slots.iter().map(|&slot| v[slot]));
+            for (flag, x) in self.nulls.iter().zip(values) {
+                if !x.is_finite() {
+                    flag.store(true, Ordering::Relaxed);
+                }
+            }
         }
     }
 
