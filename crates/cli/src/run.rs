@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clearance_discontinuity::{
-    Loads, SearchOptions, Trace, axes, find_discontinuities_traced, keep_local_minima, trace_loads,
+    Loads, SearchOptions, Trace, axes, find_discontinuities_traced, keep_local_minima, trace_into,
 };
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
@@ -427,7 +427,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         {
                             sink.put(k * SOLVE + i, s, r);
                             stats.push(r);
-                            (*t, *l) = trace_loads(r, model, &search);
+                            *t = trace_into(r, model, &search, l);
                         }
                     }
                     stats

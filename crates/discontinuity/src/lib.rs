@@ -26,7 +26,7 @@ mod trace;
 
 pub use minimise::{brent_min, brent_root};
 pub use paths::{Along, Axis, Path, axes, paths};
-pub use trace::{Loads, Trace, keep_local_minima, trace, trace_loads, traces};
+pub use trace::{Loads, Trace, keep_local_minima, trace, trace_into, trace_loads, traces};
 
 use trace::{SOLVABLE, det_bit, low_bit};
 

@@ -37,8 +37,17 @@ pub type Loads = [f64; 12];
 /// magnitudes.
 pub fn trace_loads(r: &PoseResult, model: &Model, opts: &SearchOptions) -> (Trace, Loads) {
     let mut loads = [0.0; 12];
+    let t = trace_into(r, model, opts, &mut loads);
+    (t, loads)
+}
+
+/// [`trace_loads`] with the magnitudes written into `loads` (a run's buffer), which
+/// spares a copy per pose.
+#[inline]
+pub fn trace_into(r: &PoseResult, model: &Model, opts: &SearchOptions, loads: &mut Loads) -> Trace {
+    *loads = [0.0; 12];
     if !solvable(r) {
-        return (0, loads);
+        return 0;
     }
     let mut t = SOLVABLE;
     for kind in KINDS {
@@ -58,7 +67,7 @@ pub fn trace_loads(r: &PoseResult, model: &Model, opts: &SearchOptions) -> (Trac
             }
         }
     }
-    (t, loads)
+    t
 }
 
 /// The [`Trace`] of one solved sample, with every low vector load still a candidate.
