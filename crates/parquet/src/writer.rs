@@ -70,10 +70,11 @@ impl Default for WriteOptions {
 }
 
 /// Page compression, with byte-stream-split doubles. On the standard part files
-/// of the bench job: none 537 bytes a pose, LZ4 376, zstd (level 1) 369. Zstd costs
-/// about a fifth of end-to-end throughput on 2 cores (benches/README.md); it is the
-/// default because sweeps are kept and moved, often over shared file systems, where
-/// a third less data counts for more.
+/// of the bench job: none 536 bytes a pose, LZ4 376, zstd (level 1) 369. Zstd costs
+/// about 0.25 µs of CPU a pose, an eighth of a run's (benches/README.md), and is
+/// the default: sweeps are kept and moved, often over shared file systems, where a
+/// third less data counts for more, and on this machine's disk `none` is no faster
+/// end to end, since the disk then takes half as much again.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Codec {
     None,
