@@ -353,7 +353,7 @@ const TILE: usize = 32;
 /// Writes the rows of one block into their column buffers.
 ///
 /// Rows go first to a small column-major tile (18 KB for the standard columns),
-/// which is copied to the column buffers a run of [`TILE`] values at a time: a row
+/// which is copied to the column buffers 32 values at a time: a row
 /// written straight to its 71 columns touched 71 cache lines far apart, more write
 /// streams than the hardware follows, and cost a quarter of a run's CPU (`perf`).
 /// The tile is written out when full, when rows stop being consecutive, and when
