@@ -11,7 +11,10 @@
 //! - data pages (format v1) of at most [`PAGE_ROWS`] rows, each compressed whole;
 //! - definition levels in the RLE/bit-packed hybrid: one run for a page without
 //!   nulls, else the validity bitmap itself, which is their bit-packed form;
-//! - values `PLAIN`, or `BYTE_STREAM_SPLIT` when compressed (as the Arrow path did);
+//! - values `PLAIN`, or `BYTE_STREAM_SPLIT` when compressed: the split puts the
+//!   exponent bytes of neighbouring doubles together, which is what lets a codec find
+//!   repeats in smooth engine output (a standard part: 536 bytes a pose uncompressed,
+//!   509 with LZ4 alone, 376 with both);
 //! - chunk statistics: minimum and maximum in IEEE 754 total order (the column
 //!   order the file declares for doubles) of the values that are numbers, null
 //!   count and NaN count, as `parquet` writes them.
@@ -56,11 +59,6 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-/// Whether [`encode_doubles`] can write a column: flat, required or optional.
-pub(crate) fn handles(descr: &ColumnDescPtr) -> bool {
-    descr.physical_type() == parquet::basic::Type::DOUBLE && descr.max_rep_level() == 0 && descr.max_def_level() <= 1
-}
-
 /// The encoded chunk of `array` (all of it) for the column `descr`: its bytes, with
 /// offsets counted from 0, and the result `append_column` takes.
 pub(crate) fn encode_doubles(
@@ -68,6 +66,12 @@ pub(crate) fn encode_doubles(
     array: &Float64Array,
     codec: Codec,
 ) -> Result<(Bytes, ColumnCloseResult), ParquetError> {
+    let flat = descr.physical_type() == parquet::basic::Type::DOUBLE
+        && descr.max_rep_level() == 0
+        && descr.max_def_level() <= 1;
+    if !flat {
+        return Err(ParquetError::General(format!("{} is not a flat double column", descr.path())));
+    }
     let values: &[f64] = array.values();
     let nulls = array.nulls().filter(|n| n.null_count() > 0);
     let optional = descr.max_def_level() == 1;

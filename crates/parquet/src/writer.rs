@@ -14,7 +14,7 @@ use parquet::arrow::arrow_writer::{
 };
 use parquet::arrow::{ArrowSchemaConverter, add_encoded_arrow_schema_to_metadata};
 
-use parquet::basic::{Compression, Encoding, ZstdLevel};
+use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
 use parquet::file::writer::SerializedFileWriter;
@@ -119,15 +119,7 @@ fn properties(schema: &Schema, opts: &WriteOptions, extra: &[(String, String)]) 
     let kv = opts.metadata.iter().chain(extra).map(|(k, v)| KeyValue::new(k.clone(), v.clone())).collect();
     // Floats rarely repeat, so dictionaries only cost time; the two string
     // columns repeat a handful of values and keep theirs.
-    // Byte-stream split puts the exponent bytes of neighbouring doubles together,
-    // which is what lets a codec find repeats in smooth engine output (a standard
-    // part: 537 bytes a pose uncompressed, 509 with LZ4 alone, 377 with both).
     let mut builder = WriterProperties::builder();
-    if opts.codec != Codec::None {
-        for f in schema.fields().iter().filter(|f| f.data_type() == &DataType::Float64) {
-            builder = builder.set_column_encoding(ColumnPath::from(f.name().as_str()), Encoding::BYTE_STREAM_SPLIT);
-        }
-    }
     // Top-level doubles are encoded by `pages`, with `opts.codec`; the Arrow column
     // writers made for them (and left unused) then need no compression context
     // each, which cost megabytes of allocation a part.
@@ -205,27 +197,26 @@ pub fn write_parquet(
                 let slice = b.slice(offset, (b.num_rows() - offset).min(opts.row_group_rows.max(1)));
                 offset += slice.num_rows();
                 // Columns are encoded independently, on the rayon pool: the pool's
-                // threads are all the threads a run uses. Flat double columns are
+                // threads are all the threads a run uses. Double columns are
                 // written by `pages`; the others by `parquet`'s Arrow writer.
                 let mut jobs = Vec::with_capacity(slice.num_columns());
                 let mut arrow_writers = factory.create_column_writers(row_group).map_err(enc)?.into_iter();
-                for (i, (field, array)) in schema.fields().iter().zip(slice.columns()).enumerate() {
-                    let descr = writer.schema_descr().column(i);
-                    let doubles = array.as_any().downcast_ref::<Float64Array>();
-                    match doubles {
-                        Some(a) if pages::handles(&descr) && descr.path().parts() == [field.name().as_str()] => {
-                            arrow_writers.next();
-                            jobs.push(Job::Doubles(descr, a));
-                        }
-                        _ => {
-                            let leaves = compute_leaves(field, array).map_err(enc)?;
-                            for leaf in leaves {
-                                let w = arrow_writers.next().ok_or_else(|| {
-                                    enc(parquet::errors::ParquetError::General("more leaves than columns".into()))
-                                })?;
-                                jobs.push(Job::Arrow(Box::new((w, leaf))));
-                            }
-                        }
+                // Parquet leaves, counted apart from fields: a nested field has several.
+                let mut leaf = 0;
+                for (field, array) in schema.fields().iter().zip(slice.columns()) {
+                    if let Some(a) = array.as_any().downcast_ref::<Float64Array>() {
+                        // A top-level double is one flat leaf.
+                        jobs.push(Job::Doubles(writer.schema_descr().column(leaf), a));
+                        arrow_writers.next();
+                        leaf += 1;
+                        continue;
+                    }
+                    for l in compute_leaves(field, array).map_err(enc)? {
+                        let w = arrow_writers.next().ok_or_else(|| {
+                            enc(parquet::errors::ParquetError::General("more leaves than columns".into()))
+                        })?;
+                        jobs.push(Job::Arrow(Box::new((w, l))));
+                        leaf += 1;
                     }
                 }
                 let chunks: Vec<Chunk> = jobs
