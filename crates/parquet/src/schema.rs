@@ -374,6 +374,14 @@ pub struct BlockSink<'a> {
     tile_len: usize,
 }
 
+/// Sets a column's null flag. Read first: once set, the flag's cache line stays
+/// shared between the threads filling the unit instead of bouncing on each store.
+fn flag(f: &AtomicBool) {
+    if !f.load(Ordering::Relaxed) {
+        f.store(true, Ordering::Relaxed);
+    }
+}
+
 impl Drop for BlockSink<'_> {
     fn drop(&mut self) {
         self.flush();
@@ -395,18 +403,22 @@ impl BlockSink<'_> {
         }
         let v = &mut self.row;
         row_values(s, r, v);
-        let mut finite = t.is_finite();
+        let mut finite = true;
         for (c, &slot) in self.slots.iter().enumerate() {
             self.tile[c * TILE + self.tile_len] = v[slot];
             finite &= v[slot].is_finite();
         }
         self.tile_len += 1;
+        // `t` is null on every row of a grid: flagged on its own, it does not send
+        // grid rows down the per-column loop below.
+        if !t.is_finite() {
+            flag(&self.nulls[0]);
+        }
         if !finite {
             // Rare: flag the columns this row leaves null.
-            let values = std::iter::once(t).chain(self.slots.iter().map(|&slot| v[slot]));
-            for (flag, x) in self.nulls.iter().zip(values) {
-                if !x.is_finite() {
-                    flag.store(true, Ordering::Relaxed);
+            for (f, &slot) in self.nulls[1..].iter().zip(self.slots) {
+                if !v[slot].is_finite() {
+                    flag(f);
                 }
             }
         }
