@@ -255,15 +255,17 @@ pub enum Isa {
 }
 
 impl Isa {
+    /// Every instruction set, narrowest first.
+    const ALL: [Isa; 3] = [Isa::Portable, Isa::Avx2, Isa::Avx512];
+
     /// The widest this CPU has, capped by the environment variable `CLEARANCE_ISA`
     /// (`portable`, `avx2` or `avx512`), read once.
     pub fn best() -> Self {
         static BEST: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
         *BEST.get_or_init(|| {
-            let all = [Isa::Portable, Isa::Avx2, Isa::Avx512];
             let cap = match std::env::var("CLEARANCE_ISA") {
                 Err(_) => Isa::Avx512,
-                Ok(v) => all.into_iter().find(|i| i.name() == v).unwrap_or_else(|| {
+                Ok(v) => Isa::ALL.into_iter().find(|i| i.name() == v).unwrap_or_else(|| {
                     eprintln!("clearance: CLEARANCE_ISA={v:?} is not portable, avx2 or avx512; ignored");
                     Isa::Avx512
                 }),
@@ -295,7 +297,7 @@ impl Isa {
 
     /// Those this CPU can run.
     pub fn available() -> Vec<Self> {
-        [Isa::Portable, Isa::Avx2, Isa::Avx512].into_iter().filter(|&i| i <= Isa::detected()).collect()
+        Isa::ALL.into_iter().filter(|&i| i <= Isa::detected()).collect()
     }
 }
 
