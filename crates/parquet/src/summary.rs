@@ -216,6 +216,16 @@ impl SummaryStats {
         }
     }
 
+    /// Moves every series' pending values into its histogram ([`Series::flush`]):
+    /// statistics merged part after part then hold one count per bin, not one
+    /// entry per pose. The numbers they give do not change.
+    pub fn flush(&mut self) {
+        for series in [&mut self.dp, &mut self.dalpha].into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind)
+        {
+            series.flush();
+        }
+    }
+
     pub fn merge(&mut self, o: &SummaryStats) {
         self.samples += o.samples;
         for i in 0..4 {
