@@ -3,7 +3,7 @@
 //!
 //! | bench | what is timed |
 //! |---|---|
-//! | `end_to_end/library/<solver>` | the pose loop of `clearance run` rebuilt from the library crates: chunks of 65 536 samples solved on the rayon pool, `PoseSchema::batch` (standard columns), summary statistics, `write_parquet` on a writer thread overlapping the next chunk |
+//! | `end_to_end/library/<solver>` | the pose loop of `clearance run` rebuilt from the library crates: chunks of 65 536 samples solved on the rayon pool a page (`PAGE_ROWS` samples) at a time, each page's standard columns encoded as soon as it is filled, summary statistics, `write_part` on a writer thread overlapping the next chunk |
 //! | `end_to_end/cli_run` | `target/release/clearance run JOB --out DIR --quiet` as a child process: the above plus process start, `job.toml`, the discontinuity search along every grid line, `summary.parquet` and `_SUCCESS` — what `clearance bench` calls end to end |
 //!
 //! Output goes to a fresh temporary directory per iteration, removed outside the timing.
@@ -20,8 +20,8 @@ use std::sync::mpsc::sync_channel;
 
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode};
-use clearance_parquet::{ColumnSet, PoseSchema, SummaryStats, WriteOptions, write_parquet};
-use clearance_solver::{Model, solve_in_blocks};
+use clearance_parquet::{Codec, ColumnSet, PAGE_ROWS, PartPages, PoseSchema, SummaryStats, WriteOptions, write_part};
+use clearance_solver::{Blocks, Model};
 use common::for_each_solver;
 use criterion::{BatchSize, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use rayon::prelude::*;
@@ -43,27 +43,42 @@ fn run_poses(job: &JobSpec, model: &Model, source: &SampleSource, schema: &PoseS
     std::fs::create_dir_all(&dir).expect("create the output directory");
     let mut total = SummaryStats::default();
     std::thread::scope(|scope| {
-        let (tx, rx) = sync_channel::<(PathBuf, _)>(1); // (part path, RecordBatch)
-        let schema_ref = schema.schema();
+        let (tx, rx) = sync_channel::<(PathBuf, PartPages)>(1);
         let opts = &opts;
         let writer = scope.spawn(move || {
-            for (path, batch) in rx {
-                write_parquet(&path, schema_ref.clone(), &[batch], opts, &[]).expect("write a part file");
+            for (path, part) in rx {
+                write_part(&path, schema, &part, opts, &[]).expect("write a part file");
             }
         });
         for (k, range) in chunks(source.len(), CHUNK).enumerate() {
-            let rows: Vec<_> = solve_in_blocks(model, source, range, Mode::Kinetostatic, 1024, |samples, results| {
-                samples.iter().copied().zip(results.iter().copied()).collect::<Vec<_>>()
-            })
-            .flatten_iter()
-            .collect();
-            let batch = schema.batch(Mode::Kinetostatic, &rows);
-            let mut stats = SummaryStats::default();
-            for (_, r) in &rows {
-                stats.push(r);
+            let mut part = schema.part(Mode::Kinetostatic, (range.end - range.start) as usize);
+            let stats: Vec<SummaryStats> = part
+                .pages(schema)
+                .into_par_iter()
+                .enumerate()
+                .map_init(
+                    || (Blocks::default(), schema.page_buffer()),
+                    |(blocks, buf), (p, page)| {
+                        let first = range.start + (p * PAGE_ROWS) as u64;
+                        let len = page.rows() as u64;
+                        page.write(buf, Codec::Zstd, Vec::new(), |sink| {
+                            let (samples, results) =
+                                blocks.solve(model, source, first..first + len, Mode::Kinetostatic);
+                            let mut stats = SummaryStats::with_capacity(samples.len());
+                            for (i, (s, r)) in samples.iter().zip(results).enumerate() {
+                                sink.put(i, s, r);
+                                stats.push(r);
+                            }
+                            stats
+                        })
+                        .expect("encode a page")
+                    },
+                )
+                .collect();
+            for s in &stats {
+                total.merge(s);
             }
-            total.merge(&stats);
-            tx.send((dir.join(format!("part-kinetostatic-{k:06}.parquet")), batch)).expect("the writer is alive");
+            tx.send((dir.join(format!("part-kinetostatic-{k:06}.parquet")), part)).expect("the writer is alive");
         }
         drop(tx);
         writer.join().expect("the writer does not panic");

@@ -7,7 +7,9 @@
 //! | `pose/<mode>/<solver>` | `solve_pose`: kinematics → A·w = b → take-up → J_P·Δq_P = J_Cl·Δq_Cl, all four kinds, one thread |
 //! | `kernel/<solver>/<threads>` | the same kinetostatic kernel as `clearance bench` (blocks of 1024 samples through `solve_poses`: eight poses per call with the fast solver), spread over a rayon pool of 1 and 2 threads |
 //! | `parquet/batch_standard` | `PoseSchema::batch`: one solved pose → one row of the standard columns (Arrow, nulls applied; rayon pool) |
-//! | `parquet/write_standard` | `write_parquet`: one row of a 65 536-row batch → zstd Parquet on disk (one thread, as `clearance run`'s writer) |
+//! | `parquet/write_standard` | `write_parquet`: one row of a 65 536-row batch → zstd Parquet on disk (one thread) |
+//! | `parquet/pages_standard` | what `clearance run` does instead of the two above, part one: one solved pose → one row of the standard columns' pages, each page of `PAGE_ROWS` rows encoded (zstd) as soon as it is filled (rayon pool) |
+//! | `parquet/write_part_standard` | part two, on `clearance run`'s writer thread: one row of the encoded 65 536-row part → its Parquet file on disk (the string and sample columns encoded here) |
 //! | `discontinuity/grid_21x21` | `find_discontinuities` on a 21 × 21 grid (element = grid pose; includes the refinement solves) |
 //!
 //! Run: `cargo bench --bench stages` (filters: `cargo bench --bench stages -- pose/`).
@@ -20,7 +22,7 @@ use clearance_discontinuity::{SearchOptions, find_discontinuities};
 use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::{Geometry, inverse_kinematics, inverse_kinematics_motion};
 use clearance_model::Mode;
-use clearance_parquet::{ColumnSet, PoseSchema, WriteOptions, write_parquet};
+use clearance_parquet::{Codec, ColumnSet, PAGE_ROWS, PartPages, PoseSchema, WriteOptions, write_parquet, write_part};
 use clearance_solver::{Model, Workspace, solve_in_blocks, solve_pose};
 use common::{Solve, for_each_solver};
 use criterion::measurement::WallTime;
@@ -157,6 +159,26 @@ fn parquet(c: &mut Criterion) {
     g.bench_function("batch_standard", |b| b.iter(|| schema.batch(Mode::Kinetostatic, black_box(&rows))));
     g.bench_function("write_standard", |b| {
         b.iter(|| write_parquet(&path, schema.schema(), std::slice::from_ref(&batch), &opts, &[]).expect("write"))
+    });
+    let pages = |rows: &[(Sample, clearance_solver::PoseResult)]| -> PartPages {
+        let mut part = schema.part(Mode::Kinetostatic, rows.len());
+        part.pages(&schema).into_par_iter().zip(rows.par_chunks(PAGE_ROWS)).for_each_init(
+            || schema.page_buffer(),
+            |buf, (page, rows)| {
+                page.write(buf, Codec::Zstd, Vec::new(), |sink| {
+                    for (i, (s, r)) in rows.iter().enumerate() {
+                        sink.put(i, s, r);
+                    }
+                })
+                .expect("encode a page")
+            },
+        );
+        part
+    };
+    g.bench_function("pages_standard", |b| b.iter(|| pages(black_box(&rows))));
+    let part = pages(&rows);
+    g.bench_function("write_part_standard", |b| {
+        b.iter(|| write_part(&path, &schema, &part, &opts, &[]).expect("write"))
     });
     g.finish();
 }

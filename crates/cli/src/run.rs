@@ -19,8 +19,8 @@ use clearance_discontinuity::{
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    Codec, ColumnSet, ENGINE_VERSION, PoseSchema, SummaryRow, SummaryStats, WriteOptions, discontinuity_batch, recycle,
-    summary_batch, write_parquet,
+    Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PartPages, PoseSchema, SummaryRow, SummaryStats, WriteOptions,
+    discontinuity_batch, summary_batch, write_parquet, write_part,
 };
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
@@ -177,9 +177,11 @@ fn read_traces(path: &Path, len: usize) -> Option<Vec<Trace>> {
         .then(|| bytes.chunks_exact(4).map(|b| Trace::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
 }
 
-/// Rows per block of a unit: each block is solved on one thread straight into its
-/// slice of the column buffers. Fixed, so results never depend on the thread count.
+/// Rows per block of summary statistics, merged in order. Fixed, so results never
+/// depend on the thread count. A unit's pages ([`PAGE_ROWS`]) are each computed
+/// and encoded on one thread, a whole number of blocks at a time.
 const BLOCK: usize = 1024;
+const _: () = assert!(PAGE_ROWS.is_multiple_of(BLOCK));
 
 /// Samples solved at once within a block (eight batches of `LANES`): their results,
 /// about 1 KB each, are still in the core's cache when they are written out.
@@ -279,7 +281,7 @@ struct Part {
     stats_path: PathBuf,
     trace_path: PathBuf,
     traces: Vec<Trace>,
-    batch: arrow::record_batch::RecordBatch,
+    pages: PartPages,
     stats: SummaryStats,
     extra: Vec<(String, String)>,
 }
@@ -288,8 +290,40 @@ fn search_options(variant: &Variant) -> SearchOptions {
     SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() }
 }
 
-/// After every part is written: the discontinuity search and the summary, then
-/// `discontinuities.parquet` and `summary.parquet`.
+/// Poses whose traces a run keeps in memory for the search at the end (4 bytes
+/// each): up to this many, the search need not read them back, and starts while
+/// the last parts are still being written.
+const KEEP_TRACES: u64 = 1 << 24;
+
+/// What this invocation computed, kept for the search and summary at the end so
+/// that they need not read it back from `_stats/`.
+#[derive(Default)]
+struct Kept {
+    /// Per (variant, mode): the statistics of its units merged in unit order, and
+    /// how many units that was.
+    stats: std::collections::HashMap<(u64, Mode), (SummaryStats, usize)>,
+    /// Per unit number: its traces.
+    traces: std::collections::HashMap<u64, Vec<Trace>>,
+    /// Whether `traces` are kept at all.
+    keep_traces: bool,
+}
+
+impl Kept {
+    fn add(&mut self, unit: &Unit, stats: &SummaryStats, traces: &[Trace]) {
+        let (merged, count) = self.stats.entry((unit.variant, unit.mode)).or_default();
+        merged.merge(stats);
+        // Bins, not values: a run's total stays the size of its histogram.
+        merged.flush();
+        *count += 1;
+        if self.keep_traces {
+            self.traces.insert(unit.number, traces.to_vec());
+        }
+    }
+}
+
+/// The discontinuity search and the summary, then `discontinuities.parquet` and
+/// `summary.parquet`. What this invocation computed comes from `kept`, the rest
+/// from the files of the parts, which must then all be written.
 fn finalize(
     job: &JobSpec,
     variants: &[Variant],
@@ -297,6 +331,7 @@ fn finalize(
     all: &[Unit],
     opts: &RunOptions,
     write_opts: &WriteOptions,
+    mut kept: Kept,
 ) -> Result<()> {
     if !opts.quiet {
         eprintln!("searching for discontinuities and summarising ...");
@@ -306,12 +341,26 @@ fn finalize(
     for (variant, (model, source)) in variants.iter().zip(models) {
         let search = search_options(variant);
         for &mode in &job.analysis.modes {
-            let mut stats = SummaryStats::default();
+            let units: Vec<&Unit> = all.iter().filter(|u| u.variant == variant.index && u.mode == mode).collect();
+            // Merged in unit order, as `Kept::add` does, so both give the same sums.
+            let stats = match kept.stats.remove(&(variant.index, mode)) {
+                Some((stats, count)) if count == units.len() => stats,
+                _ => {
+                    let mut stats = SummaryStats::default();
+                    for u in &units {
+                        stats.merge(&read_stats(&stats_path(&opts.out, u.variant, u.mode, u.chunk))?);
+                    }
+                    stats
+                }
+            };
             let mut traces: Vec<Trace> = Vec::with_capacity(source.len() as usize);
-            for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
-                stats.merge(&read_stats(&stats_path(&opts.out, u.variant, u.mode, u.chunk))?);
+            for u in &units {
                 let len = (u.range.end - u.range.start) as usize;
-                match read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len) {
+                match kept
+                    .traces
+                    .remove(&u.number)
+                    .or_else(|| read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len))
+                {
                     Some(t) => traces.extend(t),
                     // A part written without its traces: solve its poses again.
                     None => {
@@ -341,6 +390,112 @@ fn finalize(
     let batch = summary_batch(&names, &summary);
     write_parquet(&opts.out.join("summary.parquet"), batch.schema(), &[batch], write_opts, &[])?;
     Ok(())
+}
+
+/// What computing a unit needs besides the unit.
+struct Ctx<'a> {
+    schema: &'a PoseSchema,
+    models: &'a [(Model, SampleSource)],
+    variants: &'a [Variant],
+    opts: &'a RunOptions,
+    /// Buffers of written pages, to encode pages into.
+    spare: &'a std::sync::Mutex<Vec<Vec<u8>>>,
+}
+
+/// A unit computed, its pages encoded, before its traces are pruned and its
+/// statistics merged ([`conclude`]).
+struct Computed<'a> {
+    unit: &'a Unit,
+    pages: PartPages,
+    traces: Vec<Trace>,
+    /// The load magnitudes of each pose.
+    loads: Vec<Loads>,
+    /// Per page, the statistics of each of its blocks.
+    block_stats: Vec<Vec<SummaryStats>>,
+}
+
+/// Solves the poses of `unit` on the pool, a page at a time, each page encoded as
+/// soon as its rows are in. `loads` is a buffer to reuse.
+fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
+    let (model, source) = &ctx.models[unit.variant as usize];
+    let search = search_options(&ctx.variants[unit.variant as usize]);
+    let n = (unit.range.end - unit.range.start) as usize;
+    let mut pages = ctx.schema.part(unit.mode, n);
+    let mut traces: Vec<Trace> = vec![0; n];
+    loads.resize(n, [0.0; 12]);
+    let block_stats: Vec<Vec<SummaryStats>> = pages
+        .pages(ctx.schema)
+        .into_par_iter()
+        .zip(traces.par_chunks_mut(PAGE_ROWS).zip(loads.par_chunks_mut(PAGE_ROWS)))
+        .enumerate()
+        .map_init(
+            || (Blocks::default(), ctx.schema.page_buffer()),
+            |(blocks, buf), (p, (page, (page_traces, page_loads)))| {
+                let first = unit.range.start + (p * PAGE_ROWS) as u64;
+                let bytes = ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
+                page.write(buf, ctx.opts.compression, bytes, |sink| {
+                    let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
+                    let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
+                    for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
+                        let mut stats = SummaryStats::with_capacity(block_traces.len());
+                        // A few batches at a time, so that results are used while in cache.
+                        let batches = block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE));
+                        for (k, (ts, ls)) in batches.enumerate() {
+                            let row = b * BLOCK + k * SOLVE;
+                            let start = first + row as u64;
+                            let (samples, results) =
+                                blocks.solve(model, source, start..start + ts.len() as u64, unit.mode);
+                            let rows = samples.iter().zip(results).zip(ts.iter_mut().zip(ls));
+                            for (i, ((s, r), (t, l))) in rows.enumerate() {
+                                sink.put(row + i, s, r);
+                                stats.push(r);
+                                *t = trace_into(r, model, &search, l);
+                            }
+                        }
+                        all.push(stats);
+                    }
+                    all
+                })
+            },
+        )
+        .collect::<Result<_, _>>()
+        .with_context(|| {
+            format!("cannot encode {}", part_path(&ctx.opts.out, unit.variant, unit.mode, unit.chunk).display())
+        })?;
+    Ok(Computed { unit, pages, traces, loads, block_stats })
+}
+
+/// A computed unit's part, for the writer, with its traces pruned and its
+/// statistics merged, both kept in `kept`; and its load buffer, to reuse.
+fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads>) {
+    let Computed { unit, pages, traces, loads, block_stats } = c;
+    let (_, source) = &ctx.models[unit.variant as usize];
+    // With the whole unit in hand, most samples are seen not to be load
+    // minima, so the search at the end solves only the others.
+    let traces = keep_local_minima(&axes(source), unit.range.start, &traces, &loads[..traces.len()]);
+    let mut stats = SummaryStats::with_capacity(traces.len());
+    for b in block_stats.iter().flatten() {
+        stats.merge(b);
+    }
+    // Once, here: the statistics file and the run's total both want it flushed.
+    stats.flush();
+    kept.add(unit, &stats, &traces);
+    let params = &ctx.variants[unit.variant as usize].params;
+    let extra = vec![
+        ("clearance.variant".to_string(), unit.variant.to_string()),
+        ("clearance.params".to_string(), params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(",")),
+    ];
+    let out = &ctx.opts.out;
+    let part = Part {
+        path: part_path(out, unit.variant, unit.mode, unit.chunk),
+        stats_path: stats_path(out, unit.variant, unit.mode, unit.chunk),
+        trace_path: trace_path(out, unit.variant, unit.mode, unit.chunk),
+        traces,
+        pages,
+        stats,
+        extra,
+    };
+    (part, loads)
 }
 
 /// Runs `job` into `opts.out`.
@@ -380,12 +535,15 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
-    // Column buffers of written parts, for the units still to compute.
-    let spare = &std::sync::Mutex::new(Vec::new());
-    std::thread::scope(|scope| -> Result<()> {
+    let mut kept = Kept { keep_traces: todo_poses <= KEEP_TRACES, ..Kept::default() };
+    // Without shards or resumed parts, everything the search needs is in memory:
+    // it runs while the writer finishes the last parts.
+    let overlap = kept.keep_traces && opts.shard.is_none() && todo.len() == all.len();
+    // The buffers of written pages, for pages still to encode.
+    let spare = &std::sync::Mutex::new(Vec::<Vec<u8>>::new());
+    let finalized = std::thread::scope(|scope| -> Result<bool> {
         let (tx, rx) = sync_channel::<Part>(1);
-        let schema_ref = schema.schema();
-        let write_opts = &write_opts;
+        let (schema, write_opts) = (&schema, &write_opts);
         let writer = scope.spawn(move || -> Result<()> {
             for part in rx {
                 for dir in [part.path.parent(), part.stats_path.parent()].into_iter().flatten() {
@@ -393,79 +551,46 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 }
                 write_atomic(&part.trace_path, &encode_traces(&part.traces))?;
                 write_atomic(&part.stats_path, &serde_json::to_vec(&part.stats)?)?;
-                let batches = [part.batch];
-                write_parquet(&part.path, schema_ref.clone(), &batches, write_opts, &part.extra)?;
-                let [batch] = batches;
-                recycle(batch, &mut spare.lock().expect("no panic while held"));
+                write_part(&part.path, schema, &part.pages, write_opts, &part.extra)?;
+                spare.lock().expect("no panic while held").extend(part.pages.into_buffers());
             }
             Ok(())
         });
-        // The load magnitudes of the unit being computed, reused from unit to unit.
-        let mut loads: Vec<Loads> = Vec::new();
-        for unit in &todo {
-            let (model, source) = &models[unit.variant as usize];
-            let variant = &variants[unit.variant as usize];
-            progress.set_message(format!("variant {} {}", unit.variant, unit.mode.name()));
-            let search = search_options(variant);
-            let n = (unit.range.end - unit.range.start) as usize;
-            let mut cols = schema.columns_reusing(n, &mut spare.lock().expect("no panic while held"));
-            let mut traces: Vec<Trace> = vec![0; n];
-            loads.resize(n, [0.0; 12]);
-            let block_stats: Vec<SummaryStats> = cols
-                .blocks(&schema, BLOCK)
-                .into_par_iter()
-                .zip(traces.par_chunks_mut(BLOCK).zip(loads.par_chunks_mut(BLOCK)))
-                .enumerate()
-                .map_init(Blocks::default, |blocks, (b, (mut sink, (block_traces, block_loads)))| {
-                    let mut stats = SummaryStats::with_capacity(block_traces.len());
-                    let first = unit.range.start + (b * BLOCK) as u64;
-                    // A few batches at a time, so that results are used while in cache.
-                    for (k, (ts, ls)) in block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE)).enumerate() {
-                        let start = first + (k * SOLVE) as u64;
-                        let (samples, results) = blocks.solve(model, source, start..start + ts.len() as u64, unit.mode);
-                        for (i, ((s, r), (t, l))) in samples.iter().zip(results).zip(ts.iter_mut().zip(ls)).enumerate()
-                        {
-                            sink.put(k * SOLVE + i, s, r);
-                            stats.push(r);
-                            *t = trace_into(r, model, &search, l);
-                        }
-                    }
-                    stats
-                })
-                .collect();
-            // With the whole unit in hand, most samples are seen not to be load
-            // minima, so the search at the end solves only the others.
-            let traces = keep_local_minima(&axes(source), unit.range.start, &traces, &loads[..n]);
-            let mut stats = SummaryStats::default();
-            for b in &block_stats {
-                stats.merge(b);
+        let ctx = Ctx { schema, models: &models, variants: &variants, opts, spare };
+        // Load magnitudes of units, reused from unit to unit.
+        let mut spare_loads: Vec<Vec<Loads>> = Vec::new();
+        let mut previous: Option<Computed> = None;
+        for unit in todo.iter().map(Some).chain([None]) {
+            if let Some(u) = unit {
+                progress.set_message(format!("variant {} {}", u.variant, u.mode.name()));
             }
-            let batch = schema.finish(unit.mode, cols);
-            let extra = vec![
-                ("clearance.variant".to_string(), unit.variant.to_string()),
-                (
-                    "clearance.params".to_string(),
-                    variant.params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(","),
-                ),
-            ];
-            let part = Part {
-                path: part_path(&opts.out, unit.variant, unit.mode, unit.chunk),
-                stats_path: stats_path(&opts.out, unit.variant, unit.mode, unit.chunk),
-                trace_path: trace_path(&opts.out, unit.variant, unit.mode, unit.chunk),
-                traces,
-                batch,
-                stats,
-                extra,
-            };
-            if tx.send(part).is_err() {
-                break; // the writer failed; its error is reported below
+            let loads = spare_loads.pop().unwrap_or_default();
+            // The previous unit is concluded on the pool while this one computes:
+            // alone, its few milliseconds would leave the other threads idle.
+            let (concluded, computed) = rayon::join(
+                || previous.take().map(|c| conclude(&ctx, c, &mut kept)),
+                || unit.map(|u| compute(&ctx, u, loads)).transpose(),
+            );
+            previous = computed?;
+            if let Some((part, loads)) = concluded {
+                spare_loads.push(loads);
+                let n = part.traces.len() as u64;
+                if tx.send(part).is_err() {
+                    break; // the writer failed; its error is reported below
+                }
+                done += n;
+                progress.advance(n, done);
             }
-            let n = unit.range.end - unit.range.start;
-            done += n;
-            progress.advance(n, done);
         }
         drop(tx);
-        writer.join().expect("the writer thread does not panic")
+        let finalized = overlap.then(|| {
+            progress.finish();
+            let durable = WriteOptions { durable: true, ..write_opts.clone() };
+            finalize(job, &variants, &models, &all, opts, &durable, std::mem::take(&mut kept))
+        });
+        // The writer's error first: a search over parts that failed to be written means nothing.
+        writer.join().expect("the writer thread does not panic")?;
+        finalized.transpose().map(|f| f.is_some())
     })?;
     progress.finish();
 
@@ -480,8 +605,10 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         Some((_, n)) => (0..n).all(|i| opts.out.join(success_name(Some((i, n)))).exists()),
     };
     if complete {
-        let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        finalize(job, &variants, &models, &all, opts, &durable)?;
+        if !finalized {
+            let durable = WriteOptions { durable: true, ..write_opts.clone() };
+            finalize(job, &variants, &models, &all, opts, &durable, kept)?;
+        }
         write_marker(&opts.out.join("_SUCCESS"))?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })

@@ -1,4 +1,6 @@
-//! Double column chunks encoded straight from their Arrow buffers.
+//! Double column chunks encoded by the engine: from Arrow buffers
+//! ([`encode_doubles`], for `write_parquet`), or a page at a time from the rows a
+//! thread has just computed ([`encode_page`], for `clearance run`'s part files).
 //!
 //! The Arrow writer of the `parquet` crate turns every nullable column into
 //! definition levels (two bytes a value) and a vector of non-null indices (eight),
@@ -17,7 +19,10 @@
 //!   509 with LZ4 alone, 376 with both);
 //! - chunk statistics: minimum and maximum in IEEE 754 total order (the column
 //!   order the file declares for doubles) of the values that are numbers, null
-//!   count and NaN count, as `parquet` writes them.
+//!   count and NaN count, as `parquet` writes them, merged page by page.
+//!
+//! A chunk's pages need not be contiguous in memory: [`DoubleChunk`] hands them to
+//! `parquet` as a list of slices.
 //!
 //! The file's footer, schema and column metadata are still written by `parquet`
 //! ([`SerializedRowGroupWriter::append_column`](parquet::file::writer::SerializedRowGroupWriter::append_column)).
@@ -26,20 +31,25 @@
 use std::cell::RefCell;
 
 use arrow::array::{Array, Float64Array};
-use arrow::buffer::NullBuffer;
 use bytes::Bytes;
 use parquet::basic::Encoding;
 use parquet::column::writer::ColumnCloseResult;
 use parquet::errors::ParquetError;
 use parquet::file::metadata::ColumnChunkMetaData;
+use parquet::file::reader::{ChunkReader, Length};
 use parquet::file::statistics::{Statistics, ValueStatistics};
 use parquet::schema::types::ColumnDescPtr;
 
 use crate::writer::Codec;
 
-/// Rows per data page: 128 KiB of doubles, near `parquet`'s default of 20 000
-/// rows, and a multiple of 8 so that each page's validity bits start on a byte.
-pub(crate) const PAGE_ROWS: usize = 16 * 1024;
+/// Rows per data page: a multiple of 8, so that each page's validity bits start on
+/// a byte. `clearance run` computes a page of every column on one thread before
+/// encoding it: 4 096 standard rows are 2.3 MB of doubles, which stay in the 4 MB
+/// L2 cache of this machine's cores. Larger pages compress a little better (the
+/// bench job with zstd level 1: 377.7 bytes a standard pose with 16 384 rows,
+/// 380.5 with 8 192, 386.9 with 4 096), but 8 192 rows were already no faster end
+/// to end, and 16 384 leave the cache between the two passes (benches/README.md).
+pub const PAGE_ROWS: usize = 4 * 1024;
 
 /// Thrift encoding numbers (parquet.thrift).
 const PLAIN: i32 = 0;
@@ -50,6 +60,7 @@ const BYTE_STREAM_SPLIT: i32 = 9;
 #[derive(Default)]
 struct Scratch {
     compact: Vec<f64>,
+    bits: Vec<u8>,
     payload: Vec<u8>,
     compressed: Vec<u8>,
     zstd: Option<zstd::bulk::Compressor<'static>>,
@@ -59,127 +70,313 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-/// The encoded chunk of `array` (all of it) for the column `descr`: its bytes, with
-/// offsets counted from 0, and the result `append_column` takes.
-pub(crate) fn encode_doubles(
-    descr: ColumnDescPtr,
-    array: &Float64Array,
-    codec: Codec,
-) -> Result<(Bytes, ColumnCloseResult), ParquetError> {
+/// The bytes of a column chunk as a list of buffers, in file order, for
+/// [`append_column`](parquet::file::writer::SerializedRowGroupWriter::append_column):
+/// the pages of a chunk encoded block by block need not be copied together first.
+pub(crate) struct Segments<'a>(Vec<&'a [u8]>);
+
+impl Segments<'_> {
+    fn total(&self) -> u64 {
+        self.0.iter().map(|b| b.len() as u64).sum()
+    }
+}
+
+impl Length for Segments<'_> {
+    fn len(&self) -> u64 {
+        self.total()
+    }
+}
+
+impl<'a> ChunkReader for Segments<'a> {
+    type T = SegmentsRead<'a>;
+
+    fn get_read(&self, start: u64) -> Result<SegmentsRead<'a>, ParquetError> {
+        let mut read = SegmentsRead { segments: self.0.clone().into(), skip: start };
+        read.seek();
+        Ok(read)
+    }
+
+    fn get_bytes(&self, start: u64, length: usize) -> Result<Bytes, ParquetError> {
+        let mut out = Vec::with_capacity(length);
+        std::io::Read::read_to_end(&mut std::io::Read::take(self.get_read(start)?, length as u64), &mut out)?;
+        if out.len() != length {
+            return Err(ParquetError::EOF(format!("{length} bytes from {start} past the end of the chunk")));
+        }
+        Ok(out.into())
+    }
+}
+
+/// A reader over [`Segments`].
+pub(crate) struct SegmentsRead<'a> {
+    segments: std::collections::VecDeque<&'a [u8]>,
+    /// Bytes still to skip before the first one read.
+    skip: u64,
+}
+
+impl SegmentsRead<'_> {
+    fn seek(&mut self) {
+        while let Some(front) = self.segments.front_mut() {
+            if (front.len() as u64) > self.skip {
+                *front = &front[self.skip as usize..];
+                self.skip = 0;
+                return;
+            }
+            self.skip -= front.len() as u64;
+            self.segments.pop_front();
+        }
+    }
+}
+
+impl std::io::Read for SegmentsRead<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while let Some(front) = self.segments.front_mut() {
+            if front.is_empty() {
+                self.segments.pop_front();
+                continue;
+            }
+            let n = front.len().min(buf.len());
+            buf[..n].copy_from_slice(&front[..n]);
+            *front = &front[n..];
+            return Ok(n);
+        }
+        Ok(0)
+    }
+}
+
+/// What a column chunk's metadata needs to know of one of its pages.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PageStats {
+    /// Bytes of the page in the file: header and body.
+    pub(crate) bytes: usize,
+    /// The same with the body uncompressed.
+    uncompressed: usize,
+    rows: usize,
+    nulls: usize,
+    range: Range,
+}
+
+/// The pages of one double column chunk, as they are encoded.
+#[derive(Default)]
+pub(crate) struct DoubleChunk<'a> {
+    segments: Vec<&'a [u8]>,
+    bytes: usize,
+    uncompressed: usize,
+    rows: usize,
+    nulls: usize,
+    range: Range,
+}
+
+impl<'a> DoubleChunk<'a> {
+    /// Appends pages with the `stats` of each.
+    pub(crate) fn push(&mut self, bytes: &'a [u8], stats: &[PageStats]) {
+        debug_assert_eq!(bytes.len(), stats.iter().map(|p| p.bytes).sum::<usize>());
+        self.segments.push(bytes);
+        for p in stats {
+            self.bytes += p.bytes;
+            self.uncompressed += p.uncompressed;
+            self.rows += p.rows;
+            self.nulls += p.nulls;
+            self.range.merge(&p.range);
+        }
+    }
+
+    /// The chunk's bytes and what `append_column` takes, for the column `descr`.
+    pub(crate) fn close(
+        self,
+        descr: ColumnDescPtr,
+        codec: Codec,
+    ) -> Result<(Segments<'a>, ColumnCloseResult), ParquetError> {
+        let optional = flat_double(&descr)?;
+        if self.nulls > 0 && !optional {
+            return Err(ParquetError::General(format!("nulls in the required column {}", descr.path())));
+        }
+        let (min, max) = self.range.bounds();
+        let statistics = ValueStatistics::new(min, max, None, Some(self.nulls as u64), false)
+            .with_nan_count(Some(self.range.nans))
+            .with_backwards_compatible_min_max(true);
+        let mut encodings = vec![if codec == Codec::None { Encoding::PLAIN } else { Encoding::BYTE_STREAM_SPLIT }];
+        if optional {
+            encodings.push(Encoding::RLE);
+        }
+        let metadata = ColumnChunkMetaData::builder(descr)
+            .set_compression(codec.compression())
+            .set_encodings(encodings)
+            .set_total_compressed_size(self.bytes as i64)
+            .set_total_uncompressed_size(self.uncompressed as i64)
+            .set_num_values(self.rows as i64)
+            .set_data_page_offset(0)
+            .set_statistics(Statistics::Double(statistics))
+            .build()?;
+        let close = ColumnCloseResult {
+            bytes_written: self.bytes as u64,
+            rows_written: self.rows as u64,
+            metadata,
+            bloom_filter: None,
+            column_index: None,
+            offset_index: None,
+        };
+        Ok((Segments(self.segments), close))
+    }
+}
+
+/// Whether `descr` is a flat double column that may hold nulls; an error if it is
+/// not a flat double.
+fn flat_double(descr: &ColumnDescPtr) -> Result<bool, ParquetError> {
     let flat = descr.physical_type() == parquet::basic::Type::DOUBLE
         && descr.max_rep_level() == 0
         && descr.max_def_level() <= 1;
     if !flat {
         return Err(ParquetError::General(format!("{} is not a flat double column", descr.path())));
     }
+    Ok(descr.max_def_level() == 1)
+}
+
+/// The encoded chunk of `array` (all of it) for the column `descr`: its bytes, with
+/// offsets counted from 0, and the result `append_column` takes.
+pub(crate) fn encode_doubles(
+    descr: &ColumnDescPtr,
+    array: &Float64Array,
+    codec: Codec,
+) -> Result<(Vec<u8>, Vec<PageStats>), ParquetError> {
+    let optional = flat_double(descr)?;
     let values: &[f64] = array.values();
     let nulls = array.nulls().filter(|n| n.null_count() > 0);
-    let optional = descr.max_def_level() == 1;
     if nulls.is_some() && !optional {
         return Err(ParquetError::General(format!("nulls in the required column {}", descr.path())));
     }
-    let split = codec != Codec::None;
-    let mut out = Vec::with_capacity(values.len() * 8 / if split { 2 } else { 1 } + 64);
-    let mut uncompressed_total = 0usize;
-    let mut range = Range::default();
+    let mut out = Vec::with_capacity(values.len() * 8 / if codec == Codec::None { 1 } else { 2 } + 64);
+    let mut pages = Vec::new();
     SCRATCH.with_borrow_mut(|s| -> Result<(), ParquetError> {
         for start in (0..values.len()).step_by(PAGE_ROWS) {
             let rows = PAGE_ROWS.min(values.len() - start);
             let page_nulls = nulls.map(|n| n.slice(start, rows)).filter(|n| n.null_count() > 0);
-            s.payload.clear();
-            if optional {
-                def_levels(&mut s.payload, rows, page_nulls.as_ref());
-            }
             let page = &values[start..start + rows];
+            let mut compact = std::mem::take(&mut s.compact);
             let present: &[f64] = match &page_nulls {
                 None => page,
                 Some(n) => {
-                    s.compact.clear();
-                    s.compact.extend(n.valid_indices().map(|i| page[i]));
-                    &s.compact
+                    compact.clear();
+                    compact.extend(n.valid_indices().map(|i| page[i]));
+                    &compact
                 }
             };
+            let mut range = Range::default();
             range.extend(present);
-            if split {
-                split_streams(present, &mut s.payload);
-            } else {
-                s.payload.extend(present.iter().flat_map(|v| v.to_le_bytes()));
-            }
-            let body: &[u8] = match codec {
-                Codec::None => &s.payload,
-                Codec::Lz4 => {
-                    s.compressed.resize(lz4_flex::block::get_maximum_output_size(s.payload.len()), 0);
-                    let n = lz4_flex::block::compress_into(&s.payload, &mut s.compressed)
-                        .map_err(|e| ParquetError::External(Box::new(e)))?;
-                    &s.compressed[..n]
-                }
-                Codec::Zstd => {
-                    if s.zstd.is_none() {
-                        s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::ZSTD_LEVEL)?);
-                    }
-                    let zstd = s.zstd.as_mut().expect("just made");
-                    s.compressed.clear();
-                    s.compressed.reserve(zstd::zstd_safe::compress_bound(s.payload.len()));
-                    zstd.compress_to_buffer(&s.payload, &mut s.compressed)?;
-                    &s.compressed
-                }
-            };
-            let before = out.len();
-            let encoding = if split { BYTE_STREAM_SPLIT } else { PLAIN };
-            page_header(&mut out, s.payload.len(), body.len(), rows, encoding);
-            uncompressed_total += out.len() - before + s.payload.len();
-            out.extend_from_slice(body);
+            let bits = page_nulls.as_ref().map(|n| n.inner().sliced());
+            let page =
+                write_page(s, &mut out, rows, optional, bits.as_ref().map(|b| b.as_slice()), present, range, codec);
+            s.compact = compact;
+            pages.push(page?);
         }
         Ok(())
     })?;
+    Ok((out, pages))
+}
 
-    let null_count = nulls.map_or(0, |n| n.null_count()) as u64;
-    let (min, max) = range.bounds();
-    let statistics = ValueStatistics::new(min, max, None, Some(null_count), false)
-        .with_nan_count(Some(range.nans))
-        .with_backwards_compatible_min_max(true);
-    let mut encodings = vec![if split { Encoding::BYTE_STREAM_SPLIT } else { Encoding::PLAIN }];
-    if optional {
-        encodings.push(Encoding::RLE);
+/// One page of the values of an optional double column, appended to `out`, with
+/// every value that is not finite written as a null (the engine's rule for its
+/// `poses` columns).
+pub(crate) fn encode_page(values: &[f64], codec: Codec, out: &mut Vec<u8>) -> Result<PageStats, ParquetError> {
+    let mut range = Range::default();
+    range.extend(values);
+    // Every value is finite exactly when the extremes are and no NaN was met.
+    if range.nans == 0 && range.lo.is_finite() && range.hi.is_finite() {
+        return SCRATCH.with_borrow_mut(|s| write_page(s, out, values.len(), true, None, values, range, codec));
     }
-    let metadata = ColumnChunkMetaData::builder(descr)
-        .set_compression(codec.compression())
-        .set_encodings(encodings)
-        .set_total_compressed_size(out.len() as i64)
-        .set_total_uncompressed_size(uncompressed_total as i64)
-        .set_num_values(values.len() as i64)
-        .set_data_page_offset(0)
-        .set_statistics(Statistics::Double(statistics))
-        .build()?;
-    let close = ColumnCloseResult {
-        bytes_written: out.len() as u64,
-        rows_written: values.len() as u64,
-        metadata,
-        bloom_filter: None,
-        column_index: None,
-        offset_index: None,
+    SCRATCH.with_borrow_mut(|s| {
+        let mut bits = std::mem::take(&mut s.bits);
+        let mut compact = std::mem::take(&mut s.compact);
+        bits.clear();
+        compact.clear();
+        for c in values.chunks(8) {
+            let mut b = 0u8;
+            for (j, v) in c.iter().enumerate() {
+                b |= u8::from(v.is_finite()) << j;
+            }
+            bits.push(b);
+        }
+        compact.extend(values.iter().copied().filter(|v| v.is_finite()));
+        let mut range = Range::default();
+        range.extend(&compact);
+        let page = write_page(s, out, values.len(), true, Some(&bits), &compact, range, codec);
+        (s.bits, s.compact) = (bits, compact);
+        page
+    })
+}
+
+/// One data page appended to `out`: `rows` rows whose values are `present`, with
+/// `valid` the validity bits of the rows when some are null. `range` is that of
+/// `present`.
+#[allow(clippy::too_many_arguments)]
+fn write_page(
+    s: &mut Scratch,
+    out: &mut Vec<u8>,
+    rows: usize,
+    optional: bool,
+    valid: Option<&[u8]>,
+    present: &[f64],
+    range: Range,
+    codec: Codec,
+) -> Result<PageStats, ParquetError> {
+    let split = codec != Codec::None;
+    s.payload.clear();
+    if optional {
+        def_levels(&mut s.payload, rows, valid, present.len());
+    }
+    if split {
+        split_streams(present, &mut s.payload);
+    } else {
+        s.payload.extend(present.iter().flat_map(|v| v.to_le_bytes()));
+    }
+    let body: &[u8] = match codec {
+        Codec::None => &s.payload,
+        Codec::Lz4 => {
+            s.compressed.resize(lz4_flex::block::get_maximum_output_size(s.payload.len()), 0);
+            let n = lz4_flex::block::compress_into(&s.payload, &mut s.compressed)
+                .map_err(|e| ParquetError::External(Box::new(e)))?;
+            &s.compressed[..n]
+        }
+        Codec::Zstd => {
+            if s.zstd.is_none() {
+                s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::PAGE_ZSTD_LEVEL)?);
+            }
+            let zstd = s.zstd.as_mut().expect("just made");
+            s.compressed.clear();
+            s.compressed.reserve(zstd::zstd_safe::compress_bound(s.payload.len()));
+            zstd.compress_to_buffer(&s.payload, &mut s.compressed)?;
+            &s.compressed
+        }
     };
-    Ok((Bytes::from(out), close))
+    let before = out.len();
+    page_header(out, s.payload.len(), body.len(), rows, if split { BYTE_STREAM_SPLIT } else { PLAIN });
+    let header = out.len() - before;
+    out.extend_from_slice(body);
+    Ok(PageStats {
+        bytes: header + body.len(),
+        uncompressed: header + s.payload.len(),
+        rows,
+        nulls: rows - present.len(),
+        range,
+    })
 }
 
 /// The definition levels of a page, with their 4-byte length in front (data page
 /// v1): one RLE run when every row has a value or none has, else the validity bits
 /// as bit-packed runs of at most 63 groups of 8 (so every run header is one byte,
 /// as some readers expect). Bits past the page's rows pad the last group.
-fn def_levels(out: &mut Vec<u8>, rows: usize, nulls: Option<&NullBuffer>) {
+fn def_levels(out: &mut Vec<u8>, rows: usize, valid: Option<&[u8]>, present: usize) {
     let at = out.len();
     out.extend_from_slice(&[0; 4]);
-    match nulls {
-        Some(n) if n.null_count() < rows => {
-            let bits = n.inner().sliced();
-            for run in bits.as_slice()[..rows.div_ceil(8)].chunks(63) {
+    match valid {
+        Some(bits) if present > 0 && present < rows => {
+            for run in bits[..rows.div_ceil(8)].chunks(63) {
                 out.push(((run.len() as u8) << 1) | 1);
                 out.extend_from_slice(run);
             }
         }
         _ => {
             varint(out, (rows as u64) << 1);
-            out.push(u8::from(nulls.is_none()));
+            out.push(u8::from(present == rows));
         }
     }
     let len = (out.len() - at - 4) as u32;
@@ -284,6 +481,18 @@ impl Range {
         self.hi = self.hi.max(hi);
         self.count += values.len();
         self.nans += nans.iter().sum::<u64>();
+    }
+
+    /// Takes in the values `other` has seen.
+    fn merge(&mut self, other: &Range) {
+        self.lo = self.lo.min(other.lo);
+        self.hi = self.hi.max(other.hi);
+        self.count += other.count;
+        self.nans += other.nans;
+        // A zero extreme of the union is one of each part holding a zero, whose
+        // flags were then set.
+        self.neg_zero |= other.neg_zero;
+        self.pos_zero |= other.pos_zero;
     }
 
     /// `(min, max)`, `None` when no value is a number.

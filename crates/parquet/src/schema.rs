@@ -13,6 +13,9 @@ use clearance_model::{KINDS, Mode};
 use clearance_solver::{PoseError, PoseResult, Status};
 use rayon::prelude::*;
 
+use crate::pages::{self, PAGE_ROWS, PageStats};
+use crate::writer::Codec;
+
 /// Which columns to write (INTERFACE.md `--columns`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum ColumnSet {
@@ -230,33 +233,30 @@ impl PoseSchema {
 
     /// Empty column buffers for `rows` rows, to be filled block by block.
     pub fn columns(&self, rows: usize) -> UnitColumns {
-        self.columns_reusing(rows, &mut Vec::new())
-    }
-
-    /// Column buffers for `rows` rows, taking the double columns from `spare`
-    /// (buffers of earlier batches, [`recycle`]) before allocating. Every row must
-    /// then be written by [`BlockSink::put`]: a reused buffer still holds the values
-    /// of its earlier batch, since clearing it would cost a pass over the memory.
-    ///
-    /// Reuse spares the page faults of fresh memory: a standard unit of 65 536 rows
-    /// is 35 MB of doubles, which the system would otherwise map, zero and fault
-    /// in for every unit (7 % of a run, `perf`).
-    pub fn columns_reusing(&self, rows: usize, spare: &mut Vec<Vec<f64>>) -> UnitColumns {
-        let mut buffer = || match spare.pop() {
-            Some(mut v) => {
-                v.truncate(rows);
-                v.resize(rows, 0.0);
-                v
-            }
-            // Zeroed memory will do: fresh pages come zeroed, and they are first
-            // touched by the threads that fill them rather than by one beforehand.
-            None => vec![0.0; rows],
-        };
         UnitColumns {
             sample: vec![0; rows],
-            t: buffer(),
+            t: vec![0.0; rows],
             status: vec![Status::Unreachable; rows],
-            floats: self.slots.iter().map(|_| buffer()).collect(),
+            floats: self.slots.iter().map(|_| vec![0.0; rows]).collect(),
+            nulls: (0..=self.slots.len()).map(|_| AtomicBool::new(false)).collect(),
+        }
+    }
+
+    /// Empty pages for a part file of `rows` rows of `mode`.
+    pub fn part(&self, mode: Mode, rows: usize) -> PartPages {
+        PartPages {
+            mode,
+            sample: vec![0; rows],
+            status: vec![Status::Unreachable; rows],
+            pages: (0..rows.div_ceil(PAGE_ROWS)).map(|_| None).collect(),
+        }
+    }
+
+    /// The buffer a thread fills pages of a [`PartPages`] in.
+    pub fn page_buffer(&self) -> PageBuffer {
+        PageBuffer {
+            t: Vec::new(),
+            floats: Vec::new(),
             nulls: (0..=self.slots.len()).map(|_| AtomicBool::new(false)).collect(),
         }
     }
@@ -294,17 +294,106 @@ impl PoseSchema {
     }
 }
 
-/// The double buffers of a batch that is no longer needed, into `spare` for
-/// [`PoseSchema::columns_reusing`]; buffers still shared elsewhere are left alone.
-pub fn recycle(batch: RecordBatch, spare: &mut Vec<Vec<f64>>) {
-    let buffers: Vec<_> = batch
-        .columns()
-        .iter()
-        .filter_map(|c| c.as_any().downcast_ref::<Float64Array>())
-        .map(|a| a.values().inner().clone())
-        .collect();
-    drop(batch);
-    spare.extend(buffers.into_iter().filter_map(|b| b.into_vec::<f64>().ok()));
+/// A part file's rows, encoded a page at a time as they are computed
+/// ([`PoseSchema::part`], [`PageWriter::write`]), then written by [`write_part`](crate::write_part).
+///
+/// A unit's columns, put whole into buffers and encoded afterwards, were 35 MB of
+/// doubles for 65 536 standard rows, which left the cores' caches between the two
+/// passes (a third of a run's CPU, `perf`). A page of [`PAGE_ROWS`] rows of every
+/// column stays in the cache of the thread that computes it until it is encoded.
+pub struct PartPages {
+    pub(crate) mode: Mode,
+    pub(crate) sample: Vec<u64>,
+    pub(crate) status: Vec<Status>,
+    /// Each page's bytes, every double column's page in schema order (`t` first).
+    pub(crate) pages: Vec<Option<EncodedPage>>,
+}
+
+/// One page of rows of every double column, encoded.
+pub(crate) struct EncodedPage {
+    pub(crate) bytes: Vec<u8>,
+    /// One per double column, in schema order.
+    pub(crate) stats: Vec<PageStats>,
+}
+
+impl PartPages {
+    pub fn rows(&self) -> usize {
+        self.sample.len()
+    }
+
+    /// The buffers of the encoded pages, to encode others into
+    /// ([`PageWriter::write`]): fresh memory would cost a page fault every 4 KiB.
+    pub fn into_buffers(self) -> impl Iterator<Item = Vec<u8>> {
+        self.pages.into_iter().flatten().map(|p| p.bytes)
+    }
+
+    /// One writer for each page of [`PAGE_ROWS`] rows (the last may be shorter),
+    /// to fill in parallel.
+    pub fn pages<'a>(&'a mut self, schema: &'a PoseSchema) -> Vec<PageWriter<'a>> {
+        self.sample
+            .chunks_mut(PAGE_ROWS)
+            .zip(self.status.chunks_mut(PAGE_ROWS))
+            .zip(&mut self.pages)
+            .map(|((sample, status), out)| PageWriter { schema, sample, status, out })
+            .collect()
+    }
+}
+
+/// The rows of one page of a [`PartPages`].
+pub struct PageWriter<'a> {
+    schema: &'a PoseSchema,
+    sample: &'a mut [u64],
+    status: &'a mut [Status],
+    out: &'a mut Option<EncodedPage>,
+}
+
+/// The double columns of one page before they are encoded: one per thread, reused
+/// from page to page ([`PoseSchema::page_buffer`]).
+pub struct PageBuffer {
+    t: Vec<f64>,
+    /// Column c at `floats[c·PAGE_ROWS..]`.
+    floats: Vec<f64>,
+    nulls: Vec<AtomicBool>,
+}
+
+impl PageWriter<'_> {
+    pub fn rows(&self) -> usize {
+        self.sample.len()
+    }
+
+    /// Lets `fill` put every row of the page (row 0 is the page's first), then
+    /// encodes the page's double columns with `codec` into `bytes` (cleared first;
+    /// a buffer from [`PartPages::into_buffers`] spares fresh memory): a value
+    /// that is not finite is written as a null.
+    pub fn write<R>(
+        self,
+        buf: &mut PageBuffer,
+        codec: Codec,
+        mut bytes: Vec<u8>,
+        fill: impl FnOnce(&mut BlockSink<'_>) -> R,
+    ) -> Result<R, parquet::errors::ParquetError> {
+        let PageWriter { schema, sample, status, out } = self;
+        let rows = sample.len();
+        let n = schema.slots.len();
+        buf.t.resize(PAGE_ROWS, 0.0);
+        buf.floats.resize(n * PAGE_ROWS, 0.0);
+        let result = {
+            let floats = buf.floats.chunks_mut(PAGE_ROWS).map(|c| &mut c[..rows]).collect();
+            let mut sink = BlockSink::new(schema, sample, &mut buf.t[..rows], status, floats, &buf.nulls);
+            fill(&mut sink)
+        };
+        bytes.clear();
+        // Room for every page uncompressed, headers and levels included: reserved
+        // memory is not touched, and the buffer never grows while encoding.
+        bytes.reserve((n + 1) * (rows * 8 + rows / 8 + 64));
+        let mut stats = Vec::with_capacity(n + 1);
+        stats.push(pages::encode_page(&buf.t[..rows], codec, &mut bytes)?);
+        for col in buf.floats.chunks(PAGE_ROWS) {
+            stats.push(pages::encode_page(&col[..rows], codec, &mut bytes)?);
+        }
+        *out = Some(EncodedPage { bytes, stats });
+        Ok(result)
+    }
 }
 
 /// The column buffers of one part file, before they become a record batch.
@@ -325,18 +414,7 @@ impl UnitColumns {
             .chunks_mut(block)
             .zip(self.t.chunks_mut(block))
             .zip(self.status.chunks_mut(block))
-            .map(|((sample, t), status)| BlockSink {
-                sample,
-                t,
-                status,
-                floats: Vec::new(),
-                slots: &schema.slots,
-                row: [0.0; slot::COUNT],
-                nulls: &self.nulls,
-                tile: vec![0.0; TILE * schema.slots.len()],
-                tile_start: 0,
-                tile_len: 0,
-            })
+            .map(|((sample, t), status)| BlockSink::new(schema, sample, t, status, Vec::new(), &self.nulls))
             .collect();
         for col in &mut self.floats {
             for (sink, part) in sinks.iter_mut().zip(col.chunks_mut(block)) {
@@ -388,7 +466,29 @@ impl Drop for BlockSink<'_> {
     }
 }
 
-impl BlockSink<'_> {
+impl<'a> BlockSink<'a> {
+    fn new(
+        schema: &'a PoseSchema,
+        sample: &'a mut [u64],
+        t: &'a mut [f64],
+        status: &'a mut [Status],
+        floats: Vec<&'a mut [f64]>,
+        nulls: &'a [AtomicBool],
+    ) -> Self {
+        BlockSink {
+            sample,
+            t,
+            status,
+            floats,
+            slots: &schema.slots,
+            row: [0.0; slot::COUNT],
+            nulls,
+            tile: vec![0.0; TILE * schema.slots.len()],
+            tile_start: 0,
+            tile_len: 0,
+        }
+    }
+
     /// Row `i` of the block.
     pub fn put(&mut self, i: usize, s: &Sample, r: &PoseResult) {
         self.sample[i] = s.index;
@@ -483,7 +583,7 @@ mod tests {
             order.swap(3, 40);
             order.reverse();
             order.swap(0, 7);
-            let mut cols = schema.columns_reusing(n, &mut vec![vec![f64::NAN; 2 * n]; 200]);
+            let mut cols = schema.columns(n);
             {
                 let mut sink = cols.blocks(&schema, n).pop().unwrap();
                 for i in order {

@@ -1,10 +1,11 @@
 //! Parquet files that appear under their final name only when complete.
 
 use crate::output::Output;
-use crate::pages;
+use crate::pages::{self, DoubleChunk};
 use std::path::{Path, PathBuf};
 
-use arrow::array::Float64Array;
+use crate::schema::{PartPages, PoseSchema};
+use arrow::array::{ArrayRef, Float64Array, StringArray, UInt64Array};
 use arrow::datatypes::{DataType, Schema};
 use arrow::record_batch::RecordBatch;
 use std::sync::Arc;
@@ -18,7 +19,7 @@ use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
 use parquet::file::writer::SerializedFileWriter;
-use parquet::schema::types::ColumnPath;
+use parquet::schema::types::{ColumnDescPtr, ColumnPath};
 use rayon::prelude::*;
 
 /// A file that could not be written. The temporary file is removed.
@@ -83,8 +84,15 @@ pub enum Codec {
     Zstd,
 }
 
-/// The zstd level of [`Codec::Zstd`].
-pub(crate) const ZSTD_LEVEL: i32 = 1;
+/// The zstd level of [`Codec::Zstd`] for the columns `parquet` writes (strings and
+/// integers; the level is not recorded in the file).
+const ZSTD_LEVEL: i32 = 1;
+
+/// The zstd level of the double columns' pages ([`pages`]): zstd's first "fast"
+/// level. On byte-stream-split pages of 4 096 engine rows it compresses as well
+/// as level 1 (380.6 against 381.0 bytes a pose) in 64 % of the time, as fast as
+/// LZ4, which gives 385.6 (`python3` with `zstandard`, benches/README.md).
+pub(crate) const PAGE_ZSTD_LEVEL: i32 = -1;
 
 impl Codec {
     pub const NAMES: [&str; 3] = ["none", "lz4", "zstd"];
@@ -141,16 +149,107 @@ fn properties(schema: &Schema, opts: &WriteOptions, extra: &[(String, String)]) 
         .build()
 }
 
+/// A top-level column of a row group, to write.
+pub(crate) enum Column<'a> {
+    Array(&'a ArrayRef),
+    /// A double column whose pages are encoded already.
+    Doubles(DoubleChunk<'a>),
+}
+
 /// A column of a row group, to encode.
 enum Job<'a> {
     Arrow(Box<(ArrowColumnWriter, ArrowLeafColumn)>),
-    Doubles(parquet::schema::types::ColumnDescPtr, &'a Float64Array),
+    Array(ColumnDescPtr, &'a Float64Array),
+    Doubles(ColumnDescPtr, DoubleChunk<'a>),
 }
 
 /// A column of a row group, encoded.
-enum Chunk {
-    Arrow(ArrowColumnChunk),
-    Doubles(bytes::Bytes, parquet::column::writer::ColumnCloseResult),
+enum Chunk<'a> {
+    Arrow(Box<ArrowColumnChunk>),
+    /// The pages of a double column, and each page's statistics.
+    Pages(ColumnDescPtr, Vec<u8>, Vec<pages::PageStats>),
+    Doubles(ColumnDescPtr, DoubleChunk<'a>),
+}
+
+impl<'a> Job<'a> {
+    fn encode(self, codec: Codec) -> Result<Chunk<'a>, parquet::errors::ParquetError> {
+        match self {
+            Job::Arrow(job) => {
+                let (mut w, leaf) = *job;
+                w.write(&leaf).and_then(|_| w.close()).map(|c| Chunk::Arrow(Box::new(c)))
+            }
+            Job::Array(descr, a) => pages::encode_doubles(&descr, a, codec).map(|(b, p)| Chunk::Pages(descr, b, p)),
+            Job::Doubles(descr, chunk) => Ok(Chunk::Doubles(descr, chunk)),
+        }
+    }
+}
+
+/// Appends one row group of `columns` (the top-level fields of `schema`, in order).
+/// Columns are encoded on the rayon pool when `parallel`, else on this thread.
+fn append_row_group<W: std::io::Write + Send>(
+    writer: &mut SerializedFileWriter<W>,
+    factory: &ArrowRowGroupWriterFactory,
+    row_group: usize,
+    schema: &Schema,
+    columns: Vec<Column<'_>>,
+    codec: Codec,
+    parallel: bool,
+) -> Result<(), parquet::errors::ParquetError> {
+    let mut jobs = Vec::with_capacity(columns.len());
+    let mut arrow_writers = factory.create_column_writers(row_group)?.into_iter();
+    // Parquet leaves, counted apart from fields: a nested field has several.
+    let mut leaf = 0;
+    for (field, column) in schema.fields().iter().zip(columns) {
+        let array = match column {
+            Column::Doubles(chunk) => {
+                jobs.push(Job::Doubles(writer.schema_descr().column(leaf), chunk));
+                arrow_writers.next();
+                leaf += 1;
+                continue;
+            }
+            Column::Array(a) => a,
+        };
+        if let Some(a) = array.as_any().downcast_ref::<Float64Array>() {
+            // A top-level double is one flat leaf.
+            jobs.push(Job::Array(writer.schema_descr().column(leaf), a));
+            arrow_writers.next();
+            leaf += 1;
+            continue;
+        }
+        for l in compute_leaves(field, array)? {
+            let w = arrow_writers
+                .next()
+                .ok_or_else(|| parquet::errors::ParquetError::General("more leaves than columns".into()))?;
+            jobs.push(Job::Arrow(Box::new((w, l))));
+            leaf += 1;
+        }
+    }
+    let chunks: Vec<Chunk> = if parallel {
+        jobs.into_par_iter().map(|job| job.encode(codec)).collect::<Result<_, _>>()?
+    } else {
+        jobs.into_iter().map(|job| job.encode(codec)).collect::<Result<_, _>>()?
+    };
+    let mut rg = writer.next_row_group()?;
+    for chunk in chunks {
+        let (descr, doubles, owned);
+        match chunk {
+            Chunk::Arrow(c) => {
+                c.append_to_row_group(&mut rg)?;
+                continue;
+            }
+            Chunk::Pages(d, bytes, stats) => {
+                owned = bytes;
+                let mut chunk = DoubleChunk::default();
+                chunk.push(&owned, &stats);
+                (descr, doubles) = (d, chunk);
+            }
+            Chunk::Doubles(d, chunk) => (descr, doubles) = (d, chunk),
+        }
+        let (segments, close) = doubles.close(descr, codec)?;
+        rg.append_column(&segments, close)?;
+    }
+    rg.close()?;
+    Ok(())
 }
 
 /// Asks the kernel to start writing the file's dirty pages now, without waiting.
@@ -176,20 +275,7 @@ pub fn write_parquet(
     opts: &WriteOptions,
     extra: &[(String, String)],
 ) -> Result<(), ParquetError> {
-    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
-        let enc = |e| ParquetError::from_parquet(path, e);
-        let file = Output::create(&tmp).map_err(io)?;
-        let mut props = properties(&schema, opts, extra);
-        // What `ArrowWriter` does, so that readers get the Arrow types and units back.
-        add_encoded_arrow_schema_to_metadata(&schema, &mut props);
-        let parquet_schema =
-            ArrowSchemaConverter::new().with_coerce_types(props.coerce_types()).convert(&schema).map_err(enc)?;
-        let props = Arc::new(props);
-        let mut writer = SerializedFileWriter::new(file, parquet_schema.root_schema_ptr(), props).map_err(enc)?;
-        let factory = ArrowRowGroupWriterFactory::new(&writer, schema.clone());
+    write_file(path, &schema, opts, extra, |writer, factory| {
         let mut row_group = 0;
         for b in batches {
             let mut offset = 0;
@@ -197,53 +283,87 @@ pub fn write_parquet(
                 let slice = b.slice(offset, (b.num_rows() - offset).min(opts.row_group_rows.max(1)));
                 offset += slice.num_rows();
                 // Columns are encoded independently, on the rayon pool: the pool's
-                // threads are all the threads a run uses. Double columns are
-                // written by `pages`; the others by `parquet`'s Arrow writer.
-                let mut jobs = Vec::with_capacity(slice.num_columns());
-                let mut arrow_writers = factory.create_column_writers(row_group).map_err(enc)?.into_iter();
-                // Parquet leaves, counted apart from fields: a nested field has several.
-                let mut leaf = 0;
-                for (field, array) in schema.fields().iter().zip(slice.columns()) {
-                    if let Some(a) = array.as_any().downcast_ref::<Float64Array>() {
-                        // A top-level double is one flat leaf.
-                        jobs.push(Job::Doubles(writer.schema_descr().column(leaf), a));
-                        arrow_writers.next();
-                        leaf += 1;
-                        continue;
-                    }
-                    for l in compute_leaves(field, array).map_err(enc)? {
-                        let w = arrow_writers.next().ok_or_else(|| {
-                            enc(parquet::errors::ParquetError::General("more leaves than columns".into()))
-                        })?;
-                        jobs.push(Job::Arrow(Box::new((w, l))));
-                        leaf += 1;
-                    }
-                }
-                let chunks: Vec<Chunk> = jobs
-                    .into_par_iter()
-                    .map(|job| match job {
-                        Job::Arrow(job) => {
-                            let (mut w, leaf) = *job;
-                            w.write(&leaf).and_then(|_| w.close()).map(Chunk::Arrow)
-                        }
-                        Job::Doubles(descr, a) => {
-                            pages::encode_doubles(descr, a, opts.codec).map(|(b, c)| Chunk::Doubles(b, c))
-                        }
-                    })
-                    .collect::<Result<_, _>>()
-                    .map_err(enc)?;
-                let mut rg = writer.next_row_group().map_err(enc)?;
-                for chunk in chunks {
-                    match chunk {
-                        Chunk::Arrow(c) => c.append_to_row_group(&mut rg),
-                        Chunk::Doubles(bytes, close) => rg.append_column(&bytes, close),
-                    }
-                    .map_err(enc)?;
-                }
-                rg.close().map_err(enc)?;
+                // threads are all the threads a run uses.
+                let columns = slice.columns().iter().map(Column::Array).collect();
+                append_row_group(writer, factory, row_group, &schema, columns, opts.codec, true)?;
                 row_group += 1;
             }
         }
+        Ok(())
+    })
+}
+
+/// Writes a part file of `poses` whose pages are all encoded ([`PartPages`]),
+/// as one row group, via a temporary sibling and an atomic rename, as
+/// [`write_parquet`] does. Only the string and sample columns are encoded here,
+/// on this thread.
+pub fn write_part(
+    path: &Path,
+    schema: &PoseSchema,
+    part: &PartPages,
+    opts: &WriteOptions,
+    extra: &[(String, String)],
+) -> Result<(), ParquetError> {
+    let enc = |msg: String| ParquetError::Encode {
+        path: path.to_path_buf(),
+        source: parquet::errors::ParquetError::General(msg),
+    };
+    let PartPages { mode, sample, status, pages } = part;
+    let rows = sample.len();
+    let mode: ArrayRef = Arc::new(StringArray::from_iter_values(std::iter::repeat_n(mode.name(), rows)));
+    let sample: ArrayRef = Arc::new(UInt64Array::from(sample.clone()));
+    let status: ArrayRef = Arc::new(StringArray::from_iter_values(status.iter().map(|s| s.name())));
+    let doubles = schema.schema().fields().len() - 3;
+    let mut chunks: Vec<DoubleChunk> = (0..doubles).map(|_| DoubleChunk::default()).collect();
+    for (k, page) in pages.iter().enumerate() {
+        let page = page.as_ref().ok_or_else(|| enc(format!("page {k} of the part was never computed")))?;
+        if page.stats.len() != doubles {
+            return Err(enc(format!("page {k} has {} double columns, the schema {doubles}", page.stats.len())));
+        }
+        let mut at = 0;
+        for (chunk, stats) in chunks.iter_mut().zip(&page.stats) {
+            chunk.push(&page.bytes[at..at + stats.bytes], std::slice::from_ref(stats));
+            at += stats.bytes;
+        }
+    }
+    // mode, sample, t, status, then the other doubles (PoseSchema::new).
+    let mut chunks = chunks.into_iter();
+    let t = chunks.next().ok_or_else(|| enc("no t column".into()))?;
+    let mut columns = vec![Column::Array(&mode), Column::Array(&sample), Column::Doubles(t), Column::Array(&status)];
+    columns.extend(chunks.map(Column::Doubles));
+    let opts = WriteOptions { row_group_rows: rows.max(1), ..opts.clone() };
+    write_file(path, &schema.schema(), &opts, extra, |writer, factory| {
+        append_row_group(writer, factory, 0, &schema.schema(), columns, opts.codec, false)
+    })
+}
+
+/// Creates the temporary sibling of `path`, lets `body` write its row groups, then
+/// writes the footer and renames the file into place; removes it on any failure.
+fn write_file(
+    path: &Path,
+    schema: &arrow::datatypes::SchemaRef,
+    opts: &WriteOptions,
+    extra: &[(String, String)],
+    body: impl FnOnce(
+        &mut SerializedFileWriter<Output>,
+        &ArrowRowGroupWriterFactory,
+    ) -> Result<(), parquet::errors::ParquetError>,
+) -> Result<(), ParquetError> {
+    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
+        let enc = |e| ParquetError::from_parquet(path, e);
+        let file = Output::create(&tmp).map_err(io)?;
+        let mut props = properties(schema, opts, extra);
+        // What `ArrowWriter` does, so that readers get the Arrow types and units back.
+        add_encoded_arrow_schema_to_metadata(schema, &mut props);
+        let parquet_schema =
+            ArrowSchemaConverter::new().with_coerce_types(props.coerce_types()).convert(schema).map_err(enc)?;
+        let props = Arc::new(props);
+        let mut writer = SerializedFileWriter::new(file, parquet_schema.root_schema_ptr(), props).map_err(enc)?;
+        let factory = ArrowRowGroupWriterFactory::new(&writer, schema.clone());
+        body(&mut writer, &factory).map_err(enc)?;
         // `finish` writes the footer and flushes the buffer with the I/O error
         // intact (`into_inner` would turn a full disk into a string).
         writer.finish().map_err(enc)?;
