@@ -71,11 +71,10 @@ impl Default for WriteOptions {
 }
 
 /// Page compression, with byte-stream-split doubles. On the standard part files
-/// of the bench job: none 536 bytes a pose, LZ4 376, zstd (level 1) 369. Zstd costs
-/// about 0.25 µs of CPU a pose, an eighth of a run's (benches/README.md), and is
-/// the default: sweeps are kept and moved, often over shared file systems, where a
-/// third less data counts for more, and on this machine's disk `none` is no faster
-/// end to end, since the disk then takes half as much again.
+/// of the bench job: none 536 bytes a pose, LZ4 395, zstd 380–386. Zstd is the
+/// default: sweeps are kept and moved, often over shared file systems, where a
+/// third less data counts for more, and end to end `none` and LZ4 are only about
+/// 5 % faster on this machine (benches/README.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Codec {
     None,

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use arrow::array::{Array, ArrayRef, Float64Array, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
 use arrow::record_batch::RecordBatch;
-use clearance_parquet::{Codec, WriteOptions, write_parquet};
+use clearance_parquet::{Codec, PAGE_ROWS, WriteOptions, write_parquet};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::file::statistics::Statistics;
 use rand::{Rng, SeedableRng};
@@ -46,10 +46,11 @@ fn expected_range(a: &Float64Array) -> Option<(f64, f64)> {
 
 #[test]
 fn double_columns_read_back_exactly_with_their_statistics() {
+    const P: usize = PAGE_ROWS;
     let mut rng = ChaCha8Rng::seed_from_u64(2026);
     let dir = tempfile::tempdir().unwrap();
     for (case, (n, row_group_rows)) in
-        [(0, 100), (1, 100), (7, 100), (16384, 65536), (16385, 65536), (3 * 16384 + 5, 65536), (5000, 1001)]
+        [(0, 100), (1, 100), (7, 100), (P, 65536), (P + 1, 65536), (3 * P + 5, 65536), (5000, 1001), (4 * P, 3 * P - 3)]
             .into_iter()
             .enumerate()
     {
