@@ -159,13 +159,42 @@ fn posture(model: &Model, sample: &Sample, mode: Mode) -> Option<(Pose<f64>, Loa
 /// status is already known: the same numbers as [`solve_pose`]'s reactions, without
 /// the conditioning, take-up and errors. `None` where `solve_pose` has no reactions.
 pub fn solve_reactions(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> Option<JointReactions> {
+    reactions_only(model, sample, mode, ws, false)
+}
+
+/// The joint reactions of a pose that [`solve_pose`] solves (status ok or
+/// indeterminate contact), else `None`: the same numbers and the same verdict,
+/// without the take-up and the errors. For searches that evaluate loads at poses
+/// whose status is not known, such as a refinement between two samples.
+pub fn solve_reactions_if_solvable(
+    model: &Model,
+    sample: &Sample,
+    mode: Mode,
+    ws: &mut Workspace,
+) -> Option<JointReactions> {
+    reactions_only(model, sample, mode, ws, true)
+}
+
+fn reactions_only(
+    model: &Model,
+    sample: &Sample,
+    mode: Mode,
+    ws: &mut Workspace,
+    conditioned: bool,
+) -> Option<JointReactions> {
     if model.solver == SolverKind::General {
         let r = solve_pose(model, sample, mode, ws);
         return matches!(r.status, Status::Ok | Status::IndeterminateContact).then_some(r.reactions);
     }
     let (pose, loads, _) = posture(model, sample, mode)?;
-    let reduced = Reduced::new(model, &pose, false);
-    reduced.regular().then(|| reduced.reactions(model, &pose, &loads).get(0))
+    let reduced = Reduced::new(model, &pose, conditioned);
+    // As `solve_fast` decides: both condition numbers within the limit (NaN is not).
+    let solvable = if conditioned {
+        reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond
+    } else {
+        reduced.regular()
+    };
+    solvable.then(|| reduced.reactions(model, &pose, &loads).get(0))
 }
 
 /// Runs one sample in one mode. Never panics on a bad pose: it becomes a status.
