@@ -185,10 +185,15 @@ impl SummaryStats {
     /// pushing them never grows a buffer.
     pub fn with_capacity(n: usize) -> Self {
         let mut s = Self::default();
-        for series in [&mut s.dp, &mut s.dalpha].into_iter().chain(&mut s.dp_kind).chain(&mut s.dalpha_kind) {
+        for series in s.series_mut() {
             series.pending.reserve_exact(n);
         }
         s
+    }
+
+    /// Every series: total, then per kind.
+    fn series_mut(&mut self) -> impl Iterator<Item = &mut Series> {
+        [&mut self.dp, &mut self.dalpha].into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind)
     }
 
     pub fn push(&mut self, r: &PoseResult) {
@@ -220,8 +225,7 @@ impl SummaryStats {
     /// statistics merged part after part then hold one count per bin, not one
     /// entry per pose. The numbers they give do not change.
     pub fn flush(&mut self) {
-        for series in [&mut self.dp, &mut self.dalpha].into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind)
-        {
+        for series in self.series_mut() {
             series.flush();
         }
     }
