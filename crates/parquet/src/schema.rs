@@ -252,13 +252,14 @@ impl PoseSchema {
         }
     }
 
+    /// The double columns: `t` and the floats.
+    pub(crate) fn doubles(&self) -> usize {
+        self.slots.len() + 1
+    }
+
     /// The buffer a thread fills pages of a [`PartPages`] in.
     pub fn page_buffer(&self) -> PageBuffer {
-        PageBuffer {
-            t: Vec::new(),
-            floats: Vec::new(),
-            nulls: (0..=self.slots.len()).map(|_| AtomicBool::new(false)).collect(),
-        }
+        PageBuffer { t: Vec::new(), floats: Vec::new() }
     }
 
     /// The record batch of filled column buffers.
@@ -272,11 +273,9 @@ impl PoseSchema {
             Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
         };
         let (t_nulls, float_nulls) = cols.nulls.split_first().expect("t has a flag");
+        let [mode, sample, status] = label_columns(mode, cols.sample, &cols.status);
         let mut out: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 4);
-        out.push(Arc::new(StringArray::from_iter_values(cols.status.iter().map(|_| mode.name()))));
-        out.push(Arc::new(UInt64Array::from(cols.sample)));
-        out.push(float((cols.t, t_nulls)));
-        out.push(Arc::new(StringArray::from_iter_values(cols.status.iter().map(|s| s.name()))));
+        out.extend([mode, sample, float((cols.t, t_nulls)), status]);
         // Columns on the pool: a serial pass over a whole unit would leave it idle.
         out.par_extend(cols.floats.into_par_iter().zip(float_nulls).map(float));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
@@ -292,6 +291,16 @@ impl PoseSchema {
         }
         self.finish(mode, cols)
     }
+}
+
+/// The `mode`, `sample` and `status` columns of rows of `mode`, which come first
+/// in a batch as `mode`, `sample`, `t`, `status`, then the floats.
+pub(crate) fn label_columns(mode: Mode, sample: Vec<u64>, status: &[Status]) -> [ArrayRef; 3] {
+    [
+        Arc::new(StringArray::from_iter_values(std::iter::repeat_n(mode.name(), status.len()))),
+        Arc::new(UInt64Array::from(sample)),
+        Arc::new(StringArray::from_iter_values(status.iter().map(|s| s.name()))),
+    ]
 }
 
 /// A part file's rows, encoded a page at a time as they are computed
@@ -353,7 +362,6 @@ pub struct PageBuffer {
     t: Vec<f64>,
     /// Column c at `floats[c·PAGE_ROWS..]`.
     floats: Vec<f64>,
-    nulls: Vec<AtomicBool>,
 }
 
 impl PageWriter<'_> {
@@ -379,7 +387,8 @@ impl PageWriter<'_> {
         buf.floats.resize(n * PAGE_ROWS, 0.0);
         let result = {
             let floats = buf.floats.chunks_mut(PAGE_ROWS).map(|c| &mut c[..rows]).collect();
-            let mut sink = BlockSink::new(schema, sample, &mut buf.t[..rows], status, floats, &buf.nulls);
+            // No null flags: each page's encoder finds its nulls from the values' range.
+            let mut sink = BlockSink::new(schema, sample, &mut buf.t[..rows], status, floats, None);
             fill(&mut sink)
         };
         bytes.clear();
@@ -414,7 +423,7 @@ impl UnitColumns {
             .chunks_mut(block)
             .zip(self.t.chunks_mut(block))
             .zip(self.status.chunks_mut(block))
-            .map(|((sample, t), status)| BlockSink::new(schema, sample, t, status, Vec::new(), &self.nulls))
+            .map(|((sample, t), status)| BlockSink::new(schema, sample, t, status, Vec::new(), Some(&self.nulls)))
             .collect();
         for col in &mut self.floats {
             for (sink, part) in sinks.iter_mut().zip(col.chunks_mut(block)) {
@@ -444,8 +453,9 @@ pub struct BlockSink<'a> {
     slots: &'a [usize],
     /// The slots of the row being put.
     row: [f64; slot::COUNT],
-    /// The unit's flags of columns with a value that is not finite (`t` first).
-    nulls: &'a [AtomicBool],
+    /// The unit's flags of columns with a value that is not finite (`t` first), for
+    /// [`PoseSchema::finish`]; pages need none.
+    nulls: Option<&'a [AtomicBool]>,
     /// `tile[c·TILE + k]`: column c of row `tile_start + k`.
     tile: Vec<f64>,
     tile_start: usize,
@@ -473,7 +483,7 @@ impl<'a> BlockSink<'a> {
         t: &'a mut [f64],
         status: &'a mut [Status],
         floats: Vec<&'a mut [f64]>,
-        nulls: &'a [AtomicBool],
+        nulls: Option<&'a [AtomicBool]>,
     ) -> Self {
         BlockSink {
             sample,
@@ -503,20 +513,19 @@ impl<'a> BlockSink<'a> {
         }
         let v = &mut self.row;
         row_values(s, r, v);
-        let mut finite = true;
         for (c, &slot) in self.slots.iter().enumerate() {
             self.tile[c * TILE + self.tile_len] = v[slot];
-            finite &= v[slot].is_finite();
         }
         self.tile_len += 1;
+        let Some(nulls) = self.nulls else { return };
         // `t` is null on every row of a grid: flagged on its own, it does not send
         // grid rows down the per-column loop below.
         if !t.is_finite() {
-            flag(&self.nulls[0]);
+            flag(&nulls[0]);
         }
-        if !finite {
+        if !self.slots.iter().all(|&slot| v[slot].is_finite()) {
             // Rare: flag the columns this row leaves null.
-            for (f, &slot) in self.nulls[1..].iter().zip(self.slots) {
+            for (f, &slot) in nulls[1..].iter().zip(self.slots) {
                 if !v[slot].is_finite() {
                     flag(f);
                 }

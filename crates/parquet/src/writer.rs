@@ -4,8 +4,8 @@ use crate::output::Output;
 use crate::pages::{self, DoubleChunk};
 use std::path::{Path, PathBuf};
 
-use crate::schema::{PartPages, PoseSchema};
-use arrow::array::{ArrayRef, Float64Array, StringArray, UInt64Array};
+use crate::schema::{PartPages, PoseSchema, label_columns};
+use arrow::array::{ArrayRef, Float64Array};
 use arrow::datatypes::{DataType, Schema};
 use arrow::record_batch::RecordBatch;
 use std::sync::Arc;
@@ -18,7 +18,7 @@ use parquet::arrow::{ArrowSchemaConverter, add_encoded_arrow_schema_to_metadata}
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
-use parquet::file::writer::SerializedFileWriter;
+use parquet::file::writer::{SerializedFileWriter, SerializedRowGroupWriter};
 use parquet::schema::types::{ColumnDescPtr, ColumnPath};
 use rayon::prelude::*;
 
@@ -229,23 +229,20 @@ fn append_row_group<W: std::io::Write + Send>(
         jobs.into_iter().map(|job| job.encode(codec)).collect::<Result<_, _>>()?
     };
     let mut rg = writer.next_row_group()?;
+    let append_doubles = |rg: &mut SerializedRowGroupWriter<'_, W>, descr, chunk: DoubleChunk<'_>| {
+        let (segments, close) = chunk.close(descr, codec)?;
+        rg.append_column(&segments, close)
+    };
     for chunk in chunks {
-        let (descr, doubles, owned);
         match chunk {
-            Chunk::Arrow(c) => {
-                c.append_to_row_group(&mut rg)?;
-                continue;
-            }
-            Chunk::Pages(d, bytes, stats) => {
-                owned = bytes;
+            Chunk::Arrow(c) => c.append_to_row_group(&mut rg)?,
+            Chunk::Pages(descr, bytes, stats) => {
                 let mut chunk = DoubleChunk::default();
-                chunk.push(&owned, &stats);
-                (descr, doubles) = (d, chunk);
+                chunk.push(&bytes, &stats);
+                append_doubles(&mut rg, descr, chunk)?
             }
-            Chunk::Doubles(d, chunk) => (descr, doubles) = (d, chunk),
+            Chunk::Doubles(descr, chunk) => append_doubles(&mut rg, descr, chunk)?,
         }
-        let (segments, close) = doubles.close(descr, codec)?;
-        rg.append_column(&segments, close)?;
     }
     rg.close()?;
     Ok(())
@@ -309,10 +306,8 @@ pub fn write_part(
     };
     let PartPages { mode, sample, status, pages } = part;
     let rows = sample.len();
-    let mode: ArrayRef = Arc::new(StringArray::from_iter_values(std::iter::repeat_n(mode.name(), rows)));
-    let sample: ArrayRef = Arc::new(UInt64Array::from(sample.clone()));
-    let status: ArrayRef = Arc::new(StringArray::from_iter_values(status.iter().map(|s| s.name())));
-    let doubles = schema.schema().fields().len() - 3;
+    let [mode, sample, status] = label_columns(*mode, sample.clone(), status);
+    let doubles = schema.doubles();
     let mut chunks: Vec<DoubleChunk> = (0..doubles).map(|_| DoubleChunk::default()).collect();
     for (k, page) in pages.iter().enumerate() {
         let page = page.as_ref().ok_or_else(|| enc(format!("page {k} of the part was never computed")))?;
@@ -325,14 +320,15 @@ pub fn write_part(
             at += stats.bytes;
         }
     }
-    // mode, sample, t, status, then the other doubles (PoseSchema::new).
+    // In schema order (`label_columns`): mode, sample, t, status, then the floats.
     let mut chunks = chunks.into_iter();
     let t = chunks.next().ok_or_else(|| enc("no t column".into()))?;
     let mut columns = vec![Column::Array(&mode), Column::Array(&sample), Column::Doubles(t), Column::Array(&status)];
     columns.extend(chunks.map(Column::Doubles));
     let opts = WriteOptions { row_group_rows: rows.max(1), ..opts.clone() };
-    write_file(path, &schema.schema(), &opts, extra, |writer, factory| {
-        append_row_group(writer, factory, 0, &schema.schema(), columns, opts.codec, false)
+    let arrow_schema = schema.schema();
+    write_file(path, &arrow_schema, &opts, extra, |writer, factory| {
+        append_row_group(writer, factory, 0, &arrow_schema, columns, opts.codec, false)
     })
 }
 
