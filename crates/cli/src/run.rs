@@ -541,6 +541,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let overlap = kept.keep_traces && opts.shard.is_none() && todo.len() == all.len();
     // The buffers of written pages, for pages still to encode.
     let spare = &std::sync::Mutex::new(Vec::<Vec<u8>>::new());
+    // The run's own files are synced before `_SUCCESS`.
+    let durable = WriteOptions { durable: true, ..write_opts.clone() };
     let finalized = std::thread::scope(|scope| -> Result<bool> {
         let (tx, rx) = sync_channel::<Part>(1);
         let (schema, write_opts) = (&schema, &write_opts);
@@ -560,6 +562,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         // Load magnitudes of units, reused from unit to unit.
         let mut spare_loads: Vec<Vec<Loads>> = Vec::new();
         let mut previous: Option<Computed> = None;
+        let mut writer_failed = false;
         for unit in todo.iter().map(Some).chain([None]) {
             if let Some(u) = unit {
                 progress.set_message(format!("variant {} {}", u.variant, u.mode.name()));
@@ -576,16 +579,16 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 spare_loads.push(loads);
                 let n = part.traces.len() as u64;
                 if tx.send(part).is_err() {
-                    break; // the writer failed; its error is reported below
+                    writer_failed = true; // its error is reported below
+                    break;
                 }
                 done += n;
                 progress.advance(n, done);
             }
         }
         drop(tx);
-        let finalized = overlap.then(|| {
+        let finalized = (overlap && !writer_failed).then(|| {
             progress.finish();
-            let durable = WriteOptions { durable: true, ..write_opts.clone() };
             finalize(job, &variants, &models, &all, opts, &durable, std::mem::take(&mut kept))
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
@@ -606,7 +609,6 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     };
     if complete {
         if !finalized {
-            let durable = WriteOptions { durable: true, ..write_opts.clone() };
             finalize(job, &variants, &models, &all, opts, &durable, kept)?;
         }
         write_marker(&opts.out.join("_SUCCESS"))?;
