@@ -14,7 +14,8 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clearance_discontinuity::{
-    Loads, SearchOptions, Trace, axes, find_discontinuities_traced, keep_local_minima, trace_into,
+    Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_traced, keep_local_minima,
+    trace_into,
 };
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
@@ -290,33 +291,67 @@ fn search_options(variant: &Variant) -> SearchOptions {
     SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() }
 }
 
-/// Poses whose traces a run keeps in memory for the search at the end (4 bytes
-/// each): up to this many, the search need not read them back, and starts while
-/// the last parts are still being written.
+/// Poses whose traces a run keeps in memory (4 bytes each): up to this many in a
+/// (variant, mode), a run that computes every unit searches its paths as their
+/// units come in; up to this many computed by a sharded or resumed run, the search
+/// at the end need not read them back.
 const KEEP_TRACES: u64 = 1 << 24;
 
 /// What this invocation computed, kept for the search and summary at the end so
 /// that they need not read it back from `_stats/`.
 #[derive(Default)]
-struct Kept {
+struct Kept<'a> {
     /// Per (variant, mode): the statistics of its units merged in unit order, and
     /// how many units that was.
     stats: std::collections::HashMap<(u64, Mode), (SummaryStats, usize)>,
     /// Per unit number: its traces.
     traces: std::collections::HashMap<u64, Vec<Trace>>,
-    /// Whether `traces` are kept at all.
-    keep_traces: bool,
+    /// How traces are kept.
+    keep: KeepTraces,
+    /// Per (variant, mode), with [`KeepTraces::Search`]: its search so far.
+    searches: std::collections::HashMap<(u64, Mode), Search<'a>>,
+    /// Per (variant, mode), with [`KeepTraces::Search`]: its switches, once all its
+    /// units are in.
+    found: std::collections::HashMap<(u64, Mode), Vec<Discontinuity>>,
 }
 
-impl Kept {
-    fn add(&mut self, unit: &Unit, stats: &SummaryStats, traces: &[Trace]) {
+/// What [`Kept`] does with the traces of the units it is given.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum KeepTraces {
+    /// Nothing: the search at the end reads them back from the parts' trace files.
+    #[default]
+    No,
+    /// Keeps them for the search at the end.
+    Whole,
+    /// Searches the paths they complete at once. Units must come in order, each
+    /// (variant, mode) whole.
+    Search,
+}
+
+impl<'a> Kept<'a> {
+    fn add_stats(&mut self, unit: &Unit, stats: &SummaryStats) {
         let (merged, count) = self.stats.entry((unit.variant, unit.mode)).or_default();
         merged.merge(stats);
         // Bins, not values: a run's total stays the size of its histogram.
         merged.flush();
         *count += 1;
-        if self.keep_traces {
-            self.traces.insert(unit.number, traces.to_vec());
+    }
+
+    fn add_traces(&mut self, unit: &Unit, traces: &[Trace], model: &'a Model, source: &'a SampleSource) {
+        match self.keep {
+            KeepTraces::No => {}
+            KeepTraces::Whole => {
+                self.traces.insert(unit.number, traces.to_vec());
+            }
+            KeepTraces::Search => {
+                let key = (unit.variant, unit.mode);
+                let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, unit.mode));
+                search.extend(traces);
+                if search.is_complete() {
+                    let search = self.searches.remove(&key).expect("just used");
+                    self.found.insert(key, search.finish());
+                }
+            }
         }
     }
 }
@@ -353,23 +388,10 @@ fn finalize(
                     stats
                 }
             };
-            let mut traces: Vec<Trace> = Vec::with_capacity(source.len() as usize);
-            for u in &units {
-                let len = (u.range.end - u.range.start) as usize;
-                match kept
-                    .traces
-                    .remove(&u.number)
-                    .or_else(|| read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len))
-                {
-                    Some(t) => traces.extend(t),
-                    // A part written without its traces: solve its poses again.
-                    None => {
-                        traces.extend(clearance_discontinuity::traces(model, source, mode, &search, u.range.clone()))
-                    }
-                }
-            }
-            let found = find_discontinuities_traced(model, source, mode, &traces);
-            drop(traces);
+            let found = match kept.found.remove(&(variant.index, mode)) {
+                Some(found) => found,
+                None => search_after(model, source, mode, &search, &units, opts, &mut kept)?,
+            };
             let mut counts = [0u64; 4];
             for d in &found {
                 counts[d.kind.index()] += 1;
@@ -390,6 +412,33 @@ fn finalize(
     let batch = summary_batch(&names, &summary);
     write_parquet(&opts.out.join("summary.parquet"), batch.schema(), &[batch], write_opts, &[])?;
     Ok(())
+}
+
+/// The switches of one (variant, mode) from the traces of its `units`: those
+/// `kept`, else those written beside its parts, else solved again.
+fn search_after(
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    search: &SearchOptions,
+    units: &[&Unit],
+    opts: &RunOptions,
+    kept: &mut Kept<'_>,
+) -> Result<Vec<Discontinuity>> {
+    let mut traces: Vec<Trace> = Vec::with_capacity(source.len() as usize);
+    for u in units {
+        let len = (u.range.end - u.range.start) as usize;
+        match kept
+            .traces
+            .remove(&u.number)
+            .or_else(|| read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len))
+        {
+            Some(t) => traces.extend(t),
+            // A part written without its traces: solve its poses again.
+            None => traces.extend(clearance_discontinuity::traces(model, source, mode, search, u.range.clone())),
+        }
+    }
+    Ok(find_discontinuities_traced(model, source, mode, &traces))
 }
 
 /// What computing a unit needs besides the unit.
@@ -466,7 +515,7 @@ fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<C
 }
 
 /// A computed unit's part, for the writer, with its traces pruned and its
-/// statistics merged, both kept in `kept`; and its load buffer, to reuse.
+/// statistics merged (and kept in `kept`); and its load buffer, to reuse.
 fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads>) {
     let Computed { unit, pages, traces, loads, block_stats } = c;
     let (_, source) = &ctx.models[unit.variant as usize];
@@ -479,7 +528,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
     }
     // Once, here: the statistics file and the run's total both want it flushed.
     stats.flush();
-    kept.add(unit, &stats, &traces);
+    kept.add_stats(unit, &stats);
     let params = &ctx.variants[unit.variant as usize].params;
     let extra = vec![
         ("clearance.variant".to_string(), unit.variant.to_string()),
@@ -535,10 +584,16 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
-    let mut kept = Kept { keep_traces: todo_poses <= KEEP_TRACES, ..Kept::default() };
-    // Without shards or resumed parts, everything the search needs is in memory:
-    // it runs while the writer finishes the last parts.
-    let overlap = kept.keep_traces && opts.shard.is_none() && todo.len() == all.len();
+    // Without shards or resumed parts, the search follows the computation and has
+    // everything it needs in memory: the rest runs while the writer finishes the
+    // last parts.
+    let overlap = opts.shard.is_none() && todo.len() == all.len() && job.sample_count() <= KEEP_TRACES;
+    let keep = match () {
+        _ if overlap => KeepTraces::Search,
+        _ if todo_poses <= KEEP_TRACES => KeepTraces::Whole,
+        _ => KeepTraces::No,
+    };
+    let mut kept = Kept { keep, ..Kept::default() };
     // The buffers of written pages, for pages still to encode.
     let spare = &std::sync::Mutex::new(Vec::<Vec<u8>>::new());
     // The run's own files are synced before `_SUCCESS`.
@@ -568,17 +623,33 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 progress.set_message(format!("variant {} {}", u.variant, u.mode.name()));
             }
             let loads = spare_loads.pop().unwrap_or_default();
-            // The previous unit is concluded on the pool while this one computes:
-            // alone, its few milliseconds would leave the other threads idle.
+            // The previous unit is concluded on the pool while this one computes
+            // (alone, its few milliseconds would leave the other threads idle), and
+            // its part goes to the writer at once rather than after this unit: at
+            // the end of the run, the writer then has one part left to write, not two.
+            let tx = &tx;
             let (concluded, computed) = rayon::join(
-                || previous.take().map(|c| conclude(&ctx, c, &mut kept)),
+                || {
+                    previous.take().map(|c| {
+                        let unit = c.unit;
+                        let (part, loads) = conclude(&ctx, c, &mut kept);
+                        let n = part.traces.len() as u64;
+                        let traces = (kept.keep != KeepTraces::No).then(|| part.traces.clone());
+                        let sent = tx.send(part).is_ok();
+                        // Searched after the part is on its way: the writer need not wait.
+                        if let Some(traces) = traces {
+                            let (model, source) = &models[unit.variant as usize];
+                            kept.add_traces(unit, &traces, model, source);
+                        }
+                        (n, loads, sent)
+                    })
+                },
                 || unit.map(|u| compute(&ctx, u, loads)).transpose(),
             );
             previous = computed?;
-            if let Some((part, loads)) = concluded {
+            if let Some((n, loads, sent)) = concluded {
                 spare_loads.push(loads);
-                let n = part.traces.len() as u64;
-                if tx.send(part).is_err() {
+                if !sent {
                     writer_failed = true; // its error is reported below
                     break;
                 }

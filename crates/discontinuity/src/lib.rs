@@ -341,11 +341,74 @@ pub fn find_discontinuities_traced(
     mode: Mode,
     traces: &[Trace],
 ) -> Vec<Discontinuity> {
-    paths(source)
-        .par_iter()
-        .map_init(Workspace::new, |ws, path| search_path(model, source, path, mode, |i| traces[i as usize], ws))
-        .flatten_iter()
-        .collect()
+    let mut search = Search::new(model, source, mode);
+    search.extend(traces);
+    search.finish()
+}
+
+/// The search of one (variant, mode) whose traces arrive a range of samples at a
+/// time, in sample order: each path is searched as soon as its last sample is in,
+/// so a run searches the lines of its first parts while it computes the next. The
+/// result is that of [`find_discontinuities_traced`] on all the traces at once.
+pub struct Search<'a> {
+    model: &'a Model,
+    source: &'a SampleSource,
+    mode: Mode,
+    /// The traces received so far, from sample 0.
+    traces: Vec<Trace>,
+    /// The paths of each axis, in [`paths`] order, with the switches found on the
+    /// paths searched so far (the first ones: a path's last sample grows with its
+    /// position within its axis).
+    axes: Vec<(Vec<Path>, Vec<Discontinuity>, usize)>,
+}
+
+impl<'a> Search<'a> {
+    pub fn new(model: &'a Model, source: &'a SampleSource, mode: Mode) -> Self {
+        let mut axes: Vec<(Vec<Path>, Vec<Discontinuity>, usize)> = Vec::new();
+        for path in paths(source) {
+            match axes.last_mut() {
+                Some((group, _, _)) if group[0].along == path.along => group.push(path),
+                _ => axes.push((vec![path], Vec::new(), 0)),
+            }
+        }
+        Self { model, source, mode, traces: Vec::new(), axes }
+    }
+
+    /// Adds the traces of the next samples and searches the paths they complete;
+    /// returns how many that was.
+    pub fn extend(&mut self, traces: &[Trace]) -> usize {
+        self.traces.extend_from_slice(traces);
+        assert!(self.traces.len() as u64 <= self.source.len(), "more traces than samples");
+        let have = self.traces.len() as u64;
+        let mut count = 0;
+        let Self { model, source, mode, traces, .. } = self;
+        for (paths, found, searched) in &mut self.axes {
+            let ready = paths[*searched..].partition_point(|p| p.is_empty() || p.sample_index(p.len() - 1) < have);
+            let batch = &paths[*searched..*searched + ready];
+            found.par_extend(
+                batch
+                    .par_iter()
+                    .map_init(Workspace::new, |ws, path| {
+                        search_path(model, source, path, *mode, |i| traces[i as usize], ws)
+                    })
+                    .flatten_iter(),
+            );
+            *searched += ready;
+            count += ready;
+        }
+        count
+    }
+
+    /// Whether every sample's trace is in (and so every path searched).
+    pub fn is_complete(&self) -> bool {
+        self.traces.len() as u64 == self.source.len()
+    }
+
+    /// The switches of every path, in [`paths`] order; every trace must be in.
+    pub fn finish(self) -> Vec<Discontinuity> {
+        assert!(self.is_complete(), "the search ends with every sample traced");
+        self.axes.into_iter().flat_map(|(_, found, _)| found).collect()
+    }
 }
 
 /// All switches of one (variant, mode), every sample solved here.

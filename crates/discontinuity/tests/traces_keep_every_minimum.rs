@@ -1,9 +1,11 @@
 //! The candidates a run's traces keep ([`keep_local_minima`]) lose no switch: the
 //! search over pruned traces finds exactly what it finds when every low sample is
 //! a candidate, however the samples are cut into ranges, and the pruning does
-//! remove most candidates (otherwise it saves nothing).
+//! remove most candidates (otherwise it saves nothing). A [`Search`] given the
+//! traces a range at a time, as a run computes them, finds the same switches, and
+//! searches each path as soon as its last sample is in.
 
-use clearance_discontinuity::{SearchOptions, Trace, find_discontinuities_traced, trace, traces};
+use clearance_discontinuity::{Search, SearchOptions, Trace, find_discontinuities_traced, paths, trace, traces};
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
 use clearance_solver::{Model, Workspace, solve_pose};
@@ -36,6 +38,10 @@ fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
             start = end;
         }
         assert_eq!(find_discontinuities_traced(&model, &source, mode, &pruned), expected, "ranges of {len}");
+        let mut search = Search::new(&model, &source, mode);
+        let searched: usize = pruned.chunks(len as usize).map(|range| search.extend(range)).sum();
+        assert_eq!(searched, paths(&source).len(), "ranges of {len}: every path searched once");
+        assert_eq!(search.finish(), expected, "ranges of {len}, searched as they come");
         let (before, after) = (vector_candidates(&every), vector_candidates(&pruned));
         if prunes && len >= n {
             assert!(after * 5 < before, "ranges of {len}: {after} of {before} candidates left");
@@ -67,4 +73,28 @@ fn trajectory_switches_survive_pruning_in_any_ranges() {
         [trajectory]\ntime = { start = 1.25, stop = 3.75, n = 801 }\nz = 2.05\npsi = 0.1\n\
         theta = { harmonics = [ { amplitude = 0.5, period = 5.0 } ] }\n";
     check(text, Mode::Dynamic, &[3, 100, 801], true);
+}
+
+/// Each path is searched once its last sample is in, not before and not later: on
+/// a 3 × 4 × 5 grid (Z, Ψ, Θ), a sample completes the line along each input of
+/// which it is the last node.
+#[test]
+fn search_takes_each_path_as_its_last_sample_arrives() {
+    let text = "[clearance]\nr_axial = 1e-4\n[grid]\nz = { start = 2.0, stop = 2.1, n = 3 }\n\
+        psi = { start = -0.3, stop = 0.3, n = 4 }\ntheta = { start = -0.3, stop = 0.3, n = 5 }\n";
+    let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
+    let model = Model::from_job(&job);
+    let source = SampleSource::new(&job);
+    let traces = vec![0 as Trace; source.len() as usize];
+    let mut search = Search::new(&model, &source, Mode::Kinetostatic);
+    let counts: Vec<usize> = traces.iter().map(|t| search.extend(std::slice::from_ref(t))).collect();
+    let expected: Vec<usize> = (0..60)
+        .map(|i| {
+            let (z, psi, theta) = (i / 20, i / 5 % 4, i % 5);
+            usize::from(theta == 4) + usize::from(psi == 3) + usize::from(z == 2)
+        })
+        .collect();
+    assert_eq!(counts, expected);
+    assert!(search.is_complete());
+    assert_eq!(counts.iter().sum::<usize>(), paths(&source).len());
 }
