@@ -63,6 +63,7 @@ struct Scratch {
     bits: Vec<u8>,
     payload: Vec<u8>,
     compressed: Vec<u8>,
+    header: Vec<u8>,
     zstd: Option<zstd::bulk::Compressor<'static>>,
 }
 
@@ -328,6 +329,38 @@ fn write_page(
     } else {
         s.payload.extend(present.iter().flat_map(|v| v.to_le_bytes()));
     }
+    let encoding = if split { BYTE_STREAM_SPLIT } else { PLAIN };
+    let before = out.len();
+    if codec == Codec::Zstd {
+        // Compressed straight into `out`, after a header written for the largest
+        // body zstd may return: the real header, whose sizes are varints, is no
+        // longer, and the body moves up only when it is shorter.
+        if s.zstd.is_none() {
+            s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::PAGE_ZSTD_LEVEL)?);
+        }
+        let bound = zstd::zstd_safe::compress_bound(s.payload.len());
+        page_header(out, s.payload.len(), bound, rows, encoding);
+        let room = out.len() - before;
+        out.reserve(bound);
+        let mut body = std::io::Cursor::new(&mut *out);
+        body.set_position((before + room) as u64);
+        let n = s.zstd.as_mut().expect("just made").compress_to_buffer(&s.payload, &mut body)?;
+        s.header.clear();
+        page_header(&mut s.header, s.payload.len(), n, rows, encoding);
+        let header = s.header.len();
+        if header < room {
+            out.copy_within(before + room..before + room + n, before + header);
+            out.truncate(before + header + n);
+        }
+        out[before..before + header].copy_from_slice(&s.header);
+        return Ok(PageStats {
+            bytes: header + n,
+            uncompressed: header + s.payload.len(),
+            rows,
+            nulls: rows - present.len(),
+            range,
+        });
+    }
     let body: &[u8] = match codec {
         Codec::None => &s.payload,
         Codec::Lz4 => {
@@ -336,19 +369,9 @@ fn write_page(
                 .map_err(|e| ParquetError::External(Box::new(e)))?;
             &s.compressed[..n]
         }
-        Codec::Zstd => {
-            if s.zstd.is_none() {
-                s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::PAGE_ZSTD_LEVEL)?);
-            }
-            let zstd = s.zstd.as_mut().expect("just made");
-            s.compressed.clear();
-            s.compressed.reserve(zstd::zstd_safe::compress_bound(s.payload.len()));
-            zstd.compress_to_buffer(&s.payload, &mut s.compressed)?;
-            &s.compressed
-        }
+        Codec::Zstd => unreachable!("compressed above"),
     };
-    let before = out.len();
-    page_header(out, s.payload.len(), body.len(), rows, if split { BYTE_STREAM_SPLIT } else { PLAIN });
+    page_header(out, s.payload.len(), body.len(), rows, encoding);
     let header = out.len() - before;
     out.extend_from_slice(body);
     Ok(PageStats {
