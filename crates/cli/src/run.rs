@@ -5,8 +5,9 @@
 //! written under a temporary name and renamed when complete, so a unit either
 //! exists whole or not at all: `--resume` skips the units that exist and a shard
 //! `I/N` computes the units whose number is `I` modulo `N`. Within a unit, poses
-//! are spread over the rayon pool; the part files are encoded on a writer thread
-//! while the next unit computes.
+//! are spread over the rayon pool; each unit's part goes to a writer thread as soon
+//! as it is concluded, and the grid lines it completes are searched for
+//! discontinuities ([`Search`]) while the next unit computes.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
