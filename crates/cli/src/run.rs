@@ -378,7 +378,7 @@ fn finalize(
         let search = search_options(variant);
         for &mode in &job.analysis.modes {
             let units: Vec<&Unit> = all.iter().filter(|u| u.variant == variant.index && u.mode == mode).collect();
-            // Merged in unit order, as `Kept::add` does, so both give the same sums.
+            // Merged in unit order, as `Kept::add_stats` does, so both give the same sums.
             let stats = match kept.stats.remove(&(variant.index, mode)) {
                 Some((stats, count)) if count == units.len() => stats,
                 _ => {
@@ -521,7 +521,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
     let Computed { unit, pages, traces, loads, block_stats } = c;
     let (_, source) = &ctx.models[unit.variant as usize];
     // With the whole unit in hand, most samples are seen not to be load
-    // minima, so the search at the end solves only the others.
+    // minima, so the search solves only the others.
     let traces = keep_local_minima(&axes(source), unit.range.start, &traces, &loads[..traces.len()]);
     let mut stats = SummaryStats::with_capacity(traces.len());
     for b in block_stats.iter().flatten() {
@@ -588,9 +588,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     // Without shards or resumed parts, the search follows the computation and has
     // everything it needs in memory: the rest runs while the writer finishes the
     // last parts.
-    let overlap = opts.shard.is_none() && todo.len() == all.len() && job.sample_count() <= KEEP_TRACES;
     let keep = match () {
-        _ if overlap => KeepTraces::Search,
+        _ if opts.shard.is_none() && todo.len() == all.len() && job.sample_count() <= KEEP_TRACES => KeepTraces::Search,
         _ if todo_poses <= KEEP_TRACES => KeepTraces::Whole,
         _ => KeepTraces::No,
     };
@@ -659,7 +658,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             }
         }
         drop(tx);
-        let finalized = (overlap && !writer_failed).then(|| {
+        let finalized = (kept.keep == KeepTraces::Search && !writer_failed).then(|| {
             progress.finish();
             finalize(job, &variants, &models, &all, opts, &durable, std::mem::take(&mut kept))
         });

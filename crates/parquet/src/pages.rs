@@ -331,56 +331,51 @@ fn write_page(
     }
     let encoding = if split { BYTE_STREAM_SPLIT } else { PLAIN };
     let before = out.len();
-    if codec == Codec::Zstd {
-        // Compressed straight into `out`, after a header written for the largest
-        // body zstd may return: the real header, whose sizes are varints, is no
-        // longer, and the body moves up only when it is shorter.
-        if s.zstd.is_none() {
-            s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::PAGE_ZSTD_LEVEL)?);
+    let body = match codec {
+        Codec::Zstd => zstd_page(s, out, rows, encoding)?,
+        Codec::None | Codec::Lz4 => {
+            let body: &[u8] = if codec == Codec::Lz4 {
+                s.compressed.resize(lz4_flex::block::get_maximum_output_size(s.payload.len()), 0);
+                let n = lz4_flex::block::compress_into(&s.payload, &mut s.compressed)
+                    .map_err(|e| ParquetError::External(Box::new(e)))?;
+                &s.compressed[..n]
+            } else {
+                &s.payload
+            };
+            page_header(out, s.payload.len(), body.len(), rows, encoding);
+            out.extend_from_slice(body);
+            body.len()
         }
-        let bound = zstd::zstd_safe::compress_bound(s.payload.len());
-        page_header(out, s.payload.len(), bound, rows, encoding);
-        let room = out.len() - before;
-        out.reserve(bound);
-        let mut body = std::io::Cursor::new(&mut *out);
-        body.set_position((before + room) as u64);
-        let n = s.zstd.as_mut().expect("just made").compress_to_buffer(&s.payload, &mut body)?;
-        s.header.clear();
-        page_header(&mut s.header, s.payload.len(), n, rows, encoding);
-        let header = s.header.len();
-        if header < room {
-            out.copy_within(before + room..before + room + n, before + header);
-            out.truncate(before + header + n);
-        }
-        out[before..before + header].copy_from_slice(&s.header);
-        return Ok(PageStats {
-            bytes: header + n,
-            uncompressed: header + s.payload.len(),
-            rows,
-            nulls: rows - present.len(),
-            range,
-        });
-    }
-    let body: &[u8] = match codec {
-        Codec::None => &s.payload,
-        Codec::Lz4 => {
-            s.compressed.resize(lz4_flex::block::get_maximum_output_size(s.payload.len()), 0);
-            let n = lz4_flex::block::compress_into(&s.payload, &mut s.compressed)
-                .map_err(|e| ParquetError::External(Box::new(e)))?;
-            &s.compressed[..n]
-        }
-        Codec::Zstd => unreachable!("compressed above"),
     };
-    page_header(out, s.payload.len(), body.len(), rows, encoding);
-    let header = out.len() - before;
-    out.extend_from_slice(body);
-    Ok(PageStats {
-        bytes: header + body.len(),
-        uncompressed: header + s.payload.len(),
-        rows,
-        nulls: rows - present.len(),
-        range,
-    })
+    let bytes = out.len() - before;
+    Ok(PageStats { bytes, uncompressed: bytes - body + s.payload.len(), rows, nulls: rows - present.len(), range })
+}
+
+/// Appends the page header and the zstd-compressed `s.payload` to `out`; returns
+/// the body's length. Compressed straight into `out`, after a header written for the
+/// largest body zstd may return: the real header, whose sizes are varints, is no
+/// longer, and the body moves up only when it is shorter.
+fn zstd_page(s: &mut Scratch, out: &mut Vec<u8>, rows: usize, encoding: i32) -> Result<usize, ParquetError> {
+    if s.zstd.is_none() {
+        s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::PAGE_ZSTD_LEVEL)?);
+    }
+    let before = out.len();
+    let bound = zstd::zstd_safe::compress_bound(s.payload.len());
+    page_header(out, s.payload.len(), bound, rows, encoding);
+    let room = out.len() - before;
+    out.reserve(bound);
+    let mut body = std::io::Cursor::new(&mut *out);
+    body.set_position((before + room) as u64);
+    let n = s.zstd.as_mut().expect("just made").compress_to_buffer(&s.payload, &mut body)?;
+    s.header.clear();
+    page_header(&mut s.header, s.payload.len(), n, rows, encoding);
+    let header = s.header.len();
+    if header < room {
+        out.copy_within(before + room..before + room + n, before + header);
+        out.truncate(before + header + n);
+    }
+    out[before..before + header].copy_from_slice(&s.header);
+    Ok(n)
 }
 
 /// The definition levels of a page, with their 4-byte length in front (data page
