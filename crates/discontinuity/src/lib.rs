@@ -28,7 +28,7 @@ pub use minimise::{brent_min, brent_root};
 pub use paths::{Along, Axis, Path, axes, paths};
 pub use trace::{Loads, Trace, keep_local_minima, trace, trace_into, trace_loads, traces};
 
-use trace::{SOLVABLE, det_bit, low_bit};
+use trace::{LOW_SHIFT, SOLVABLE, det_bit, low_bit};
 
 use clearance_grid::{Sample, SampleSource};
 use clearance_model::{ClearanceKind, KINDS, Mode};
@@ -189,16 +189,19 @@ impl Evaluator<'_> {
 struct Solved<'a> {
     ev: &'a Evaluator<'a>,
     cache: HashMap<usize, PoseResult>,
-    /// Reactions only, for following load magnitudes.
-    reactions: Vec<Option<JointReactions>>,
+    /// Reactions only, for following load magnitudes: of the few samples near a
+    /// candidate (a slot per sample of the path was a quarter of the search's time).
+    reactions: HashMap<usize, JointReactions>,
 }
 
 impl Solved<'_> {
     /// The reactions at the `k`-th sample (a solvable one).
     fn reactions(&mut self, k: usize, ws: &mut Workspace) -> JointReactions {
         let ev = self.ev;
-        *self.reactions[k]
-            .get_or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
+        *self
+            .reactions
+            .entry(k)
+            .or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
     }
 
     /// The `k`-th sample of the path, solved.
@@ -220,7 +223,7 @@ pub fn search_path(
 ) -> Vec<Discontinuity> {
     let ev = Evaluator { model, source, path, mode };
     let traces: Vec<Trace> = (0..path.len()).map(|k| trace_of(path.sample_index(k))).collect();
-    let mut solved = Solved { ev: &ev, cache: HashMap::new(), reactions: vec![None; path.len()] };
+    let mut solved = Solved { ev: &ev, cache: HashMap::new(), reactions: HashMap::new() };
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
@@ -230,7 +233,13 @@ pub fn search_path(
             continue;
         }
         let mut end = start;
+        // In det-bit positions: the (kind, limb)s with a determinate low sample, and
+        // with a determinate sample that is not low, somewhere in the segment.
+        let (mut low_det, mut high_det) = (0, 0);
         while end < traces.len() && traces[end] & SOLVABLE != 0 {
+            let t = traces[end];
+            low_det |= t & (t >> LOW_SHIFT);
+            high_det |= t & !(t >> LOW_SHIFT);
             end += 1;
         }
         for kind in KINDS {
@@ -239,12 +248,9 @@ pub fn search_path(
             }
             for j in 0..3 {
                 let (d, l) = (det_bit(kind, j), low_bit(kind, j));
-                let segment = &traces[start..end];
                 // Nothing to find: no candidate among the vector loads, or an axial
                 // load of one sign throughout.
-                let low_det = segment.iter().any(|&t| t & d != 0 && t & l != 0);
-                let high_det = segment.iter().any(|&t| t & d != 0 && t & l == 0);
-                if !low_det || (kind == ClearanceKind::RAxial && !high_det) {
+                if low_det & d == 0 || (kind == ClearanceKind::RAxial && high_det & d == 0) {
                     continue;
                 }
                 // Determinate samples of this segment, for this joint and kind.

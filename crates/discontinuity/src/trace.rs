@@ -26,8 +26,11 @@ pub(crate) fn det_bit(kind: ClearanceKind, j: usize) -> Trace {
 }
 
 pub(crate) fn low_bit(kind: ClearanceKind, j: usize) -> Trace {
-    1 << (13 + 3 * kind.index() + j)
+    det_bit(kind, j) << LOW_SHIFT
 }
+
+/// How far a (kind, limb)'s low bit lies above its determinate bit.
+pub(crate) const LOW_SHIFT: u32 = 12;
 
 /// The deciding load magnitudes of one sample, by `3·kind.index() + limb`
 /// (zero where it is not solvable).
@@ -88,12 +91,29 @@ const SLACK: f64 = 1e-9;
 /// work does. Samples are settled in parallel.
 pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[Loads]) -> Vec<Trace> {
     assert_eq!(traces.len(), loads.len(), "one load set per trace");
+    assert!(axes.len() <= 3, "at most three inputs vary");
     let n = traces.len();
+    let vector_low: Trace = KINDS
+        .iter()
+        .filter(|&&k| k != ClearanceKind::RAxial)
+        .flat_map(|&k| (0..3).map(move |j| low_bit(k, j)))
+        .fold(0, |m, b| m | b);
     (0..n)
         .into_par_iter()
         .with_min_len(4096)
         .map(|i| {
             let mut t = traces[i];
+            if t & vector_low == 0 {
+                return t;
+            }
+            // The neighbours along each axis on which the sample is not a path's end.
+            let mut along = [(None, None); 3];
+            let mut interior = 0;
+            for a in axes.iter().filter(|a| !a.is_end(first + i as u64)) {
+                let s = a.stride as usize;
+                along[interior] = (i.checked_sub(s), i.checked_add(s));
+                interior += 1;
+            }
             for kind in KINDS {
                 if kind == ClearanceKind::RAxial {
                     continue;
@@ -112,10 +132,7 @@ pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[L
                         }
                         None => true,
                     };
-                    let candidate = axes.iter().any(|a| {
-                        let s = a.stride as usize;
-                        !a.is_end(first + i as u64) && allows(i.checked_sub(s)) && allows(i.checked_add(s))
-                    });
+                    let candidate = along[..interior].iter().any(|&(before, after)| allows(before) && allows(after));
                     if !candidate {
                         t &= !low;
                     }
