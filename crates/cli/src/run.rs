@@ -21,8 +21,8 @@ use clearance_discontinuity::{
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PartPages, PoseSchema, SummaryRow, SummaryStats, WriteOptions,
-    discontinuity_batch, summary_batch, write_parquet, write_part,
+    Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PartPages, PoseSchema, SummaryRow, SummaryStats,
+    WriteOptions, discontinuity_batch, summary_batch, write_parquet, write_part,
 };
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
@@ -450,6 +450,10 @@ struct Ctx<'a> {
     opts: &'a RunOptions,
     /// Buffers of written pages, to encode pages into.
     spare: &'a std::sync::Mutex<Vec<Vec<u8>>>,
+    /// A solver's and a page's working buffers for each page being computed, kept
+    /// from page to page: rayon calls `map_init`'s init for every piece it splits
+    /// off, and a fresh page buffer is megabytes to zero and fault in.
+    workers: &'a std::sync::Mutex<Vec<(Blocks, PageBuffer)>>,
 }
 
 /// A unit computed, its pages encoded, before its traces are pruned and its
@@ -478,36 +482,36 @@ fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<C
         .into_par_iter()
         .zip(traces.par_chunks_mut(PAGE_ROWS).zip(loads.par_chunks_mut(PAGE_ROWS)))
         .enumerate()
-        .map_init(
-            || (Blocks::default(), ctx.schema.page_buffer()),
-            |(blocks, buf), (p, (page, (page_traces, page_loads)))| {
-                let first = unit.range.start + (p * PAGE_ROWS) as u64;
-                let bytes = ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
-                page.write(buf, ctx.opts.compression, bytes, |sink| {
-                    let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
-                    let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
-                    for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
-                        let mut stats = SummaryStats::with_capacity(block_traces.len());
-                        // A few batches at a time, so that results are used while in cache.
-                        let batches = block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE));
-                        for (k, (ts, ls)) in batches.enumerate() {
-                            let row = b * BLOCK + k * SOLVE;
-                            let start = first + row as u64;
-                            let (samples, results) =
-                                blocks.solve(model, source, start..start + ts.len() as u64, unit.mode);
-                            let rows = samples.iter().zip(results).zip(ts.iter_mut().zip(ls));
-                            for (i, ((s, r), (t, l))) in rows.enumerate() {
-                                sink.put(row + i, s, r);
-                                stats.push(r);
-                                *t = trace_into(r, model, &search, l);
-                            }
+        .map(|(p, (page, (page_traces, page_loads)))| {
+            let worker = ctx.workers.lock().expect("no panic while held").pop();
+            let (mut blocks, mut buf) = worker.unwrap_or_else(|| (Blocks::default(), ctx.schema.page_buffer()));
+            let first = unit.range.start + (p * PAGE_ROWS) as u64;
+            let bytes = ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
+            let written = page.write(&mut buf, ctx.opts.compression, bytes, |sink| {
+                let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
+                let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
+                for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
+                    let mut stats = SummaryStats::with_capacity(block_traces.len());
+                    // A few batches at a time, so that results are used while in cache.
+                    let batches = block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE));
+                    for (k, (ts, ls)) in batches.enumerate() {
+                        let row = b * BLOCK + k * SOLVE;
+                        let start = first + row as u64;
+                        let (samples, results) = blocks.solve(model, source, start..start + ts.len() as u64, unit.mode);
+                        let rows = samples.iter().zip(results).zip(ts.iter_mut().zip(ls));
+                        for (i, ((s, r), (t, l))) in rows.enumerate() {
+                            sink.put(row + i, s, r);
+                            stats.push(r);
+                            *t = trace_into(r, model, &search, l);
                         }
-                        all.push(stats);
                     }
-                    all
-                })
-            },
-        )
+                    all.push(stats);
+                }
+                all
+            });
+            ctx.workers.lock().expect("no panic while held").push((blocks, buf));
+            written
+        })
         .collect::<Result<_, _>>()
         .with_context(|| {
             format!("cannot encode {}", part_path(&ctx.opts.out, unit.variant, unit.mode, unit.chunk).display())
@@ -613,7 +617,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             }
             Ok(())
         });
-        let ctx = Ctx { schema, models: &models, variants: &variants, opts, spare };
+        let workers = &std::sync::Mutex::new(Vec::new());
+        let ctx = Ctx { schema, models: &models, variants: &variants, opts, spare, workers };
         // Load magnitudes of units, reused from unit to unit.
         let mut spare_loads: Vec<Vec<Loads>> = Vec::new();
         let mut previous: Option<Computed> = None;

@@ -109,7 +109,12 @@ fn put_error(out: &mut [f64], e: &PoseError) {
 /// Every slot of one row into `v`; NaN where the status leaves a value undefined
 /// (docs/conventions.md), which the batch turns into a null.
 fn row_values(s: &Sample, r: &PoseResult, v: &mut [f64; slot::COUNT]) {
-    v.fill(f64::NAN);
+    // An `ok` row with every kind determinate fills every slot below the exact error's.
+    if r.status == Status::Ok && r.kind_ok == [true; 4] {
+        v[slot::EXACT..].fill(f64::NAN);
+    } else {
+        v.fill(f64::NAN);
+    }
     v[slot::Z] = s.z[0];
     v[slot::PSI] = s.psi[0];
     v[slot::THETA] = s.theta[0];
