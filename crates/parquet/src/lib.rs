@@ -32,7 +32,7 @@ pub use pages::PAGE_ROWS;
 pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSchema, UnitColumns};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
 pub use tables::discontinuity_batch;
-pub use writer::{Codec, ParquetError, WriteOptions, write_parquet, write_part};
+pub use writer::{Codec, ParquetError, WriteOptions, write_bytes, write_parquet, write_part};
 
 /// The engine version written into every file's metadata.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -30,8 +30,20 @@ struct Staging {
     len: usize,
 }
 
+thread_local! {
+    /// The staging buffer of the last direct file this thread closed, for its next:
+    /// a fresh one is a megabyte to zero, for each part and for each small file
+    /// beside it.
+    static SPARE: std::cell::Cell<Option<Staging>> = const { std::cell::Cell::new(None) };
+}
+
 impl Staging {
+    /// A buffer holding no bytes yet (its memory may hold an earlier file's).
     fn new() -> Self {
+        if let Some(mut spare) = SPARE.take() {
+            spare.len = 0;
+            return spare;
+        }
         let bytes = vec![0u8; STAGING + ALIGN];
         let start = bytes.as_ptr().align_offset(ALIGN);
         Self { bytes, start, len: 0 }
@@ -160,6 +172,14 @@ impl Output {
         staging.len = 0;
         self.write_staged(padded)?;
         self.file.set_len(self.accepted)
+    }
+}
+
+impl Drop for Output {
+    fn drop(&mut self) {
+        if let Some(staging) = self.staging.take() {
+            SPARE.set(Some(staging));
+        }
     }
 }
 
