@@ -4,10 +4,12 @@ use crate::output::Output;
 use crate::pages::{self, DoubleChunk};
 use std::path::{Path, PathBuf};
 
-use crate::schema::{PartPages, PoseSchema, label_columns};
-use arrow::array::{ArrayRef, Float64Array};
+use crate::schema::{PartPages, PoseSchema};
+use arrow::array::{ArrayRef, Float64Array, UInt64Array};
 use arrow::datatypes::{DataType, Schema};
 use arrow::record_batch::RecordBatch;
+use bytes::Bytes;
+use clearance_solver::Status;
 use std::sync::Arc;
 
 use parquet::arrow::arrow_writer::{
@@ -16,6 +18,7 @@ use parquet::arrow::arrow_writer::{
 use parquet::arrow::{ArrowSchemaConverter, add_encoded_arrow_schema_to_metadata};
 
 use parquet::basic::{Compression, ZstdLevel};
+use parquet::column::writer::ColumnCloseResult;
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
 use parquet::file::writer::{SerializedFileWriter, SerializedRowGroupWriter};
@@ -153,6 +156,9 @@ pub(crate) enum Column<'a> {
     Array(&'a ArrayRef),
     /// A double column whose pages are encoded already.
     Doubles(DoubleChunk<'a>),
+    /// A required string column of few distinct values: row `i` holds
+    /// `dict[index[i]]` ([`pages::label_chunk`]).
+    Labels(&'a [&'a str], Vec<u8>),
 }
 
 /// A column of a row group, to encode.
@@ -160,6 +166,7 @@ enum Job<'a> {
     Arrow(Box<(ArrowColumnWriter, ArrowLeafColumn)>),
     Array(ColumnDescPtr, &'a Float64Array),
     Doubles(ColumnDescPtr, DoubleChunk<'a>),
+    Labels(ColumnDescPtr, &'a [&'a str], Vec<u8>),
 }
 
 /// A column of a row group, encoded.
@@ -168,6 +175,8 @@ enum Chunk<'a> {
     /// The pages of a double column, and each page's statistics.
     Pages(ColumnDescPtr, Vec<u8>, Vec<pages::PageStats>),
     Doubles(ColumnDescPtr, DoubleChunk<'a>),
+    /// A whole chunk's bytes, with offsets from 0.
+    Encoded(Bytes, ColumnCloseResult),
 }
 
 impl<'a> Job<'a> {
@@ -179,6 +188,8 @@ impl<'a> Job<'a> {
             }
             Job::Array(descr, a) => pages::encode_doubles(&descr, a, codec).map(|(b, p)| Chunk::Pages(descr, b, p)),
             Job::Doubles(descr, chunk) => Ok(Chunk::Doubles(descr, chunk)),
+            Job::Labels(descr, dict, index) => pages::label_chunk(descr, dict, index.len(), |i| index[i] as usize)
+                .map(|(bytes, close)| Chunk::Encoded(bytes.into(), close)),
         }
     }
 }
@@ -202,6 +213,12 @@ fn append_row_group<W: std::io::Write + Send>(
         let array = match column {
             Column::Doubles(chunk) => {
                 jobs.push(Job::Doubles(writer.schema_descr().column(leaf), chunk));
+                arrow_writers.next();
+                leaf += 1;
+                continue;
+            }
+            Column::Labels(dict, index) => {
+                jobs.push(Job::Labels(writer.schema_descr().column(leaf), dict, index));
                 arrow_writers.next();
                 leaf += 1;
                 continue;
@@ -242,6 +259,7 @@ fn append_row_group<W: std::io::Write + Send>(
                 append_doubles(&mut rg, descr, chunk)?
             }
             Chunk::Doubles(descr, chunk) => append_doubles(&mut rg, descr, chunk)?,
+            Chunk::Encoded(bytes, close) => rg.append_column(&bytes, close)?,
         }
     }
     rg.close()?;
@@ -306,7 +324,10 @@ pub fn write_part(
     };
     let PartPages { mode, sample, status, pages } = part;
     let rows = sample.len();
-    let [mode, sample, status] = label_columns(*mode, sample.clone(), status);
+    let sample: ArrayRef = Arc::new(UInt64Array::from(sample.clone()));
+    let modes = [mode.name()];
+    let statuses = Status::ALL.map(|s| s.name());
+    let status_index = status.iter().map(|s| Status::ALL.iter().position(|a| a == s).unwrap_or(0) as u8).collect();
     let doubles = schema.doubles();
     let mut chunks: Vec<DoubleChunk> = (0..doubles).map(|_| DoubleChunk::default()).collect();
     for (k, page) in pages.iter().enumerate() {
@@ -323,7 +344,12 @@ pub fn write_part(
     // In schema order (`label_columns`): mode, sample, t, status, then the floats.
     let mut chunks = chunks.into_iter();
     let t = chunks.next().ok_or_else(|| enc("no t column".into()))?;
-    let mut columns = vec![Column::Array(&mode), Column::Array(&sample), Column::Doubles(t), Column::Array(&status)];
+    let mut columns = vec![
+        Column::Labels(&modes, vec![0; rows]),
+        Column::Array(&sample),
+        Column::Doubles(t),
+        Column::Labels(&statuses, status_index),
+    ];
     columns.extend(chunks.map(Column::Doubles));
     let opts = WriteOptions { row_group_rows: rows.max(1), ..opts.clone() };
     let arrow_schema = schema.schema();

@@ -5,7 +5,7 @@
 //! column, and statistics that describe the rows, for every column set and codec.
 //! Pages are filled on the rayon pool with their rows put in reverse.
 
-use arrow::array::{Array, Float64Array};
+use arrow::array::{Array, Float64Array, StringArray};
 use arrow::record_batch::RecordBatch;
 use clearance_grid::Sample;
 use clearance_model::Mode;
@@ -113,6 +113,25 @@ fn parts_encoded_page_by_page_read_back_as_the_batch() {
             let kv = meta.file_metadata().key_value_metadata().unwrap();
             assert!(kv.iter().any(|k| k.key == "clearance.variant" && k.value.as_deref() == Some("7")), "{what}");
             let rg = reader.get_row_group(0).unwrap();
+            // The labels: the extremes of the values, and a dictionary page.
+            for name in ["mode", "status"] {
+                let c = expected.schema().index_of(name).unwrap();
+                let want = expected.column(c).as_any().downcast_ref::<StringArray>().unwrap();
+                let Some(Statistics::ByteArray(s)) = meta.row_group(0).column(c).statistics() else {
+                    panic!("{what}: no string statistics for {name}")
+                };
+                let utf8 = |b: Option<&parquet::data_type::ByteArray>| b.map(|b| b.as_utf8().unwrap().to_string());
+                let (lo, hi) = (want.iter().flatten().min(), want.iter().flatten().max());
+                assert_eq!(utf8(s.min_opt()), lo.map(String::from), "{what}: min of {name}");
+                assert_eq!(utf8(s.max_opt()), hi.map(String::from), "{what}: max of {name}");
+                assert_eq!(s.null_count_opt(), Some(0), "{what}: nulls of {name}");
+                assert!(meta.row_group(0).column(c).dictionary_page_offset().is_some(), "{what}: {name}");
+            }
+            if set == ColumnSet::Standard && codec == Codec::Zstd {
+                let status = expected.column_by_name("status").unwrap().as_any().downcast_ref::<StringArray>().unwrap();
+                let distinct: std::collections::BTreeSet<_> = status.iter().flatten().collect();
+                assert_eq!(distinct.len(), 4, "every status among the rows");
+            }
             for (c, field) in expected.schema().fields().iter().enumerate() {
                 let Some(want) = expected.column(c).as_any().downcast_ref::<Float64Array>() else { continue };
                 let name = field.name();
