@@ -95,6 +95,9 @@ enum Command {
         /// Parquet compression of the end-to-end measurement.
         #[arg(long, default_value = "zstd", value_parser = parse_codec)]
         compression: Codec,
+        /// Runs of each measurement; the fastest is reported, and the JSON lists them all.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
+        repeat: u64,
     },
 }
 
@@ -238,8 +241,8 @@ fn main() -> ExitCode {
                 eprintln!("{} figures in {}", files.len(), out.display());
             })
         }
-        Command::Bench { poses, json, threads, solver, compression } => {
-            init_threads(threads).and_then(|_| bench::bench(poses, json, solver, compression))
+        Command::Bench { poses, json, threads, solver, compression, repeat } => {
+            init_threads(threads).and_then(|_| bench::bench(poses, json, solver, compression, repeat as usize))
         }
     };
     match result {
