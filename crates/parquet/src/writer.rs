@@ -176,7 +176,7 @@ enum Chunk<'a> {
     Pages(ColumnDescPtr, Vec<u8>, Vec<pages::PageStats>),
     Doubles(ColumnDescPtr, DoubleChunk<'a>),
     /// A whole chunk's bytes, with offsets from 0.
-    Encoded(Bytes, ColumnCloseResult),
+    Encoded(Box<(Bytes, ColumnCloseResult)>),
 }
 
 impl<'a> Job<'a> {
@@ -189,7 +189,7 @@ impl<'a> Job<'a> {
             Job::Array(descr, a) => pages::encode_doubles(&descr, a, codec).map(|(b, p)| Chunk::Pages(descr, b, p)),
             Job::Doubles(descr, chunk) => Ok(Chunk::Doubles(descr, chunk)),
             Job::Labels(descr, dict, index) => pages::label_chunk(descr, dict, index.len(), |i| index[i] as usize)
-                .map(|(bytes, close)| Chunk::Encoded(bytes.into(), close)),
+                .map(|(bytes, close)| Chunk::Encoded(Box::new((bytes.into(), close)))),
         }
     }
 }
@@ -259,7 +259,10 @@ fn append_row_group<W: std::io::Write + Send>(
                 append_doubles(&mut rg, descr, chunk)?
             }
             Chunk::Doubles(descr, chunk) => append_doubles(&mut rg, descr, chunk)?,
-            Chunk::Encoded(bytes, close) => rg.append_column(&bytes, close)?,
+            Chunk::Encoded(chunk) => {
+                let (bytes, close) = *chunk;
+                rg.append_column(&bytes, close)?
+            }
         }
     }
     rg.close()?;
