@@ -263,47 +263,14 @@ fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
         }
     }
     std::fs::create_dir_all(out).with_context(|| format!("cannot create the output directory {}", out.display()))?;
-    write_atomic(&out.join("job.toml"), job_toml.as_bytes())
-}
-
-/// Writes `path` via a temporary sibling and a rename. The disk is asked to take
-/// the bytes at once, without waiting: the run's `fsync` of the file at its end
-/// then finds them written.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp-{}",
-        path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        std::process::id()
-    ));
-    let write = || -> std::io::Result<()> {
-        use std::io::Write;
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        #[cfg(target_os = "linux")]
-        {
-            use std::os::fd::AsRawFd;
-            // SAFETY: a valid descriptor; the call only schedules I/O on it.
-            unsafe {
-                libc::sync_file_range(f.as_raw_fd(), 0, 0, libc::SYNC_FILE_RANGE_WRITE);
-            }
-        }
-        Ok(())
-    };
-    write()
-        .and_then(|_| std::fs::rename(&tmp, path))
-        .with_context(|| format!("cannot write {}", path.display()))
-        .inspect_err(|_| {
-            let _ = std::fs::remove_file(&tmp);
-        })
+    Ok(write_bytes(&out.join("job.toml"), job_toml.as_bytes(), false)?)
 }
 
 /// An empty completion marker, on the disk before this returns.
 fn write_marker(path: &Path) -> Result<()> {
-    write_atomic(path, b"")?;
-    let sync = |p: &Path| std::fs::File::open(p).and_then(|f| f.sync_all());
-    sync(path).with_context(|| format!("cannot write {}", path.display()))?;
+    write_bytes(path, b"", true)?;
     if let Some(dir) = path.parent() {
-        let _ = sync(dir);
+        let _ = std::fs::File::open(dir).and_then(|d| d.sync_all());
     }
     Ok(())
 }

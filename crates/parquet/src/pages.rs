@@ -380,7 +380,7 @@ fn zstd_page(s: &mut Scratch, out: &mut Vec<u8>, rows: usize, encoding: i32) -> 
 }
 
 /// The chunk of a required string column of few distinct values, row `i` holding
-/// `dict[index(i)]` for `i < rows`, encoded as `parquet`'s writer encodes such a
+/// `dict[index[i]]`, encoded as `parquet`'s writer encodes such a
 /// column but without its hash table: a PLAIN dictionary page of the entries used
 /// (the column's `status` and `mode` labels) and one RLE_DICTIONARY data page of
 /// their indices, run-length encoded and uncompressed (a part's labels change a few
@@ -390,9 +390,9 @@ fn zstd_page(s: &mut Scratch, out: &mut Vec<u8>, rows: usize, encoding: i32) -> 
 pub(crate) fn label_chunk(
     descr: ColumnDescPtr,
     dict: &[&str],
-    rows: usize,
-    index: impl Fn(usize) -> usize,
+    index: &[u8],
 ) -> Result<(Vec<u8>, ColumnCloseResult), ParquetError> {
+    let rows = index.len();
     let flat = descr.physical_type() == parquet::basic::Type::BYTE_ARRAY
         && descr.max_rep_level() == 0
         && descr.max_def_level() == 0;
@@ -404,8 +404,9 @@ pub(crate) fn label_chunk(
     }
     // The entries used, in `dict` order, and each one's place among them.
     let mut used = vec![false; dict.len()];
-    for i in 0..rows {
-        used[index(i)] = true;
+    for &k in index {
+        let slot = used.get_mut(k as usize);
+        *slot.ok_or_else(|| ParquetError::General(format!("label {k} of {} has no entry", descr.path())))? = true;
     }
     let mut place = vec![0u8; dict.len()];
     let mut entries: Vec<&str> = Vec::new();
@@ -430,15 +431,9 @@ pub(crate) fn label_chunk(
     let width = usize::BITS - entries.len().saturating_sub(1).leading_zeros();
     body.clear();
     body.push(width.max(1) as u8);
-    let mut i = 0;
-    while i < rows {
-        let k = index(i);
-        let start = i;
-        while i < rows && index(i) == k {
-            i += 1;
-        }
-        varint(&mut body, ((i - start) as u64) << 1);
-        body.push(place[k]);
+    for run in index.chunk_by(|a, b| a == b) {
+        varint(&mut body, (run.len() as u64) << 1);
+        body.push(place[run[0] as usize]);
     }
     page_header(&mut out, body.len(), body.len(), rows, RLE_DICTIONARY);
     out.extend_from_slice(&body);

@@ -198,8 +198,7 @@ impl SummaryStats {
 
     pub fn push(&mut self, r: &PoseResult) {
         self.samples += 1;
-        let si = Status::ALL.iter().position(|s| *s == r.status).expect("a known status");
-        self.status[si] += 1;
+        self.status[r.status.index()] += 1;
         if r.status != Status::Unreachable {
             // Infinite for an exactly singular matrix; the maximum stays meaningful.
             self.cond_a_max = self.cond_a_max.max(r.cond_a);

@@ -188,7 +188,7 @@ impl<'a> Job<'a> {
             }
             Job::Array(descr, a) => pages::encode_doubles(&descr, a, codec).map(|(b, p)| Chunk::Pages(descr, b, p)),
             Job::Doubles(descr, chunk) => Ok(Chunk::Doubles(descr, chunk)),
-            Job::Labels(descr, dict, index) => pages::label_chunk(descr, dict, index.len(), |i| index[i] as usize)
+            Job::Labels(descr, dict, index) => pages::label_chunk(descr, dict, &index)
                 .map(|(bytes, close)| Chunk::Encoded(Box::new((bytes.into(), close)))),
         }
     }
@@ -330,7 +330,7 @@ pub fn write_part(
     let sample: ArrayRef = Arc::new(UInt64Array::from(sample.clone()));
     let modes = [mode.name()];
     let statuses = Status::ALL.map(|s| s.name());
-    let status_index = status.iter().map(|s| Status::ALL.iter().position(|a| a == s).unwrap_or(0) as u8).collect();
+    let status_index = status.iter().map(|s| s.index() as u8).collect();
     let doubles = schema.doubles();
     let mut chunks: Vec<DoubleChunk> = (0..doubles).map(|_| DoubleChunk::default()).collect();
     for (k, page) in pages.iter().enumerate() {

@@ -37,6 +37,11 @@ impl Status {
     }
 
     pub const ALL: [Status; 4] = [Status::Ok, Status::Unreachable, Status::NearSingular, Status::IndeterminateContact];
+
+    /// The place of this status in [`Status::ALL`].
+    pub fn index(self) -> usize {
+        Status::ALL.iter().position(|s| *s == self).expect("every status is in ALL")
+    }
 }
 
 /// Everything the engine computes for one (sample, mode).
