@@ -121,11 +121,12 @@ fn unit_complete(out: &Path, u: &Unit) -> bool {
         && read_stats(&stats_path(out, u.variant, u.mode, u.chunk)).is_ok()
 }
 
-/// Flushes the files of `units` (those that exist) and their directories to the
-/// disk, so that a marker written after this covers data that survives a power cut.
-/// The files are flushed from several threads at once: each `fsync` mostly waits
-/// for the disk, and one after another they were a run's last 2 % (benches/README.md).
-fn sync_units(out: &Path, units: &[Unit]) -> Result<()> {
+/// Flushes the files of `units` (those that exist), the `others`, and their
+/// directories to the disk, so that a marker written after this covers data that
+/// survives a power cut. The files are flushed from several threads at once: each
+/// `fsync` mostly waits for the disk, and one after another they were a run's last
+/// 2 % (benches/README.md).
+fn sync_units(out: &Path, units: &[Unit], others: &[PathBuf]) -> Result<()> {
     let files: Vec<PathBuf> = units
         .iter()
         .flat_map(|u| {
@@ -135,6 +136,7 @@ fn sync_units(out: &Path, units: &[Unit]) -> Result<()> {
                 trace_path(out, u.variant, u.mode, u.chunk),
             ]
         })
+        .chain(others.iter().cloned())
         .collect();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let sync_some = || -> Result<std::collections::BTreeSet<PathBuf>> {
@@ -212,6 +214,8 @@ const SOLVE: usize = 64;
 
 /// The files a run owns, removed by `--overwrite`.
 const RUN_FILES: [&str; 4] = ["job.toml", "discontinuities.parquet", "summary.parquet", "_SUCCESS"];
+/// The files [`finalize`] writes.
+const FINAL_FILES: [&str; 2] = ["discontinuities.parquet", "summary.parquet"];
 const RUN_DIRS: [&str; 2] = ["poses", "_stats"];
 
 fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
@@ -412,11 +416,12 @@ fn finalize(
             switches.extend(found.into_iter().map(|d| (variant.index, d)));
         }
     }
+    let [discontinuities, summary_file] = FINAL_FILES.map(|f| opts.out.join(f));
     let batch = discontinuity_batch(&switches);
-    write_parquet(&opts.out.join("discontinuities.parquet"), batch.schema(), &[batch], write_opts, &[])?;
+    write_parquet(&discontinuities, batch.schema(), &[batch], write_opts, &[])?;
     let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
     let batch = summary_batch(&names, &summary);
-    write_parquet(&opts.out.join("summary.parquet"), batch.schema(), &[batch], write_opts, &[])?;
+    write_parquet(&summary_file, batch.schema(), &[batch], write_opts, &[])?;
     Ok(())
 }
 
@@ -605,7 +610,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let mut kept = Kept { keep, ..Kept::default() };
     // The buffers of written pages, for pages still to encode.
     let spare = &std::sync::Mutex::new(Vec::<Vec<u8>>::new());
-    // The run's own files are synced before `_SUCCESS`.
+    // The run's own files are on the disk before `_SUCCESS`: synced with the parts
+    // when written before them, else as they are written.
     let durable = WriteOptions { durable: true, ..write_opts.clone() };
     let finalized = std::thread::scope(|scope| -> Result<bool> {
         let (tx, rx) = sync_channel::<Part>(1);
@@ -670,7 +676,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         drop(tx);
         let finalized = (kept.keep == KeepTraces::Search && !writer_failed).then(|| {
             progress.finish();
-            finalize(job, &variants, &models, &all, opts, &durable, std::mem::take(&mut kept))
+            finalize(job, &variants, &models, &all, opts, &write_opts, std::mem::take(&mut kept))
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
         writer.join().expect("the writer thread does not panic")?;
@@ -678,7 +684,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     })?;
     progress.finish();
 
-    sync_units(&opts.out, &mine)?;
+    let finals: Vec<PathBuf> = if finalized { FINAL_FILES.map(|f| opts.out.join(f)).into() } else { Vec::new() };
+    sync_units(&opts.out, &mine, &finals)?;
     if opts.shard.is_some() {
         write_marker(&opts.out.join(success_name(opts.shard)))?;
     }
