@@ -21,8 +21,8 @@ use clearance_discontinuity::{
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PartPages, PoseSchema, SummaryRow, SummaryStats,
-    WriteOptions, discontinuity_batch, summary_batch, write_bytes, write_parquet, write_part,
+    Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PageWriter, PartPages, PoseSchema, SummaryRow,
+    SummaryStats, WriteOptions, discontinuity_batch, summary_batch, write_bytes, write_parquet, write_part,
 };
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
@@ -487,43 +487,69 @@ fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<C
     let mut pages = ctx.schema.part(unit.mode, n);
     let mut traces: Vec<Trace> = vec![0; n];
     loads.resize(n, [0.0; 12]);
-    let block_stats: Vec<Vec<SummaryStats>> = pages
+    // Each page with its rows' traces and loads.
+    let (mut rest_traces, mut rest_loads) = (&mut traces[..], &mut loads[..n]);
+    let work: Vec<_> = pages
         .pages(ctx.schema)
-        .into_par_iter()
-        .zip(traces.par_chunks_mut(PAGE_ROWS).zip(loads.par_chunks_mut(PAGE_ROWS)))
+        .into_iter()
         .enumerate()
-        .map(|(p, (page, (page_traces, page_loads)))| {
-            let worker = ctx.workers.lock().expect("no panic while held").pop();
-            let (mut blocks, mut buf) = worker.unwrap_or_else(|| (Blocks::default(), ctx.schema.page_buffer()));
-            let first = unit.range.start + (p * PAGE_ROWS) as u64;
-            let bytes = ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
-            let written = page.write(&mut buf, ctx.opts.compression, bytes, |sink| {
-                let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
-                let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
-                for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
-                    let mut stats = SummaryStats::with_capacity(block_traces.len());
-                    // A few batches at a time, so that results are used while in cache.
-                    let batches = block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE));
-                    for (k, (ts, ls)) in batches.enumerate() {
-                        let row = b * BLOCK + k * SOLVE;
-                        let start = first + row as u64;
-                        let (samples, results) = blocks.solve(model, source, start..start + ts.len() as u64, unit.mode);
-                        let rows = samples.iter().zip(results).zip(ts.iter_mut().zip(ls));
-                        for (i, ((s, r), (t, l))) in rows.enumerate() {
-                            sink.put(row + i, s, r);
-                            stats.push(r);
-                            *t = trace_into(r, model, &search, l);
-                        }
-                    }
-                    all.push(stats);
-                }
-                all
-            });
-            ctx.workers.lock().expect("no panic while held").push((blocks, buf));
-            written
+        .map(|(p, page)| {
+            let (page_traces, more) = std::mem::take(&mut rest_traces).split_at_mut(page.rows());
+            rest_traces = more;
+            let (page_loads, more) = std::mem::take(&mut rest_loads).split_at_mut(page.rows());
+            rest_loads = more;
+            (p, page, page_traces, page_loads)
         })
-        .collect::<Result<_, _>>()
-        .with_context(|| {
+        .collect();
+    // Pages are handed out in order, each to the next thread free, so that the
+    // short pages at the end go last (`page_spans`): rayon's halving of a list of
+    // pages let one thread finish a whole page before the other.
+    let queue = std::sync::Mutex::new(work.into_iter());
+    let next_page = || queue.lock().expect("no panic while held").next();
+    let compute_page = |page: PageWriter<'_>, page_traces: &mut [Trace], page_loads: &mut [Loads]| {
+        let worker = ctx.workers.lock().expect("no panic while held").pop();
+        let (mut blocks, mut buf) = worker.unwrap_or_else(|| (Blocks::default(), ctx.schema.page_buffer()));
+        let first = unit.range.start + page.first() as u64;
+        let bytes = ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
+        let written = page.write(&mut buf, ctx.opts.compression, bytes, |sink| {
+            let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
+            let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
+            for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
+                let mut stats = SummaryStats::with_capacity(block_traces.len());
+                // A few batches at a time, so that results are used while in cache.
+                let batches = block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE));
+                for (k, (ts, ls)) in batches.enumerate() {
+                    let row = b * BLOCK + k * SOLVE;
+                    let start = first + row as u64;
+                    let (samples, results) = blocks.solve(model, source, start..start + ts.len() as u64, unit.mode);
+                    let rows = samples.iter().zip(results).zip(ts.iter_mut().zip(ls));
+                    for (i, ((s, r), (t, l))) in rows.enumerate() {
+                        sink.put(row + i, s, r);
+                        stats.push(r);
+                        *t = trace_into(r, model, &search, l);
+                    }
+                }
+                all.push(stats);
+            }
+            all
+        });
+        ctx.workers.lock().expect("no panic while held").push((blocks, buf));
+        written
+    };
+    let by_thread: Vec<Vec<_>> = (0..rayon::current_num_threads())
+        .into_par_iter()
+        .map(|_| {
+            let mut done = Vec::new();
+            while let Some((p, page, page_traces, page_loads)) = next_page() {
+                done.push((p, compute_page(page, page_traces, page_loads)));
+            }
+            done
+        })
+        .collect();
+    let mut done: Vec<_> = by_thread.into_iter().flatten().collect();
+    done.sort_unstable_by_key(|(p, _)| *p);
+    let block_stats: Vec<Vec<SummaryStats>> =
+        done.into_iter().map(|(_, stats)| stats).collect::<Result<_, _>>().with_context(|| {
             format!("cannot encode {}", part_path(&ctx.opts.out, unit.variant, unit.mode, unit.chunk).display())
         })?;
     Ok(Computed { unit, pages, traces, loads, block_stats })
@@ -676,7 +702,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         drop(tx);
         let finalized = (kept.keep == KeepTraces::Search && !writer_failed).then(|| {
             progress.finish();
-            finalize(job, &variants, &models, &all, opts, &write_opts, std::mem::take(&mut kept))
+            finalize(job, &variants, &models, &all, opts, write_opts, std::mem::take(&mut kept))
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
         writer.join().expect("the writer thread does not panic")?;

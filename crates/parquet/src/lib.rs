@@ -28,7 +28,7 @@ mod summary;
 mod tables;
 mod writer;
 
-pub use pages::PAGE_ROWS;
+pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
 pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSchema, UnitColumns};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
 pub use tables::discontinuity_batch;

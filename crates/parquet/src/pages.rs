@@ -51,6 +51,20 @@ use crate::writer::Codec;
 /// to end, and 16 384 leave the cache between the two passes (benches/README.md).
 pub const PAGE_ROWS: usize = 4 * 1024;
 
+/// Rows per page at the end of a part file: what would be its last page of
+/// [`PAGE_ROWS`] rows is cut into pages of this many. The threads sharing a part's
+/// pages then run out of them within a small page of each other, where one used to
+/// wait up to a whole page (a few milliseconds a part) for the other.
+pub const TAIL_PAGE_ROWS: usize = PAGE_ROWS / 4;
+
+/// The first row and the rows of each page of a part file of `rows` rows.
+pub fn page_spans(rows: usize) -> Vec<(usize, usize)> {
+    let tail = rows.saturating_sub(1) / PAGE_ROWS * PAGE_ROWS;
+    let mut out: Vec<(usize, usize)> = (0..tail).step_by(PAGE_ROWS).map(|first| (first, PAGE_ROWS)).collect();
+    out.extend((tail..rows).step_by(TAIL_PAGE_ROWS).map(|first| (first, TAIL_PAGE_ROWS.min(rows - first))));
+    out
+}
+
 /// Thrift encoding numbers (parquet.thrift).
 const PLAIN: i32 = 0;
 const RLE: i32 = 3;

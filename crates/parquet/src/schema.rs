@@ -253,7 +253,7 @@ impl PoseSchema {
             mode,
             sample: vec![0; rows],
             status: vec![Status::Unreachable; rows],
-            pages: (0..rows.div_ceil(PAGE_ROWS)).map(|_| None).collect(),
+            pages: pages::page_spans(rows).iter().map(|_| None).collect(),
         }
     }
 
@@ -341,14 +341,20 @@ impl PartPages {
         self.pages.into_iter().flatten().map(|p| p.bytes)
     }
 
-    /// One writer for each page of [`PAGE_ROWS`] rows (the last may be shorter),
-    /// to fill in parallel.
+    /// One writer for each page ([`page_spans`](crate::page_spans): of [`PAGE_ROWS`]
+    /// rows, the last few shorter), to fill in parallel.
     pub fn pages<'a>(&'a mut self, schema: &'a PoseSchema) -> Vec<PageWriter<'a>> {
-        self.sample
-            .chunks_mut(PAGE_ROWS)
-            .zip(self.status.chunks_mut(PAGE_ROWS))
+        let (mut sample, mut status) = (&mut self.sample[..], &mut self.status[..]);
+        pages::page_spans(sample.len())
+            .into_iter()
             .zip(&mut self.pages)
-            .map(|((sample, status), out)| PageWriter { schema, sample, status, out })
+            .map(|((first, rows), out)| {
+                let (page_sample, rest) = std::mem::take(&mut sample).split_at_mut(rows);
+                sample = rest;
+                let (page_status, rest) = std::mem::take(&mut status).split_at_mut(rows);
+                status = rest;
+                PageWriter { schema, first, sample: page_sample, status: page_status, out }
+            })
             .collect()
     }
 }
@@ -356,6 +362,8 @@ impl PartPages {
 /// The rows of one page of a [`PartPages`].
 pub struct PageWriter<'a> {
     schema: &'a PoseSchema,
+    /// The part's row that is the page's first.
+    first: usize,
     sample: &'a mut [u64],
     status: &'a mut [Status],
     out: &'a mut Option<EncodedPage>,
@@ -374,6 +382,11 @@ impl PageWriter<'_> {
         self.sample.len()
     }
 
+    /// The row of the part that is the page's first.
+    pub fn first(&self) -> usize {
+        self.first
+    }
+
     /// Lets `fill` put every row of the page (row 0 is the page's first), then
     /// encodes the page's double columns with `codec` into `bytes` (cleared first;
     /// a buffer from [`PartPages::into_buffers`] spares fresh memory): a value
@@ -385,7 +398,7 @@ impl PageWriter<'_> {
         mut bytes: Vec<u8>,
         fill: impl FnOnce(&mut BlockSink<'_>) -> R,
     ) -> Result<R, parquet::errors::ParquetError> {
-        let PageWriter { schema, sample, status, out } = self;
+        let PageWriter { schema, sample, status, out, .. } = self;
         let rows = sample.len();
         let n = schema.slots.len();
         buf.t.resize(PAGE_ROWS, 0.0);

@@ -9,7 +9,9 @@ use arrow::array::{Array, Float64Array, StringArray};
 use arrow::record_batch::RecordBatch;
 use clearance_grid::Sample;
 use clearance_model::Mode;
-use clearance_parquet::{Codec, ColumnSet, PAGE_ROWS, PoseSchema, WriteOptions, write_part};
+use clearance_parquet::{
+    Codec, ColumnSet, PAGE_ROWS, PoseSchema, TAIL_PAGE_ROWS, WriteOptions, page_spans, write_part,
+};
 use clearance_solver::{PoseResult, Status};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::file::reader::{FileReader, SerializedFileReader};
@@ -85,8 +87,8 @@ fn parts_encoded_page_by_page_read_back_as_the_batch() {
             let mut part = schema.part(Mode::Dynamic, n);
             part.pages(&schema).into_par_iter().enumerate().for_each(|(p, page)| {
                 let mut buf = schema.page_buffer();
-                let first = p * PAGE_ROWS;
-                let len = page.rows();
+                let (first, len) = (page.first(), page.rows());
+                assert_eq!((first, len), page_spans(n)[p], "page {p}");
                 page.write(&mut buf, codec, Vec::new(), |sink| {
                     for i in (0..len).rev() {
                         let (s, r) = &rows[first + i];
@@ -142,7 +144,7 @@ fn parts_encoded_page_by_page_read_back_as_the_batch() {
                 let range = s.min_opt().zip(s.max_opt()).map(|(a, b)| (a.to_bits(), b.to_bits()));
                 assert_eq!(range, expected_range(want), "{what}: range of {name}");
                 let pages = rg.get_column_page_reader(c).unwrap().collect::<Result<Vec<_>, _>>().unwrap().len();
-                assert_eq!(pages, n.div_ceil(PAGE_ROWS), "{what}: pages of {name}");
+                assert_eq!(pages, page_spans(n).len(), "{what}: pages of {name}");
             }
         }
     }
@@ -176,4 +178,27 @@ fn anyhow_chain(e: &dyn std::error::Error) -> String {
         cause = c.source();
     }
     out
+}
+
+/// A part's pages cover its rows in order: of `PAGE_ROWS` rows, but what would be
+/// the last such page cut into pages of `TAIL_PAGE_ROWS` (whole bytes of validity
+/// bits each).
+#[test]
+fn pages_are_full_but_the_last_few() {
+    assert!(page_spans(0).is_empty());
+    assert_eq!(page_spans(5), vec![(0, 5)]);
+    assert_eq!(page_spans(TAIL_PAGE_ROWS + 1), vec![(0, TAIL_PAGE_ROWS), (TAIL_PAGE_ROWS, 1)]);
+    for n in [1, 77, PAGE_ROWS - 1, PAGE_ROWS, PAGE_ROWS + 1, 3 * PAGE_ROWS + 5, 16 * PAGE_ROWS, 65_536 + 999] {
+        let spans = page_spans(n);
+        let mut next = 0;
+        for &(first, rows) in &spans {
+            assert_eq!(first, next, "{n} rows: pages in order, no gap");
+            assert!(first % 8 == 0 && rows > 0, "{n} rows: page at {first}");
+            next = first + rows;
+        }
+        assert_eq!(next, n, "{n} rows: every row in a page");
+        let full = spans.iter().take_while(|s| s.1 == PAGE_ROWS && n - s.0 > PAGE_ROWS).count();
+        assert_eq!(full, (n - 1) / PAGE_ROWS, "{n} rows: full pages up to the last");
+        assert!(spans[full..].iter().all(|s| s.1 <= TAIL_PAGE_ROWS), "{n} rows: short pages after");
+    }
 }
