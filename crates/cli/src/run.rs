@@ -22,7 +22,8 @@ use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
     Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PageWriter, PartPages, PoseSchema, SummaryRow,
-    SummaryStats, WriteOptions, discontinuity_batch, summary_batch, write_bytes, write_parquet, write_part,
+    SummaryStats, TAIL_PAGE_ROWS, WriteOptions, discontinuity_batch, summary_batch, write_bytes, write_parquet,
+    write_part,
 };
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
@@ -203,10 +204,11 @@ fn read_traces(path: &Path, len: usize) -> Option<Vec<Trace>> {
 }
 
 /// Rows per block of summary statistics, merged in order. Fixed, so results never
-/// depend on the thread count. A unit's pages ([`PAGE_ROWS`]) are each computed
-/// and encoded on one thread, a whole number of blocks at a time.
+/// depend on the thread count. A unit's pages ([`PAGE_ROWS`] rows, the last few
+/// [`TAIL_PAGE_ROWS`]) are each computed and encoded on one thread, a whole number
+/// of blocks at a time.
 const BLOCK: usize = 1024;
-const _: () = assert!(PAGE_ROWS.is_multiple_of(BLOCK));
+const _: () = assert!(PAGE_ROWS.is_multiple_of(BLOCK) && TAIL_PAGE_ROWS.is_multiple_of(BLOCK));
 
 /// Samples solved at once within a block (eight batches of `LANES`): their results,
 /// about 1 KB each, are still in the core's cache when they are written out.
