@@ -214,10 +214,15 @@ const _: () = assert!(PAGE_ROWS.is_multiple_of(BLOCK) && TAIL_PAGE_ROWS.is_multi
 /// about 1 KB each, are still in the core's cache when they are written out.
 const SOLVE: usize = 64;
 
-/// The files a run owns, removed by `--overwrite`.
-const RUN_FILES: [&str; 4] = ["job.toml", "discontinuities.parquet", "summary.parquet", "_SUCCESS"];
+/// The files a run owns besides those of [`finalize`], removed by `--overwrite`.
+const RUN_FILES: [&str; 2] = ["job.toml", "_SUCCESS"];
 /// The files [`finalize`] writes.
 const FINAL_FILES: [&str; 2] = ["discontinuities.parquet", "summary.parquet"];
+
+/// The paths of [`FINAL_FILES`] in `out`.
+fn final_paths(out: &Path) -> [PathBuf; 2] {
+    FINAL_FILES.map(|f| out.join(f))
+}
 const RUN_DIRS: [&str; 2] = ["poses", "_stats"];
 
 fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
@@ -238,7 +243,7 @@ fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
                     out.display()
                 )));
             }
-            for name in RUN_FILES {
+            for name in RUN_FILES.iter().chain(&FINAL_FILES) {
                 let _ = std::fs::remove_file(out.join(name));
             }
             for e in &entries {
@@ -418,7 +423,7 @@ fn finalize(
             switches.extend(found.into_iter().map(|d| (variant.index, d)));
         }
     }
-    let [discontinuities, summary_file] = FINAL_FILES.map(|f| opts.out.join(f));
+    let [discontinuities, summary_file] = final_paths(&opts.out);
     let batch = discontinuity_batch(&switches);
     write_parquet(&discontinuities, batch.schema(), &[batch], write_opts, &[])?;
     let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
@@ -712,7 +717,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     })?;
     progress.finish();
 
-    let finals: Vec<PathBuf> = if finalized { FINAL_FILES.map(|f| opts.out.join(f)).into() } else { Vec::new() };
+    let finals: Vec<PathBuf> = if finalized { final_paths(&opts.out).into() } else { Vec::new() };
     sync_units(&opts.out, &mine, &finals)?;
     if opts.shard.is_some() {
         write_marker(&opts.out.join(success_name(opts.shard)))?;
