@@ -479,7 +479,7 @@ type Tile = [[f64; TILE]; slot::COUNT];
 /// cache), which is copied to the column buffers 32 values at a time: a row
 /// written straight to its 71 columns touched 71 cache lines far apart, more write
 /// streams than the hardware follows, and cost a quarter of a run's CPU (`perf`).
-/// [`row_values`] writes each slot of a row into the tile once; gathering the
+/// `row_values` writes each slot of a row into the tile once; gathering the
 /// columns' slots from a row written whole first took a thousand instructions a
 /// row (callgrind). The tile is written out when full, when rows stop being
 /// consecutive, and when the sink is dropped.
