@@ -44,11 +44,11 @@ use crate::writer::Codec;
 
 /// Rows per data page: a multiple of 8, so that each page's validity bits start on
 /// a byte. `clearance run` computes a page of every column on one thread before
-/// encoding it: 4 096 standard rows are 2.3 MB of doubles, which stay in the 4 MB
-/// L2 cache of this machine's cores. Larger pages compress a little better (the
-/// bench job with zstd level 1: 377.7 bytes a standard pose with 16 384 rows,
-/// 380.5 with 8 192, 386.9 with 4 096), but 8 192 rows were already no faster end
-/// to end, and 16 384 leave the cache between the two passes (benches/README.md).
+/// encoding it: 4 096 standard rows are 2.3 MB of doubles, a little more than the
+/// 2 MB L2 cache of each of this machine's cores; 2 048 rows, which fit, were no
+/// faster. Larger pages compress a little better (the bench job with zstd level 1:
+/// 377.7 bytes a standard pose with 16 384 rows, 380.5 with 8 192, 386.9 with
+/// 4 096), but 8 192 rows were already no faster end to end (benches/README.md).
 pub const PAGE_ROWS: usize = 4 * 1024;
 
 /// Rows per page at the end of a part file: what would be its last page of
