@@ -15,8 +15,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clearance_discontinuity::{
-    Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_traced, keep_local_minima,
-    trace_into,
+    Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima, trace_into,
 };
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
@@ -195,14 +194,6 @@ fn encode_traces(traces: &[Trace]) -> Vec<u8> {
     traces.iter().flat_map(|t| t.to_le_bytes()).collect()
 }
 
-/// The traces of a part as written, or `None` if the file is missing or not of
-/// the part's length (a run from an engine without traces).
-fn read_traces(path: &Path, len: usize) -> Option<Vec<Trace>> {
-    let bytes = std::fs::read(path).ok()?;
-    (bytes.len() == 4 * len)
-        .then(|| bytes.chunks_exact(4).map(|b| Trace::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
-}
-
 /// Rows per block of summary statistics, merged in order. Fixed, so results never
 /// depend on the thread count. A unit's pages ([`PAGE_ROWS`] rows, the last few
 /// [`TAIL_PAGE_ROWS`]) are each computed and encoded on one thread, a whole number
@@ -310,9 +301,13 @@ fn search_options(variant: &Variant) -> SearchOptions {
 
 /// Poses whose traces a run keeps in memory (4 bytes each): up to this many in a
 /// (variant, mode), a run that computes every unit searches its paths as their
-/// units come in; up to this many computed by a sharded or resumed run, the search
-/// at the end need not read them back.
+/// units come in. Beyond, and after a sharded or resumed run, the search at the
+/// end reads them back from the parts' trace files, [`SEARCH_TRACES`] at a time.
 const KEEP_TRACES: u64 = 1 << 24;
+
+/// Traces the search at the end holds at once (4 bytes each; a path longer than
+/// this is read whole): what bounds its memory, whatever the pose count.
+const SEARCH_TRACES: usize = 1 << 22;
 
 /// What this invocation computed, kept for the search and summary at the end so
 /// that they need not read it back from `_stats/`.
@@ -321,8 +316,6 @@ struct Kept<'a> {
     /// Per (variant, mode): the statistics of its units merged in unit order, and
     /// how many units that was.
     stats: std::collections::HashMap<(u64, Mode), (SummaryStats, usize)>,
-    /// Per unit number: its traces.
-    traces: std::collections::HashMap<u64, Vec<Trace>>,
     /// How traces are kept.
     keep: KeepTraces,
     /// Per (variant, mode), with [`KeepTraces::Search`]: its search so far.
@@ -338,8 +331,6 @@ enum KeepTraces {
     /// Nothing: the search at the end reads them back from the parts' trace files.
     #[default]
     No,
-    /// Keeps them for the search at the end.
-    Whole,
     /// Searches the paths they complete at once. Units must come in order, each
     /// (variant, mode) whole.
     Search,
@@ -357,9 +348,6 @@ impl<'a> Kept<'a> {
     fn add_traces(&mut self, unit: &Unit, traces: &[Trace], model: &'a Model, source: &'a SampleSource) {
         match self.keep {
             KeepTraces::No => {}
-            KeepTraces::Whole => {
-                self.traces.insert(unit.number, traces.to_vec());
-            }
             KeepTraces::Search => {
                 let key = (unit.variant, unit.mode);
                 let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, unit.mode));
@@ -407,7 +395,7 @@ fn finalize(
             };
             let found = match kept.found.remove(&(variant.index, mode)) {
                 Some(found) => found,
-                None => search_after(model, source, mode, &search, &units, opts, &mut kept)?,
+                None => search_after(model, source, mode, &search, &units, opts)?,
             };
             let mut counts = [0u64; 4];
             for d in &found {
@@ -432,8 +420,10 @@ fn finalize(
     Ok(())
 }
 
-/// The switches of one (variant, mode) from the traces of its `units`: those
-/// `kept`, else those written beside its parts, else solved again.
+/// The switches of one (variant, mode) from the traces written beside its
+/// `units` (all of them, in sample order), read a batch of grid lines at a time.
+/// A part written without its traces (by an engine from before them, or whose
+/// trace file is lost) has its poses solved again and its trace file written.
 fn search_after(
     model: &Model,
     source: &SampleSource,
@@ -441,22 +431,64 @@ fn search_after(
     search: &SearchOptions,
     units: &[&Unit],
     opts: &RunOptions,
-    kept: &mut Kept<'_>,
 ) -> Result<Vec<Discontinuity>> {
-    let mut traces: Vec<Trace> = Vec::with_capacity(source.len() as usize);
-    for u in units {
-        let len = (u.range.end - u.range.start) as usize;
-        match kept
-            .traces
-            .remove(&u.number)
-            .or_else(|| read_traces(&trace_path(&opts.out, u.variant, u.mode, u.chunk), len))
-        {
-            Some(t) => traces.extend(t),
-            // A part written without its traces: solve its poses again.
-            None => traces.extend(clearance_discontinuity::traces(model, source, mode, search, u.range.clone())),
+    let paths: Vec<PathBuf> = units.iter().map(|u| trace_path(&opts.out, u.variant, u.mode, u.chunk)).collect();
+    for (u, path) in units.iter().zip(&paths) {
+        let bytes = 4 * (u.range.end - u.range.start);
+        if std::fs::metadata(path).map(|m| m.len()).ok() != Some(bytes) {
+            let traces = clearance_discontinuity::traces(model, source, mode, search, u.range.clone());
+            write_bytes(path, &encode_traces(&traces), false)?;
         }
     }
-    Ok(find_discontinuities_traced(model, source, mode, &traces))
+    let mut files = TraceFiles::new(units.iter().map(|u| u.range.clone()).collect(), paths);
+    find_discontinuities_read(model, source, mode, SEARCH_TRACES, |range, dst| files.read(range, dst))
+}
+
+/// The trace files of consecutive ranges of samples, read as one array.
+struct TraceFiles {
+    /// Each file's samples, in order, without gaps.
+    ranges: Vec<std::ops::Range<u64>>,
+    paths: Vec<PathBuf>,
+    /// The file read last, by position, and the offset it is at: a batch of paths
+    /// reads along a file before moving on.
+    open: Option<(usize, std::fs::File, u64)>,
+    bytes: Vec<u8>,
+}
+
+impl TraceFiles {
+    fn new(ranges: Vec<std::ops::Range<u64>>, paths: Vec<PathBuf>) -> Self {
+        Self { ranges, paths, open: None, bytes: vec![0; 1 << 16] }
+    }
+
+    /// The traces of the samples in `range` into `dst` (of its length).
+    fn read(&mut self, range: std::ops::Range<u64>, mut dst: &mut [Trace]) -> Result<()> {
+        use std::io::{Read, Seek, SeekFrom};
+        let mut at = range.start;
+        while at < range.end {
+            let k = self.ranges.partition_point(|r| r.end <= at);
+            let (file_range, path) = (&self.ranges[k], &self.paths[k]);
+            let count = (range.end.min(file_range.end) - at).min(self.bytes.len() as u64 / 4) as usize;
+            let cannot = || format!("cannot read {}", path.display());
+            let (_, file, offset) = match &mut self.open {
+                Some(open) if open.0 == k => open,
+                _ => self.open.insert((k, std::fs::File::open(path).with_context(cannot)?, 0)),
+            };
+            let wanted = 4 * (at - file_range.start);
+            if *offset != wanted {
+                *offset = file.seek(SeekFrom::Start(wanted)).with_context(cannot)?;
+            }
+            let bytes = &mut self.bytes[..4 * count];
+            file.read_exact(bytes).with_context(cannot)?;
+            *offset += bytes.len() as u64;
+            let (here, rest) = std::mem::take(&mut dst).split_at_mut(count);
+            for (t, b) in here.iter_mut().zip(bytes.chunks_exact(4)) {
+                *t = Trace::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            }
+            dst = rest;
+            at += count as u64;
+        }
+        Ok(())
+    }
 }
 
 /// What computing a unit needs besides the unit.
@@ -632,13 +664,14 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
-    // Without shards or resumed parts, the search follows the computation and has
-    // everything it needs in memory: the rest runs while the writer finishes the
-    // last parts.
-    let keep = match () {
-        _ if opts.shard.is_none() && todo.len() == all.len() && job.sample_count() <= KEEP_TRACES => KeepTraces::Search,
-        _ if todo_poses <= KEEP_TRACES => KeepTraces::Whole,
-        _ => KeepTraces::No,
+    // Without shards or resumed parts, and up to `KEEP_TRACES` poses, the search
+    // follows the computation and has everything it needs in memory: the rest runs
+    // while the writer finishes the last parts. Otherwise it reads the trace files
+    // at the end.
+    let keep = if opts.shard.is_none() && todo.len() == all.len() && job.sample_count() <= KEEP_TRACES {
+        KeepTraces::Search
+    } else {
+        KeepTraces::No
     };
     let mut kept = Kept { keep, ..Kept::default() };
     // The buffers of written pages, for pages still to encode.
@@ -735,4 +768,33 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         write_marker(&opts.out.join("_SUCCESS"))?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ranges read across files of different lengths, in any order, give the
+    /// traces written.
+    #[test]
+    fn trace_files_read_as_one_array() {
+        let dir = tempfile::tempdir().unwrap();
+        // The third file is read in several pieces.
+        let lens = [5u64, 1, 40_000, 3];
+        let all: Vec<Trace> = (0..lens.iter().sum::<u64>() as u32).map(|i| i.wrapping_mul(2654435761)).collect();
+        let (mut ranges, mut paths, mut start) = (Vec::new(), Vec::new(), 0);
+        for (k, len) in lens.into_iter().enumerate() {
+            let path = dir.path().join(format!("{k}.trace"));
+            std::fs::write(&path, encode_traces(&all[start as usize..(start + len) as usize])).unwrap();
+            ranges.push(start..start + len);
+            paths.push(path);
+            start += len;
+        }
+        let mut files = TraceFiles::new(ranges, paths);
+        for range in [0..40_009, 3..7, 6..39_000, 5..6, 40_004..40_009, 1000..40_006, 0..1, 4..5, 20..30] {
+            let mut dst = vec![0; (range.end - range.start) as usize];
+            files.read(range.clone(), &mut dst).unwrap();
+            assert_eq!(dst, all[range.start as usize..range.end as usize], "{range:?}");
+        }
+    }
 }

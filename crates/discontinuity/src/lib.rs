@@ -212,7 +212,8 @@ impl Solved<'_> {
 }
 
 /// The switches along one path, given the [`Trace`] of each of its samples (by
-/// sample index, made with the same [`SearchOptions`]).
+/// sample index, made with the same [`SearchOptions`]). The traces are read where
+/// they lie, never copied: a path (a whole trajectory) takes no memory per sample.
 pub fn search_path(
     model: &Model,
     source: &SampleSource,
@@ -222,13 +223,13 @@ pub fn search_path(
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
     let ev = Evaluator { model, source, path, mode };
-    let traces: Vec<Trace> = (0..path.len()).map(|k| trace_of(path.sample_index(k))).collect();
+    let trace = |k: usize| trace_of(path.sample_index(k));
     let mut solved = Solved { ev: &ev, cache: HashMap::new(), reactions: HashMap::new() };
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
-    while start < traces.len() {
-        if traces[start] & SOLVABLE == 0 {
+    while start < path.len() {
+        if trace(start) & SOLVABLE == 0 {
             start += 1;
             continue;
         }
@@ -236,8 +237,8 @@ pub fn search_path(
         // In det-bit positions: the (kind, limb)s with a determinate low sample, and
         // with a determinate sample that is not low, somewhere in the segment.
         let (mut low_det, mut high_det) = (0, 0);
-        while end < traces.len() && traces[end] & SOLVABLE != 0 {
-            let t = traces[end];
+        while end < path.len() && trace(end) & SOLVABLE != 0 {
+            let t = trace(end);
             low_det |= t & (t >> LOW_SHIFT);
             high_det |= t & !(t >> LOW_SHIFT);
             end += 1;
@@ -247,19 +248,17 @@ pub fn search_path(
                 continue;
             }
             for j in 0..3 {
-                let (d, l) = (det_bit(kind, j), low_bit(kind, j));
+                let d = det_bit(kind, j);
                 // Nothing to find: no candidate among the vector loads, or an axial
                 // load of one sign throughout.
                 if low_det & d == 0 || (kind == ClearanceKind::RAxial && high_det & d == 0) {
                     continue;
                 }
-                // Determinate samples of this segment, for this joint and kind.
-                let det: Vec<usize> = (start..end).filter(|&i| traces[i] & d != 0).collect();
-                let low: Vec<bool> = det.iter().map(|&i| traces[i] & l != 0).collect();
+                let segment = Segment { trace: &trace, start, end, det: d, low: low_bit(kind, j) };
                 if kind == ClearanceKind::RAxial {
-                    axial_switches(&ev, &mut solved, &det, &low, j, ws, &mut out);
+                    axial_switches(&ev, &mut solved, &segment, j, ws, &mut out);
                 } else {
-                    vector_switches(&ev, &mut solved, &det, &low, kind, j, ws, &mut out);
+                    vector_switches(&ev, &mut solved, &segment, kind, j, ws, &mut out);
                 }
             }
         }
@@ -268,22 +267,49 @@ pub fn search_path(
     out
 }
 
+/// The samples `start..end` of a path (one segment: all solvable) whose deciding
+/// load of one (kind, limb) is determinate, found from their traces as needed.
+struct Segment<'a> {
+    trace: &'a dyn Fn(usize) -> Trace,
+    start: usize,
+    end: usize,
+    det: Trace,
+    low: Trace,
+}
+
+impl Segment<'_> {
+    /// The determinate samples from `from` on, in order.
+    fn after(&self, from: usize) -> impl Iterator<Item = usize> + '_ {
+        (from..self.end).filter(|&k| (self.trace)(k) & self.det != 0)
+    }
+
+    /// The determinate samples before `to`, nearest first.
+    fn before(&self, to: usize) -> impl Iterator<Item = usize> + '_ {
+        (self.start..to).rev().filter(|&k| (self.trace)(k) & self.det != 0)
+    }
+
+    /// Whether the sample is low (a negative axial load, or a candidate vector minimum).
+    fn is_low(&self, k: usize) -> bool {
+        (self.trace)(k) & self.low != 0
+    }
+}
+
 fn axial_switches(
     ev: &Evaluator<'_>,
     solved: &mut Solved<'_>,
-    det: &[usize],
-    negative: &[bool],
+    segment: &Segment<'_>,
     j: usize,
     ws: &mut Workspace,
     out: &mut Vec<Discontinuity>,
 ) {
     let kind = ClearanceKind::RAxial;
     let signed = |r: &PoseResult| load(r, ev.model, kind, j).signed();
-    for w in 0..det.len().saturating_sub(1) {
-        if negative[w] == negative[w + 1] {
+    let mut previous: Option<usize> = None;
+    for b in segment.after(segment.start) {
+        let Some(a) = previous.replace(b) else { continue };
+        if segment.is_low(a) == segment.is_low(b) {
             continue;
         }
-        let (a, b) = (det[w], det[w + 1]);
         let (ra, rb) = (solved.get(a, ws), solved.get(b, ws));
         let (pa, pb) = (ev.path.params[a], ev.path.params[b]);
         let p = brent_root(pa, pb, signed(&ra), signed(&rb), LOCATE_TOL, |p| {
@@ -294,31 +320,34 @@ fn axial_switches(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn vector_switches(
     ev: &Evaluator<'_>,
     solved: &mut Solved<'_>,
-    det: &[usize],
-    below: &[bool],
+    segment: &Segment<'_>,
     kind: ClearanceKind,
     j: usize,
     ws: &mut Workspace,
     out: &mut Vec<Discontinuity>,
 ) {
-    let mag = |solved: &mut Solved<'_>, i: usize, ws: &mut Workspace| {
-        load_of(&solved.reactions(det[i], ws), ev.model, kind, j).magnitude()
+    let mag = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| {
+        load_of(&solved.reactions(k, ws), ev.model, kind, j).magnitude()
     };
-    for k in 1..det.len().saturating_sub(1) {
+    // Consecutive determinate samples `a`, `k`, `c`: `k` is an interior one.
+    let (mut a, mut k): (Option<usize>, Option<usize>) = (None, None);
+    for c in segment.after(segment.start) {
+        let triple = a.zip(k);
+        (a, k) = (k, Some(c));
+        let Some((a, k)) = triple else { continue };
         // An interior local minimum (the first sample of a flat bottom) below the
         // dip threshold; the trace has ruled out most other samples already.
-        if !below[k] {
+        if !segment.is_low(k) {
             continue;
         }
         let here = mag(solved, k, ws);
-        if !(here < mag(solved, k - 1, ws) && here <= mag(solved, k + 1, ws)) {
+        if !(here < mag(solved, a, ws) && here <= mag(solved, c, ws)) {
             continue;
         }
-        let (lo, hi) = (ev.path.params[det[k - 1]], ev.path.params[det[k + 1]]);
+        let (lo, hi) = (ev.path.params[a], ev.path.params[c]);
         // The squared magnitude has the same minimum and is smooth there (the
         // magnitude itself is a V when the load passes near zero), so Brent's
         // parabolic steps converge in a few evaluations.
@@ -327,10 +356,19 @@ fn vector_switches(
             r.map_or(f64::INFINITY, |r| load_of(&r, ev.model, kind, j).magnitude().powi(2))
         });
         let m = m2.sqrt();
-        // Where the magnitude has risen back to twice the minimum, on either side.
-        let left = (0..k).rev().find(|&i| mag(solved, i, ws) >= 2.0 * m).unwrap_or(0);
-        let right = (k + 1..det.len()).find(|&i| mag(solved, i, ws) >= 2.0 * m).unwrap_or(det.len() - 1);
-        let (rl, rr) = (solved.get(det[left], ws), solved.get(det[right], ws));
+        // Where the magnitude has risen back to twice the minimum, on either side,
+        // else the segment's first or last determinate sample.
+        let mut rise = |mut side: Box<dyn Iterator<Item = usize> + '_>| {
+            let mut last = None;
+            side.find(|&i| {
+                last = Some(i);
+                mag(solved, i, ws) >= 2.0 * m
+            })
+            .or(last)
+            .expect("a determinate sample on either side")
+        };
+        let (left, right) = (rise(Box::new(segment.before(k))), rise(Box::new(segment.after(k + 1))));
+        let (rl, rr) = (solved.get(left, ws), solved.get(right, ws));
         let turn = load(&rl, ev.model, kind, j).dot(load(&rr, ev.model, kind, j));
         if turn < 0.0 {
             out.push(ev.record(kind, j, p, ws, &rl, &rr));
@@ -350,6 +388,77 @@ pub fn find_discontinuities_traced(
     let mut search = Search::new(model, source, mode);
     search.extend(traces);
     search.finish()
+}
+
+/// [`find_discontinuities_traced`] with the traces read through `read` (which fills
+/// its buffer with the traces of a range of samples) a batch of paths at a time, so
+/// that at most `budget` traces are in memory, or one path's if that is more: a
+/// run's search then takes the same memory for 50 million samples as for 5. The
+/// result is the same, in the same order.
+///
+/// Paths along an axis are batched in [`paths`] order: whole lines of the outer
+/// inputs while they fit, which is one range of samples; otherwise neighbouring
+/// lines of one outer node, which is one range of samples per node along the axis.
+pub fn find_discontinuities_read<E>(
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    budget: usize,
+    mut read: impl FnMut(std::ops::Range<u64>, &mut [Trace]) -> Result<(), E>,
+) -> Result<Vec<Discontinuity>, E> {
+    let len = source.len();
+    let budget = budget.max(1) as u64;
+    let mut buf: Vec<Trace> = Vec::new();
+    let mut out = Vec::new();
+    let mut search = |batch: Vec<Path>, buf: &[Trace], at: &(dyn Fn(u64) -> usize + Sync)| {
+        out.par_extend(
+            batch
+                .par_iter()
+                .map_init(Workspace::new, |ws, path| search_path(model, source, path, mode, |i| buf[at(i)], ws))
+                .flatten_iter(),
+        );
+    };
+    for axis in axes(source).into_iter().rev() {
+        let (stride, n) = (axis.stride, axis.n);
+        let span = stride * n;
+        if span <= budget {
+            // Whole blocks of `span` samples: every line through them, one range.
+            let per = budget / span;
+            for first in (0..len / span).step_by(per as usize) {
+                let last = (first + per).min(len / span);
+                let range = first * span..last * span;
+                buf.resize((range.end - range.start) as usize, 0);
+                read(range.clone(), &mut buf)?;
+                let batch = (range.clone()).step_by(span as usize).flat_map(|o| (0..stride).map(move |i| o + i));
+                let batch = batch.map(|origin| axis.path(origin)).collect();
+                search(batch, &buf, &|i| (i - range.start) as usize);
+            }
+        } else {
+            // Lines `inner..inner + width` of one outer node: `width` samples at each node.
+            let width = (budget / n).clamp(1, stride);
+            for outer in (0..len).step_by(span as usize) {
+                for inner in (0..stride).step_by(width as usize) {
+                    let w = width.min(stride - inner);
+                    buf.resize((n * w) as usize, 0);
+                    if w == stride {
+                        // Every line of the node (a whole trajectory, say): one range.
+                        read(outer..outer + span, &mut buf)?;
+                    } else {
+                        for (k, dst) in buf.chunks_exact_mut(w as usize).enumerate() {
+                            let start = outer + k as u64 * stride + inner;
+                            read(start..start + w, dst)?;
+                        }
+                    }
+                    let batch = (inner..inner + w).map(|i| axis.path(outer + i)).collect();
+                    search(batch, &buf, &|i| {
+                        let (k, i) = ((i - outer) / stride, (i - outer) % stride - inner);
+                        (k * w + i) as usize
+                    });
+                }
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// The search of one (variant, mode) whose traces arrive a range of samples at a

@@ -95,6 +95,11 @@ pub struct Axis {
 }
 
 impl Axis {
+    /// The path along this axis whose first sample is `origin`.
+    pub fn path(&self, origin: u64) -> Path {
+        Path { along: self.along, params: self.params.clone(), origin, stride: self.stride }
+    }
+
     /// Whether sample `i` is a path's first or last node along this axis.
     pub fn is_end(&self, i: u64) -> bool {
         let node = (i / self.stride) % self.n;
@@ -128,14 +133,7 @@ pub fn paths(source: &SampleSource) -> Vec<Path> {
     for axis in axes(source).into_iter().rev() {
         let span = axis.stride * axis.n;
         for outer in 0..len / span {
-            for inner in 0..axis.stride {
-                out.push(Path {
-                    along: axis.along,
-                    params: axis.params.clone(),
-                    origin: outer * span + inner,
-                    stride: axis.stride,
-                });
-            }
+            out.extend((0..axis.stride).map(|inner| axis.path(outer * span + inner)));
         }
     }
     out

@@ -3,9 +3,12 @@
 //! a candidate, however the samples are cut into ranges, and the pruning does
 //! remove most candidates (otherwise it saves nothing). A [`Search`] given the
 //! traces a range at a time, as a run computes them, finds the same switches, and
-//! searches each path as soon as its last sample is in.
+//! searches each path as soon as its last sample is in. So does the search that
+//! reads the traces a batch of paths at a time, with any memory budget.
 
-use clearance_discontinuity::{Search, SearchOptions, Trace, find_discontinuities_traced, paths, trace, traces};
+use clearance_discontinuity::{
+    Search, SearchOptions, Trace, axes, find_discontinuities_read, find_discontinuities_traced, paths, trace, traces,
+};
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
 use clearance_solver::{Model, Workspace, solve_pose};
@@ -42,6 +45,21 @@ fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
         let searched: usize = pruned.chunks(len as usize).map(|range| search.extend(range)).sum();
         assert_eq!(searched, paths(&source).len(), "ranges of {len}: every path searched once");
         assert_eq!(search.finish(), expected, "ranges of {len}, searched as they come");
+        // A read fills the batch's buffer, or part of it: never more than the budget
+        // or one path's samples.
+        let longest = axes(&source).iter().map(|a| a.n as usize).max().unwrap();
+        for budget in [1, 5, 29, 100, 700, n as usize] {
+            let mut read = 0;
+            let found = find_discontinuities_read(&model, &source, mode, budget, |range, dst: &mut [Trace]| {
+                assert_eq!(dst.len() as u64, range.end - range.start);
+                assert!(dst.len() <= budget.max(longest), "budget {budget}: a read of {}", dst.len());
+                dst.copy_from_slice(&pruned[range.start as usize..range.end as usize]);
+                read += dst.len();
+                Ok::<(), ()>(())
+            });
+            assert_eq!(found, Ok(expected.clone()), "ranges of {len}, read with a budget of {budget}");
+            assert_eq!(read as u64, n * axes(&source).len() as u64, "budget {budget}: each sample read once per axis");
+        }
         let (before, after) = (vector_candidates(&every), vector_candidates(&pruned));
         if prunes && len >= n {
             assert!(after * 5 < before, "ranges of {len}: {after} of {before} candidates left");
