@@ -30,6 +30,9 @@
 
 use std::cell::RefCell;
 
+#[cfg(target_arch = "x86_64")]
+use clearance_solver::Isa;
+
 use arrow::array::{Array, Float64Array};
 use bytes::Bytes;
 use parquet::basic::Encoding;
@@ -492,16 +495,17 @@ fn def_levels(out: &mut Vec<u8>, rows: usize, valid: Option<&[u8]>, present: usi
 
 /// The byte streams of `values` appended to `out`: byte k of value i at
 /// `k·len + i` (`BYTE_STREAM_SPLIT`). Eight values at a time are transposed as an
-/// 8 × 8 byte matrix: by one byte permutation where the CPU has AVX-512 VBMI,
-/// else in three rounds of block swaps (23 instructions a value, callgrind).
+/// 8 × 8 byte matrix: by one byte permutation where the CPU has AVX-512 VBMI and the
+/// kernel's choice (`Isa::best`, capped by `CLEARANCE_ISA`) is AVX-512, else in three
+/// rounds of block swaps (23 instructions a value, callgrind).
 fn split_streams(values: &[f64], out: &mut Vec<u8>) {
     let m = values.len();
     let base = out.len();
     out.resize(base + 8 * m, 0);
     let dst = &mut out[base..];
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512vbmi") {
-        // SAFETY: the CPU has AVX-512 F and VBMI.
+    if Isa::best() == Isa::Avx512 && std::arch::is_x86_feature_detected!("avx512vbmi") {
+        // SAFETY: the CPU has AVX-512 F (`Isa::best`) and VBMI.
         return unsafe { split_streams_vbmi(values, dst) };
     }
     split_into(values, dst, transpose8);
@@ -593,11 +597,11 @@ impl Default for Range {
 }
 
 impl Range {
-    /// Takes in `values`.
+    /// Takes in `values`, on AVX2 where the kernel's choice (`Isa::best`) allows it.
     fn extend(&mut self, values: &[f64]) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2.
+        if Isa::best() >= Isa::Avx2 {
+            // SAFETY: the CPU has AVX2 (`Isa::best`).
             let (lo, hi, all_finite) = unsafe { extremes_avx2(values) };
             return self.take(values, lo, hi, all_finite);
         }
