@@ -237,8 +237,11 @@ pub fn search_path(
         // In det-bit positions: the (kind, limb)s with a determinate low sample, and
         // with a determinate sample that is not low, somewhere in the segment.
         let (mut low_det, mut high_det) = (0, 0);
-        while end < path.len() && trace(end) & SOLVABLE != 0 {
+        while end < path.len() {
             let t = trace(end);
+            if t & SOLVABLE == 0 {
+                break;
+            }
             low_det |= t & (t >> LOW_SHIFT);
             high_det |= t & !(t >> LOW_SHIFT);
             end += 1;
@@ -358,22 +361,26 @@ fn vector_switches(
         let m = m2.sqrt();
         // Where the magnitude has risen back to twice the minimum, on either side,
         // else the segment's first or last determinate sample.
-        let mut rise = |mut side: Box<dyn Iterator<Item = usize> + '_>| {
-            let mut last = None;
-            side.find(|&i| {
-                last = Some(i);
-                mag(solved, i, ws) >= 2.0 * m
-            })
-            .or(last)
-            .expect("a determinate sample on either side")
-        };
-        let (left, right) = (rise(Box::new(segment.before(k))), rise(Box::new(segment.after(k + 1))));
+        let left = first_or_last(segment.before(k), |i| mag(solved, i, ws) >= 2.0 * m);
+        let right = first_or_last(segment.after(k + 1), |i| mag(solved, i, ws) >= 2.0 * m);
         let (rl, rr) = (solved.get(left, ws), solved.get(right, ws));
         let turn = load(&rl, ev.model, kind, j).dot(load(&rr, ev.model, kind, j));
         if turn < 0.0 {
             out.push(ev.record(kind, j, p, ws, &rl, &rr));
         }
     }
+}
+
+/// The first of `side` where `rises`, else its last (`side` is not empty).
+fn first_or_last(side: impl Iterator<Item = usize>, mut rises: impl FnMut(usize) -> bool) -> usize {
+    let mut last = None;
+    for i in side {
+        if rises(i) {
+            return i;
+        }
+        last = Some(i);
+    }
+    last.expect("a determinate sample on either side")
 }
 
 /// All switches of one (variant, mode) from the traces of its samples (indexed by
@@ -429,7 +436,7 @@ pub fn find_discontinuities_read<E>(
                 let range = first * span..last * span;
                 buf.resize((range.end - range.start) as usize, 0);
                 read(range.clone(), &mut buf)?;
-                let batch = (range.clone()).step_by(span as usize).flat_map(|o| (0..stride).map(move |i| o + i));
+                let batch = range.clone().step_by(span as usize).flat_map(|o| (0..stride).map(move |i| o + i));
                 let batch = batch.map(|origin| axis.path(origin)).collect();
                 search(batch, &buf, &|i| (i - range.start) as usize);
             }
@@ -451,8 +458,8 @@ pub fn find_discontinuities_read<E>(
                     }
                     let batch = (inner..inner + w).map(|i| axis.path(outer + i)).collect();
                     search(batch, &buf, &|i| {
-                        let (k, i) = ((i - outer) / stride, (i - outer) % stride - inner);
-                        (k * w + i) as usize
+                        let (node, line) = ((i - outer) / stride, (i - outer) % stride - inner);
+                        (node * w + line) as usize
                     });
                 }
             }
