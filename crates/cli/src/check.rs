@@ -1,7 +1,7 @@
 //! `clearance check JOB`: validate and print the expanded plan.
 
 use anyhow::Result;
-use clearance_model::{JobSpec, SamplesSpec};
+use clearance_model::{JobSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, SamplesSpec};
 use clearance_parquet::{ColumnSet, PoseSchema};
 
 use crate::bench::kernel_rate;
@@ -11,6 +11,7 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
     let n = job.sample_count();
     let modes: Vec<&str> = job.analysis.modes.iter().map(|m| m.name()).collect();
     println!("job {} ({file}): valid", job.name());
+    println!("mechanism: {}", describe(&job.mechanism));
     match job.samples() {
         SamplesSpec::Grid(g) => {
             println!("samples: grid {} z × {} psi × {} theta = {n}", g.z.len(), g.psi.len(), g.theta.len())
@@ -57,4 +58,22 @@ fn human_bytes(b: f64) -> String {
         i += 1;
     }
     format!("{v:.1} {}", units[i])
+}
+
+/// One line on the robot: its kind and what sets its layout apart.
+fn describe(m: &MechanismSpec) -> String {
+    let mut out = m.kind.name().to_string();
+    if m.kind == MechanismKind::Prs3 {
+        out.push_str(&format!(", rails at {}° from vertical", m.rail_angle_deg()));
+    }
+    let (limbs, platform) = (m.limb_angles_deg(), m.platform_angles_deg());
+    if limbs != PROTOTYPE_LIMB_ANGLES_DEG || platform != limbs {
+        out.push_str(&format!(
+            ", limbs at {limbs:?}°, platform joints at {platform:?}° (parasitic motions by Newton)"
+        ));
+    }
+    if m.kind == MechanismKind::Rps3 {
+        out.push_str(&format!(", leg stroke {} to {} m", m.min_length(), m.max_length()));
+    }
+    out
 }

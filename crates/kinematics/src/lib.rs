@@ -32,6 +32,6 @@ mod jet;
 
 pub use inverse::{
     Geometry, Motion, Posture, Unreachable, euler_rates_matrix, inverse_kinematics, inverse_kinematics_motion, limb,
-    parasitic, parasitic_sc, rotation, rotation_sc, slider,
+    parasitic, parasitic_of, parasitic_sc, rotation, rotation_sc, slider,
 };
 pub use jet::{Elementary, Jet, Real};

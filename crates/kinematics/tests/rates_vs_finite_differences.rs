@@ -2,6 +2,7 @@
 //! fourth-order central differences of the posture along random trajectories.
 
 use clearance_kinematics::{Geometry, Posture, inverse_kinematics, inverse_kinematics_motion};
+use clearance_model::{MechanismKind, MechanismSpec};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -41,13 +42,41 @@ fn vee(m: Matrix3<f64>) -> Vector3<f64> {
 
 #[test]
 fn motion_matches_finite_differences() {
-    let mut rng = ChaCha8Rng::seed_from_u64(2);
-    let geom = Geometry::prototype();
-    for _ in 0..40 {
+    motion_matches(&Geometry::prototype(), 2.05, 2, 40);
+}
+
+/// Inclined and horizontal rails, uneven limbs (rates of Newton's solution by
+/// implicit differentiation) and the 3-RPS, whose legs change length.
+#[test]
+fn family_motion_matches_finite_differences() {
+    let member = |kind, beta: f64, limbs: [f64; 3], platform: [f64; 3]| {
+        let mut m = MechanismSpec::of_kind(kind);
+        if kind == MechanismKind::Prs3 {
+            m.rail_angle_deg = Some(beta);
+        }
+        (m.limb_angles_deg, m.platform_angles_deg) = (Some(limbs.to_vec()), Some(platform.to_vec()));
+        Geometry::from_spec(&m)
+    };
+    let cases = [
+        (member(MechanismKind::Prs3, 30.0, [0.0, 120.0, 240.0], [0.0, 120.0, 240.0]), 1.0),
+        (member(MechanismKind::Prs3, -90.0, [0.0, 100.0, 230.0], [5.0, 95.0, 240.0]), 0.5),
+        (member(MechanismKind::Prs3, 0.0, [0.0, 100.0, 230.0], [0.0, 100.0, 230.0]), 2.05),
+        (member(MechanismKind::Rps3, 0.0, [0.0, 120.0, 240.0], [0.0, 120.0, 240.0]), 1.2),
+        (member(MechanismKind::Rps3, 0.0, [0.0, 110.0, 250.0], [-10.0, 120.0, 240.0]), 1.2),
+    ];
+    for (k, (geom, z)) in cases.iter().enumerate() {
+        motion_matches(geom, *z, 100 + k as u64, 15);
+    }
+}
+
+fn motion_matches(geom: &Geometry, z0: f64, seed: u64, count: usize) {
+    let geom = geom.clone();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for _ in 0..count {
         let traj = Traj {
             c: [
                 [
-                    rng.random_range(1.9..2.2),
+                    z0 + rng.random_range(-0.15..0.15),
                     rng.random_range(0.0..0.1),
                     rng.random_range(0.5..3.0),
                     rng.random_range(0.0..6.0),
@@ -91,8 +120,12 @@ fn motion_matches_finite_differences() {
                 0.5 * (p.a[j] + p.b[j])
             };
             assert!((d2(&g, t, h) - m.leg_com_acc[j]).amax() < tol, "leg {j} centre acceleration");
+            let a = |t: f64| traj.pose(&geom, t).a[j];
+            assert!((d2(&a, t, h) - m.a_ddot[j]).amax() < tol, "Ä_{j}");
             let e = |t: f64| traj.pose(&geom, t).e[j];
             let e_dot = d1(&e, t, h);
+            assert!((e_dot - m.e_dot[j]).amax() < tol, "ė_{j}");
+            assert!((d2(&e, t, h) - m.e_ddot[j]).amax() < tol, "ë_{j}");
             assert!((pose.e[j].cross(&e_dot) - m.leg_omega[j]).amax() < tol, "leg {j} ω");
             // The leg only turns about y_j.
             assert!(m.leg_omega[j].cross(&geom.y[j]).amax() < 1e-12, "leg {j} ω along y_j");

@@ -7,6 +7,7 @@ use std::fmt;
 
 use crate::error::JobError;
 use crate::kinds::{ClearanceKind, KINDS};
+use crate::mechanism::{MassSpec, MechanismKind, MechanismSpec};
 
 /// One job: a mechanism, its loads and clearances, what to analyse, and where.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -31,56 +32,6 @@ pub struct JobSpec {
     pub trajectory: Option<TrajectorySpec>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sweep: Vec<SweepSpec>,
-}
-
-/// Geometry of the 3-PRS robot (MODEL.md §1).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MechanismSpec {
-    /// `R_b`, radius of the circle of the actuators (m). Default 0.18.
-    pub base_radius: f64,
-    /// `r_p`, distance from P to each spherical joint (m). Default 0.36.
-    pub platform_radius: f64,
-    /// `L`, length of each leg `B_j A_j` (m). Default 1.0.
-    pub leg_length: f64,
-    /// Gravity in the fixed frame (m/s²). Default `(0, 0, -9.81)`.
-    pub gravity: [f64; 3],
-}
-
-impl Default for MechanismSpec {
-    fn default() -> Self {
-        Self { base_radius: 0.18, platform_radius: 0.36, leg_length: 1.0, gravity: [0.0, 0.0, -9.81] }
-    }
-}
-
-/// Masses and inertias (MODEL.md §3).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MassSpec {
-    /// Platform mass (kg), centre of mass at P. Default 9.8.
-    pub platform: f64,
-    /// Mass of each leg (kg), a slender rod. Default 3.0.
-    pub leg: f64,
-    /// Platform inertia about P in platform axes `[Ixx, Iyy, Izz]` (kg·m²);
-    /// default a thin uniform disc of radius `r_p`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub platform_inertia: Option<[f64; 3]>,
-    /// Point masses rigidly attached to the platform.
-    pub points: Vec<PointMass>,
-}
-
-impl Default for MassSpec {
-    fn default() -> Self {
-        Self { platform: 9.8, leg: 3.0, platform_inertia: None, points: Vec::new() }
-    }
-}
-
-/// A point mass on the platform: `mass` (kg) at `at` (m, platform frame).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PointMass {
-    pub mass: f64,
-    pub at: [f64; 3],
 }
 
 /// External wrench on the platform.
@@ -361,6 +312,7 @@ impl JobSpec {
                 .unwrap_or_else(|| "job".to_string());
             job.name = Some(stem);
         }
+        job.fill_defaults();
         job.validate(file)?;
         // Sweeps are checked by expanding them: each variant must be a valid job too.
         job.variants(file)?;
@@ -398,9 +350,19 @@ impl JobSpec {
         }
     }
 
-    /// Total moving mass: platform, point masses and three legs (kg).
+    /// Writes the mechanism kind's defaults into the keys the file left out (see
+    /// [`MechanismSpec::fill_defaults`]); the job means the same before and after.
+    pub fn fill_defaults(&mut self) {
+        self.mechanism.fill_defaults();
+        self.mass.fill_defaults(self.mechanism.kind);
+    }
+
+    /// Total moving mass: platform, point masses and every limb's bodies (kg).
     pub fn total_mass(&self) -> f64 {
-        self.mass.platform + self.mass.points.iter().map(|p| p.mass).sum::<f64>() + 3.0 * self.mass.leg
+        let kind = self.mechanism.kind;
+        self.mass.platform
+            + self.mass.points.iter().map(|p| p.mass).sum::<f64>()
+            + kind.limbs() as f64 * self.mass.limb(kind)
     }
 
     /// `W = m_total·|g|`, the natural load scale of MODEL.md §8 (N).
@@ -417,23 +379,17 @@ impl JobSpec {
     /// Checks every value against its physical range. Errors name the dotted key.
     pub fn validate(&self, file: &str) -> Result<(), JobError> {
         let err = |key: &str, reason: String| Err(JobError::new(file, key, reason));
-        let m = &self.mechanism;
-        for (key, v) in [
-            ("mechanism.base_radius", m.base_radius),
-            ("mechanism.platform_radius", m.platform_radius),
-            ("mechanism.leg_length", m.leg_length),
-        ] {
-            finite(file, key, v)?;
-            if v <= 0.0 {
-                return err(key, format!("must be a positive length in m, got {v:?}"));
-            }
-        }
-        for (i, v) in m.gravity.iter().enumerate() {
-            finite(file, &format!("mechanism.gravity.{i}"), *v)?;
-        }
+        self.validate_mechanism(file)?;
         let ms = &self.mass;
-        for (key, v) in [("mass.platform", ms.platform), ("mass.leg", ms.leg)] {
-            non_negative(file, key, v, "kg")?;
+        for (key, v) in [
+            ("mass.platform", Some(ms.platform)),
+            ("mass.leg", ms.leg),
+            ("mass.cylinder", ms.cylinder),
+            ("mass.piston", ms.piston),
+        ] {
+            if let Some(v) = v {
+                non_negative(file, key, v, "kg")?;
+            }
         }
         if let Some(inertia) = ms.platform_inertia {
             for (i, v) in inertia.iter().enumerate() {
@@ -565,6 +521,129 @@ impl JobSpec {
         };
         if samples.and_then(|n| n.checked_mul(variants)).and_then(|n| n.checked_mul(a.modes.len() as u64)).is_none() {
             return err("", "has more than 2^64 poses (samples × variants × modes); it could never finish".into());
+        }
+        Ok(())
+    }
+}
+
+impl JobSpec {
+    /// `[mechanism]` and the limb masses: the keys of the job's kind only, each in
+    /// its physical range.
+    fn validate_mechanism(&self, file: &str) -> Result<(), JobError> {
+        let m = &self.mechanism;
+        let kind = m.kind;
+        let given = [
+            ("mechanism.base_radius", m.base_radius.is_some()),
+            ("mechanism.platform_radius", m.platform_radius.is_some()),
+            ("mechanism.leg_length", m.leg_length.is_some()),
+            ("mechanism.rail_angle_deg", m.rail_angle_deg.is_some()),
+            ("mechanism.limb_angles_deg", m.limb_angles_deg.is_some()),
+            ("mechanism.platform_angles_deg", m.platform_angles_deg.is_some()),
+            ("mechanism.cylinder_length", m.cylinder_length.is_some()),
+            ("mechanism.piston_length", m.piston_length.is_some()),
+            ("mechanism.min_length", m.min_length.is_some()),
+            ("mechanism.max_length", m.max_length.is_some()),
+            ("mass.leg", self.mass.leg.is_some()),
+            ("mass.cylinder", self.mass.cylinder.is_some()),
+            ("mass.piston", self.mass.piston.is_some()),
+        ];
+        let foreign: Vec<&str> = given
+            .iter()
+            .filter(|(key, set)| {
+                let (table, name) = key.split_once('.').expect("dotted");
+                let keys = if table == "mechanism" { kind.mechanism_keys() } else { kind.mass_keys() };
+                *set && !keys.contains(&name)
+            })
+            .map(|(key, _)| *key)
+            .collect();
+        if let Some(first) = foreign.first() {
+            return Err(JobError::new(file, *first, crate::keys::foreign_reason(kind, &foreign)));
+        }
+        let lengths = [
+            ("mechanism.base_radius", Some(m.base_radius())),
+            ("mechanism.platform_radius", Some(m.platform_radius())),
+            ("mechanism.leg_length", m.leg_length),
+            ("mechanism.cylinder_length", m.cylinder_length),
+            ("mechanism.piston_length", m.piston_length),
+            ("mechanism.min_length", m.min_length),
+            ("mechanism.max_length", m.max_length),
+        ];
+        for (key, v) in lengths {
+            let Some(v) = v else { continue };
+            finite(file, key, v)?;
+            if v <= 0.0 {
+                return Err(JobError::new(file, key, format!("must be a positive length in m, got {v:?}")));
+            }
+        }
+        for (i, v) in m.gravity.iter().enumerate() {
+            finite(file, &format!("mechanism.gravity.{i}"), *v)?;
+        }
+        if let Some(beta) = m.rail_angle_deg {
+            finite(file, "mechanism.rail_angle_deg", beta)?;
+            if !(-90.0..=90.0).contains(&beta) {
+                return Err(JobError::new(
+                    file,
+                    "mechanism.rail_angle_deg",
+                    format!(
+                        "must be between -90 (horizontal, pointing inwards) and 90 (horizontal, outwards) degrees, got {beta:?}"
+                    ),
+                ));
+            }
+        }
+        for (key, angles) in [
+            ("mechanism.limb_angles_deg", &m.limb_angles_deg),
+            ("mechanism.platform_angles_deg", &m.platform_angles_deg),
+        ] {
+            let Some(angles) = angles else { continue };
+            if angles.len() != kind.limbs() {
+                return Err(JobError::new(
+                    file,
+                    key,
+                    format!(
+                        "a {} has {} limbs: give {} angles, got {}",
+                        kind.name(),
+                        kind.limbs(),
+                        kind.limbs(),
+                        angles.len()
+                    ),
+                ));
+            }
+            for (i, v) in angles.iter().enumerate() {
+                finite(file, &format!("{key}.{i}"), *v)?;
+                if v.abs() > 3600.0 {
+                    return Err(JobError::new(
+                        file,
+                        format!("{key}.{i}"),
+                        format!("{v:?} degrees is more than ten turns"),
+                    ));
+                }
+            }
+            for i in 0..angles.len() {
+                for k in 0..i {
+                    if (angles[i] - angles[k]).rem_euclid(360.0) == 0.0 {
+                        return Err(JobError::new(
+                            file,
+                            key,
+                            format!(
+                                "entries {k} and {i} are the same direction ({:?} and {:?} degrees)",
+                                angles[k], angles[i]
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        if kind == MechanismKind::Rps3 && m.min_length() >= m.max_length() {
+            let key = if m.max_length.is_some() { "mechanism.max_length" } else { "mechanism.min_length" };
+            return Err(JobError::new(
+                file,
+                key,
+                format!(
+                    "the stroke is empty: min_length = {:?} m is not below max_length = {:?} m",
+                    m.min_length(),
+                    m.max_length()
+                ),
+            ));
         }
         Ok(())
     }

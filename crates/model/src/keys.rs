@@ -2,13 +2,28 @@
 //! dotted path and suggest the key that was probably meant.
 
 use crate::error::JobError;
+use crate::mechanism::{MECHANISM_KINDS, MechanismKind};
 
 /// The allowed keys of each table, by dotted path with list indices as `*`.
 fn allowed(path: &str) -> Option<&'static [&'static str]> {
     Some(match path {
         "" => &["name", "mechanism", "mass", "load", "clearance", "analysis", "grid", "trajectory", "sweep"],
-        "mechanism" => &["base_radius", "platform_radius", "leg_length", "gravity"],
-        "mass" => &["platform", "leg", "platform_inertia", "points"],
+        // Every kind's keys; a key of another kind than the job's is refused after.
+        "mechanism" => &[
+            "kind",
+            "base_radius",
+            "platform_radius",
+            "leg_length",
+            "gravity",
+            "rail_angle_deg",
+            "limb_angles_deg",
+            "platform_angles_deg",
+            "cylinder_length",
+            "piston_length",
+            "min_length",
+            "max_length",
+        ],
+        "mass" => &["platform", "leg", "cylinder", "piston", "platform_inertia", "points"],
         "mass.points.*" => &["mass", "at"],
         "load" => &["force", "moment", "at"],
         "clearance" => &["s_radial", "r_radial", "r_axial", "r_angular"],
@@ -48,9 +63,57 @@ pub fn suggest<'a>(key: &str, options: &[&'a str]) -> Option<&'a str> {
     options.iter().map(|o| (distance(key, o), *o)).filter(|(d, o)| *d <= 2.max(o.len() / 3)).min().map(|(_, o)| o)
 }
 
-/// Checks every key of the parsed file against the tables it may appear in.
+/// Checks every key of the parsed file against the tables it may appear in, and
+/// the keys of `[mechanism]` and `[mass]` against the mechanism kind.
 pub fn check_keys(file: &str, table: &toml::Table) -> Result<(), JobError> {
-    walk(file, table, "", "")
+    walk(file, table, "", "")?;
+    let kind = kind_of(file, table)?;
+    let mut foreign = Vec::new();
+    for (section, keys) in [("mechanism", kind.mechanism_keys()), ("mass", kind.mass_keys())] {
+        if let Some(toml::Value::Table(t)) = table.get(section) {
+            foreign.extend(t.keys().filter(|k| !keys.contains(&k.as_str())).map(|k| format!("{section}.{k}")));
+        }
+    }
+    match foreign.first() {
+        None => Ok(()),
+        Some(first) => {
+            let names: Vec<&str> = foreign.iter().map(String::as_str).collect();
+            Err(JobError::new(file, first.clone(), foreign_reason(kind, &names)))
+        }
+    }
+}
+
+/// The mechanism kind named by `mechanism.kind` (the default when absent).
+fn kind_of(file: &str, table: &toml::Table) -> Result<MechanismKind, JobError> {
+    let Some(value) = table.get("mechanism").and_then(|m| m.get("kind")) else { return Ok(MechanismKind::default()) };
+    let names = MECHANISM_KINDS.map(|k| format!("\"{}\"", k.name())).join(", ");
+    match value.as_str() {
+        Some(name) => MechanismKind::from_name(name).ok_or_else(|| {
+            JobError::new(file, "mechanism.kind", format!("unknown mechanism kind {name:?}; expected one of {names}"))
+        }),
+        None => Err(JobError::new(file, "mechanism.kind", format!("must be a string, one of {names}"))),
+    }
+}
+
+/// Why keys of another kind are refused, naming every one of them.
+pub(crate) fn foreign_reason(kind: MechanismKind, keys: &[&str]) -> String {
+    let owners = |key: &str| {
+        let (section, name) = key.split_once('.').unwrap_or(("", key));
+        let owners: Vec<&str> = MECHANISM_KINDS
+            .into_iter()
+            .filter(|k| if section == "mass" { k.mass_keys() } else { k.mechanism_keys() }.contains(&name))
+            .map(MechanismKind::name)
+            .collect();
+        if owners.is_empty() { format!("`{key}`") } else { format!("`{key}` (a key of {})", owners.join(", ")) }
+    };
+    let listed: Vec<String> = keys.iter().map(|k| owners(k)).collect();
+    let (noun, verb) = if keys.len() == 1 { ("key", "does") } else { ("keys", "do") };
+    format!(
+        "the {noun} {} {verb} not belong to a {} mechanism; remove {} or set `mechanism.kind`",
+        listed.join(", "),
+        kind.name(),
+        if keys.len() == 1 { "it" } else { "them" }
+    )
 }
 
 fn walk(file: &str, table: &toml::Table, path: &str, pattern: &str) -> Result<(), JobError> {
@@ -92,6 +155,22 @@ mod tests {
         assert_eq!(suggest("platfrom", &["platform", "leg"]), Some("platform"));
         assert_eq!(suggest("mas", &["mass", "load"]), Some("mass"));
         assert_eq!(suggest("velocity", &["mass", "load"]), None);
+    }
+
+    #[test]
+    fn keys_of_another_kind_are_named() {
+        let t: toml::Table =
+            toml::from_str("[mechanism]\nkind = \"3-RPS\"\nleg_length = 1.0\nrail_angle_deg = 3.0\n").unwrap();
+        let e = check_keys("j.toml", &t).unwrap_err();
+        assert_eq!(e.key, "mechanism.leg_length");
+        assert!(e.reason.contains("`mechanism.rail_angle_deg` (a key of 3-PRS)"), "{}", e.reason);
+        assert!(e.reason.contains("3-RPS"), "{}", e.reason);
+        let t: toml::Table = toml::from_str("[mechanism]\nkind = \"4-PRS\"\n").unwrap();
+        let e = check_keys("j.toml", &t).unwrap_err();
+        assert_eq!(e.key, "mechanism.kind");
+        assert!(e.reason.contains("\"3-RPS\""), "{}", e.reason);
+        let t: toml::Table = toml::from_str("[mass]\ncylinder = 2.0\n").unwrap();
+        assert_eq!(check_keys("j.toml", &t).unwrap_err().key, "mass.cylinder");
     }
 
     #[test]

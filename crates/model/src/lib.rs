@@ -1,6 +1,7 @@
 //! # clearance-model
 //!
-//! The typed, validated description of one `clearance` job: the 3-PRS mechanism,
+//! The typed, validated description of one `clearance` job: the mechanism (a 3-PRS
+//! with any rails and limb layout, or a 3-RPS),
 //! its masses and loads, the clearance magnitudes, the analysis options and the
 //! samples (a workspace grid or a trajectory). A job file (TOML, see
 //! `shared/INTERFACE.md`) is exactly one [`JobSpec`]; [`JobSpec::from_toml_str`]
@@ -16,7 +17,7 @@
 //!     "[grid]\nz = 2.05\npsi = { start = -0.5, stop = 0.5, n = 3 }\ntheta = 0.0\n",
 //!     "example.toml",
 //! ).unwrap();
-//! assert_eq!(job.mechanism.leg_length, 1.0);
+//! assert_eq!(job.mechanism.leg_length(), 1.0);
 //! assert_eq!(job.sample_count(), 3);
 //! ```
 
@@ -24,14 +25,16 @@ mod error;
 mod job;
 mod keys;
 mod kinds;
+mod mechanism;
 mod sweep;
 
 pub use error::JobError;
 pub use job::{
-    AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, MassSpec, MechanismSpec, Mode,
-    PointMass, RangeSpec, SamplesSpec, SweepSpec, TrajectorySpec,
+    AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, Mode, RangeSpec, SamplesSpec,
+    SweepSpec, TrajectorySpec,
 };
 pub use kinds::{ClearanceKind, KINDS};
+pub use mechanism::{MECHANISM_KINDS, MassSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, PointMass};
 pub use sweep::{MAX_VARIANTS, Variant};
 
 /// Angles of the three limbs about `z` (MODEL.md §1), in radians.

@@ -32,7 +32,18 @@ impl JobSpec {
         base.sweep.clear();
         let table = toml::Table::try_from(&base).expect("a job always serialises");
         // Check every path once, against the job after defaults.
+        let mut table = table;
         for (i, s) in self.sweep.iter().enumerate() {
+            // A key whose default follows another (platform angles, stroke limits)
+            // is written out when a sweep names it.
+            if let Some(("mechanism", rest)) = s.param.split_once('.') {
+                let key = rest.split('.').next().unwrap_or(rest);
+                if let (Some(toml::Value::Table(m)), Some(v)) =
+                    (table.get_mut("mechanism"), base.mechanism.implied(key))
+                {
+                    m.entry(key).or_insert(v);
+                }
+            }
             let mut probe = table.clone();
             set_path(&mut probe, &s.param, 0.0).map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
         }

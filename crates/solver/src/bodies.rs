@@ -2,10 +2,10 @@
 //! equilibrium needs: a composite platform and three slender legs.
 
 use clearance_kinematics::{Geometry, Motion, Posture};
-use clearance_model::JobSpec;
+use clearance_model::{JobSpec, MechanismKind};
 use nalgebra::{Matrix3, Vector3};
 
-/// The platform with its point masses as one rigid body.
+/// The platform with its point masses as one rigid body, and the limbs' bodies.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MassModel {
     /// Total platform mass `m` (platform plus point masses), kg.
@@ -14,10 +14,33 @@ pub struct MassModel {
     pub com_local: Vector3<f64>,
     /// Inertia about the composite centre of mass, platform axes.
     pub inertia_local: Matrix3<f64>,
-    /// Mass of each leg, kg.
+    /// 3-PRS: mass of each leg, kg (0 for the 3-RPS).
     pub leg_mass: f64,
     /// `m_leg·L²/12`, the leg's inertia across its axis.
     pub leg_inertia: f64,
+    /// 3-RPS: the cylinder (from the base joint) and the piston (up to the
+    /// spherical joint) of each leg (zero masses for the 3-PRS).
+    pub cylinder: Rod,
+    pub piston: Rod,
+}
+
+/// A slender rod: `mass`, `length`, and `m·ℓ²/12` across its axis (0 along it).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Rod {
+    pub mass: f64,
+    pub length: f64,
+    pub inertia: f64,
+}
+
+impl Rod {
+    fn new(mass: f64, length: f64) -> Self {
+        Self { mass, length, inertia: mass * length * length / 12.0 }
+    }
+
+    /// Inertia about its centre of mass in world axes, along `e`: `m·ℓ²/12·(I − e·eᵀ)`.
+    pub fn inertia_world(&self, e: &Vector3<f64>) -> Matrix3<f64> {
+        self.inertia * (Matrix3::identity() - e * e.transpose())
+    }
 }
 
 fn point_inertia(m: f64, d: &Vector3<f64>) -> Matrix3<f64> {
@@ -27,7 +50,8 @@ fn point_inertia(m: f64, d: &Vector3<f64>) -> Matrix3<f64> {
 impl MassModel {
     pub fn from_job(job: &JobSpec) -> Self {
         let ms = &job.mass;
-        let r = job.mechanism.platform_radius;
+        let kind = job.mechanism.kind;
+        let r = job.mechanism.platform_radius();
         let own = match ms.platform_inertia {
             Some(i) => Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2])),
             None => {
@@ -43,8 +67,46 @@ impl MassModel {
         for p in &ms.points {
             inertia_local += point_inertia(p.mass, &(Vector3::from(p.at) - com_local));
         }
-        let l = job.mechanism.leg_length;
-        Self { platform_mass: total, com_local, inertia_local, leg_mass: ms.leg, leg_inertia: ms.leg * l * l / 12.0 }
+        let m = &job.mechanism;
+        let (leg_mass, l) = (ms.leg(kind), m.leg_length());
+        let leg_inertia = if kind == MechanismKind::Prs3 { leg_mass * l * l / 12.0 } else { 0.0 };
+        let (cylinder, piston) = match kind {
+            MechanismKind::Prs3 => (Rod::default(), Rod::default()),
+            MechanismKind::Rps3 => {
+                (Rod::new(ms.cylinder(kind), m.cylinder_length()), Rod::new(ms.piston(kind), m.piston_length()))
+            }
+        };
+        Self { platform_mass: total, com_local, inertia_local, leg_mass, leg_inertia, cylinder, piston }
+    }
+
+    /// The loads of leg j's two bodies (3-RPS), other than the joint reactions: `c_j`,
+    /// the weight and inertia forces, `Σ m_b·(a_b − g)`, and `H_j`, the rate of angular
+    /// momentum and those forces' moment about the base joint `B_j`,
+    /// `Σ I_b·ω̇ + ω×(I_b·ω) + (G_b − B_j)×m_b·(a_b − g)`. The cylinder's centre is
+    /// `B_j + (ℓ_c/2)·e_j`, the piston's `A_j − (ℓ_p/2)·e_j`; both turn with the leg.
+    pub fn rps_limb(
+        &self,
+        pose: &Posture,
+        inertial: &Inertial,
+        gravity: &Vector3<f64>,
+        j: usize,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let e = pose.e[j];
+        let (w, w_dot) = (inertial.leg_omega[j], inertial.leg_omega_dot[j]);
+        let (cyl, pis) = (&self.cylinder, &self.piston);
+        let arm_c = 0.5 * cyl.length;
+        let arm_p = pose.ell[j] - 0.5 * pis.length;
+        let acc_c = arm_c * inertial.e_ddot[j];
+        let acc_p = inertial.a_ddot[j] - 0.5 * pis.length * inertial.e_ddot[j];
+        let (f_c, f_p) = (cyl.mass * (acc_c - gravity), pis.mass * (acc_p - gravity));
+        let mut h = (arm_c * e).cross(&f_c) + (arm_p * e).cross(&f_p);
+        if inertial.moving {
+            for rod in [cyl, pis] {
+                let i = rod.inertia_world(&e);
+                h += i * w_dot + w.cross(&(i * w));
+            }
+        }
+        (f_c + f_p, h)
     }
 }
 
@@ -68,6 +130,9 @@ pub struct Inertial {
     pub leg_omega: [Vector3<f64>; 3],
     pub leg_omega_dot: [Vector3<f64>; 3],
     pub leg_com_acc: [Vector3<f64>; 3],
+    /// `ë_j` and `Ä_j`, for the bodies of a 3-RPS leg.
+    pub e_ddot: [Vector3<f64>; 3],
+    pub a_ddot: [Vector3<f64>; 3],
     /// False in kinetostatics, where every rate above is zero and the inertial
     /// terms can be skipped.
     pub moving: bool,
@@ -86,6 +151,8 @@ impl Inertial {
             leg_omega: motion.leg_omega,
             leg_omega_dot: motion.leg_omega_dot,
             leg_com_acc: motion.leg_com_acc,
+            e_ddot: motion.e_ddot,
+            a_ddot: motion.a_ddot,
             moving: true,
         }
     }

@@ -8,6 +8,7 @@
 //! the composite centre of mass C `21..24`.
 
 use clearance_kinematics::Posture;
+use clearance_model::MechanismKind;
 use faer::{Mat, MatMut};
 use nalgebra::{Matrix3, Vector3};
 
@@ -47,21 +48,31 @@ pub fn assemble(model: &Model, pose: &Posture, inertial: &Inertial, mut a: MatMu
     let com = pose.p + pose.rot * mass.com_local;
     for j in 0..3 {
         let (r, c) = (6 * j, 8 * j);
-        let gj = 0.5 * (pose.a[j] + pose.b[j]);
-        // Leg forces: f_Rj − f_Sj + m_leg·g = m_leg·a_Gj.
         put3(&mut a, r, c, &eye);
         put3(&mut a, r, c + 5, &(-eye));
-        let f_rhs = mass.leg_mass * (inertial.leg_com_acc[j] - g);
-        // Leg moments about G_j: m_Rj + (B_j − G_j)×f_Rj − (A_j − G_j)×f_Sj = I·ω̇ + ω×I·ω.
-        put3(&mut a, r + 3, c, &skew(&(pose.b[j] - gj)));
-        put3(&mut a, r + 3, c + 5, &(-skew(&(pose.a[j] - gj))));
         for k in 0..3 {
             a[(r + 3 + k, c + 3)] = geom.x[j][k];
             a[(r + 3 + k, c + 4)] = z[k];
         }
-        let inertia = leg_inertia_world(mass, &pose.e[j]);
-        let w = inertial.leg_omega[j];
-        let m_rhs = inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w));
+        let (f_rhs, m_rhs) = match geom.kind {
+            MechanismKind::Prs3 => {
+                let gj = 0.5 * (pose.a[j] + pose.b[j]);
+                // Leg forces: f_Rj − f_Sj + m_leg·g = m_leg·a_Gj.
+                let f_rhs = mass.leg_mass * (inertial.leg_com_acc[j] - g);
+                // Leg moments about G_j: m_Rj + (B_j − G_j)×f_Rj − (A_j − G_j)×f_Sj = I·ω̇ + ω×I·ω.
+                put3(&mut a, r + 3, c, &skew(&(pose.b[j] - gj)));
+                put3(&mut a, r + 3, c + 5, &(-skew(&(pose.a[j] - gj))));
+                let inertia = leg_inertia_world(mass, &pose.e[j]);
+                let w = inertial.leg_omega[j];
+                (f_rhs, inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w)))
+            }
+            MechanismKind::Rps3 => {
+                // Cylinder and piston summed; moments about B_j, where f_Rj acts:
+                // m_Rj − (A_j − B_j)×f_Sj = H_j.
+                put3(&mut a, r + 3, c + 5, &(-skew(&(pose.a[j] - pose.b[j]))));
+                mass.rps_limb(pose, inertial, &g, j)
+            }
+        };
         // Platform: Σ f_Sj and Σ (A_j − C)×f_Sj.
         put3(&mut a, 18, c + 5, &eye);
         put3(&mut a, 21, c + 5, &skew(&(pose.a[j] - com)));

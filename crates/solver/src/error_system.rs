@@ -9,7 +9,7 @@
 //! rows `0..6` close limb 2 against limb 1 and rows `6..12` limb 3 against limb 1.
 //! Each clearance kind is one right-hand side, so one factorisation serves all four.
 
-use clearance_kinematics::Posture;
+use clearance_kinematics::{Geometry, Posture};
 use faer::{Mat, MatMut};
 use nalgebra::{Vector3, Vector6};
 
@@ -81,10 +81,10 @@ pub fn assemble(
 
 /// The per-kind errors from the solved passive motions (`dq`, 12 × 4): the twist
 /// of limb 1.
-pub fn errors_from(pose: &Posture, y: &[Vector3<f64>; 3], take: &TakeUp, dq: &Mat<f64>) -> [PoseError; 4] {
-    let screws = passive_screws(pose, &y[0], 0);
+pub fn errors_from(geom: &Geometry, pose: &Posture, take: &TakeUp, dq: &Mat<f64>) -> [PoseError; 4] {
+    let screws = passive_screws(pose, &geom.y[0], 0);
     let cl = clearance_twists(pose, take, 0);
-    let euler_inv = fast::euler_inverse(&fast::Pose::from_posture(pose));
+    let euler_inv = fast::euler_inverse(&fast::Pose::from_posture(geom, pose));
     [0, 1, 2, 3].map(|k| {
         let mut t = cl[k];
         for (u, s) in screws.iter().enumerate() {

@@ -4,7 +4,7 @@
 //! Unknowns: the platform pose `(p', R')` and the leg angles `φ_j` (9). For each limb
 //!
 //! ```text
-//! p' + R'·a'_j = B_j + ΔB_j + L·Rot(Δθ_j)·Rot(y_j, φ_j)·e_j + ΔA_j
+//! p' + R'·a'_j = B_j + ΔB_j + ℓ_j·Rot(Δθ_j)·Rot(y_j, φ_j)·e_j + ΔA_j
 //! ```
 //!
 //! solved by Newton from the nominal pose, with `R' = Exp(w)·R` (the Jacobian of
@@ -55,7 +55,9 @@ fn left_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
 ///
 /// is of the size of the clearances, so the error keeps full relative precision.
 pub fn exact_error(geom: &Geometry, pose: &Posture, take: &TakeUp) -> Option<[f64; 6]> {
-    let l = geom.leg_length;
+    // The leg's length from B_j to A_j: L, or the 3-RPS leg locked at its nominal q_j.
+    let ell = pose.ell;
+    let l = ell.iter().fold(0.0f64, |m, &v| m.max(v));
     let mut dp = Vector3::zeros();
     let mut w = Vector3::zeros();
     let mut phi = [0.0f64; 3];
@@ -72,9 +74,9 @@ pub fn exact_error(geom: &Geometry, pose: &Posture, take: &TakeUp) -> Option<[f6
             let ra = ra0[j] + e_w * ra0[j];
             let m2 = exp_minus_identity(&(phi[j] * geom.y[j]));
             let turn = leg_tilt[j] + m2 + leg_tilt[j] * m2;
-            let r = dp + e_w * ra0[j] - offset[j] - l * (turn * pose.e[j]);
+            let r = dp + e_w * ra0[j] - offset[j] - ell[j] * (turn * pose.e[j]);
             let leg_dir = pose.e[j] + m2 * pose.e[j];
-            let d_phi = -l * ((Matrix3::identity() + leg_tilt[j]) * geom.y[j].cross(&leg_dir));
+            let d_phi = -ell[j] * ((Matrix3::identity() + leg_tilt[j]) * geom.y[j].cross(&leg_dir));
             let d_w = -ra.cross_matrix() * jl;
             for i in 0..3 {
                 res[3 * j + i] = r[i];

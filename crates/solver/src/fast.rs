@@ -19,13 +19,14 @@
 //! the 24 × 24 and 12 × 12 systems after elimination; the two paths agree to round-off
 //! (tested on random poses).
 
-use clearance_kinematics::{Geometry, Posture, limb, parasitic_sc, rotation_sc, slider};
+use clearance_kinematics::{Geometry, Posture, limb, parasitic_of, parasitic_sc, rotation_sc, slider};
+use clearance_model::MechanismKind;
 use nalgebra::{Matrix3, Vector3};
 
 use crate::bodies::{Inertial, Model, leg_inertia_world};
 use crate::equilibrium::JointReactions;
 use crate::error_system::PoseError;
-use crate::lanes::{Lane, Mask, V3, each3, each4, each6, lane3, lane3v};
+use crate::lanes::{LANES, Lane, Mask, V3, each3, each4, each6, lane3, lane3v};
 use crate::takeup::TakeUps;
 
 /// A 6 × 6 matrix, row-major.
@@ -33,6 +34,12 @@ type A6<L> = [[L; 6]; 6];
 
 #[inline(always)]
 fn c<L: Lane>(v: f64) -> L {
+    L::constant(v)
+}
+
+/// [`c`] where a local `c` shadows it.
+#[inline(always)]
+fn c_<L: Lane>(v: f64) -> L {
     L::constant(v)
 }
 
@@ -250,33 +257,65 @@ pub struct Pose<L: Lane> {
     pub b: [V3<L>; 3],
     pub e: [V3<L>; 3],
     pub q: [L; 3],
-    /// Every leg reaches its slider line (where not, the other fields past the
-    /// parasitic motions are meaningless).
+    /// Leg lengths `|A_j − B_j|`: `L` (3-PRS) or `q_j` (3-RPS).
+    pub ell: [L; 3],
+    /// Every leg can be assembled (where not, the other fields past the parasitic
+    /// motions are meaningless).
     pub reachable: L::M,
+    /// Some 3-PRS leg lies across its rail: a singular pose.
+    pub across: L::M,
 }
 
 impl<L: Lane> Pose<L> {
-    /// The closed-form inverse kinematics of `inverse_kinematics`, lane by lane.
+    /// The inverse kinematics of `inverse_kinematics`, lane by lane: the closed forms,
+    /// or Newton one lane at a time where the layout has none.
     #[inline(always)]
     pub fn new(geom: &Geometry, z: L, psi: L, theta: L) -> Self {
         let (sc_psi, sc_theta) = (psi.sin_cos(), theta.sin_cos());
-        let (x, y, phi, sc_phi) = parasitic_sc(geom.platform_radius, sc_psi, sc_theta);
+        let (x, y, phi, sc_phi, mut reachable) = if geom.closed_form {
+            let (x, y, phi, sc_phi) = parasitic_sc(geom.platform_radius, sc_psi, sc_theta);
+            (x, y, phi, sc_phi, L::M::splat(true))
+        } else {
+            // X, Y, Φ, sin Φ, cos Φ of each lane; NaN where Newton did not converge.
+            let solved: [[f64; 5]; LANES] = std::array::from_fn(|i| match i < L::WIDTH {
+                true => parasitic_of(geom, psi.get(i), theta.get(i))
+                    .map_or([f64::NAN; 5], |(x, y, phi, (s, c))| [x, y, phi, s, c]),
+                false => [f64::NAN; 5],
+            });
+            let part = |k: usize| L::from_fn(|i| solved[i][k]);
+            let (x, y, phi) = (part(0), part(1), part(2));
+            (x, y, phi, (part(3), part(4)), x.finite())
+        };
         let rot = rotation_sc(sc_phi, sc_psi, sc_theta);
         let p = [x, y, z];
-        let mut reachable = L::M::splat(true);
+        let mut across = L::M::splat(false);
         let (mut a, mut b, mut e, mut q) = ([V3::zero(); 3], [V3::zero(); 3], [V3::zero(); 3], [c(0.0); 3]);
+        let mut ell = [c(0.0); 3];
         for j in 0..3 {
             let (aj, disc) = limb(geom, j, p, &rot);
-            // Also false for NaN.
-            reachable = reachable & c::<L>(0.0).le(disc);
+            // Each also false for NaN.
+            match geom.kind {
+                MechanismKind::Prs3 => {
+                    reachable = reachable & c::<L>(0.0).le(disc);
+                    across = across | c::<L>(1e-6 * geom.leg_length).gt(disc.sqrt());
+                }
+                MechanismKind::Rps3 => {
+                    let len = disc.sqrt();
+                    reachable = reachable & c::<L>(geom.stroke.0).le(len) & len.le(c(geom.stroke.1));
+                }
+            }
             let (qj, bj) = slider(geom, j, aj, disc);
             (a[j], b[j], q[j]) = (V3::from_array(aj), V3::from_array(bj), qj);
             let d = a[j] - b[j];
-            let l = c::<L>(geom.leg_length);
+            ell[j] = match geom.kind {
+                MechanismKind::Prs3 => c::<L>(geom.leg_length),
+                MechanismKind::Rps3 => qj,
+            };
+            let l = ell[j];
             e[j] = V3::new(d.x / l, d.y / l, d.z / l);
         }
         let p = V3::from_array(p);
-        Self { z, psi, theta, sc_psi, sc_theta, x, y, phi, p, rot, a, b, e, q, reachable }
+        Self { z, psi, theta, sc_psi, sc_theta, x, y, phi, p, rot, a, b, e, q, ell, reachable, across }
     }
 
     /// Lane `i` as a [`Posture`].
@@ -294,13 +333,17 @@ impl<L: Lane> Pose<L> {
             b: lane3v(&self.b, i),
             q: lane3(&self.q, i),
             e: lane3v(&self.e, i),
+            ell: lane3(&self.ell, i),
         }
     }
 }
 
 impl Pose<f64> {
     /// A posture computed elsewhere (the dynamic path's jets).
-    pub fn from_posture(pose: &Posture) -> Self {
+    pub fn from_posture(geom: &Geometry, pose: &Posture) -> Self {
+        // L·(e_j·d_j) is the square root that `limb` tests in the batched path.
+        let across = geom.kind == MechanismKind::Prs3
+            && (0..3).any(|j| geom.leg_length * pose.e[j].dot(&geom.rail(j)) < 1e-6 * geom.leg_length);
         let v = V3::splat;
         Self {
             z: pose.z,
@@ -317,7 +360,9 @@ impl Pose<f64> {
             b: pose.b.each_ref().map(v),
             e: pose.e.each_ref().map(v),
             q: pose.q,
+            ell: pose.ell,
             reachable: true,
+            across,
         }
     }
 }
@@ -333,6 +378,9 @@ pub struct Loads<L: Lane> {
     moment_c: V3<L>,
     /// `C − P`.
     com: V3<L>,
+    /// Where `h_j` is taken, as the distance along the leg from `B_j` that `c_j`
+    /// acts at: `L/2` (3-PRS: `h_j` about the leg's centre), 0 (3-RPS: `h_j` about `B_j`).
+    arm: f64,
 }
 
 #[inline(always)]
@@ -346,12 +394,29 @@ impl<L: Lane> Loads<L> {
     #[inline(always)]
     pub fn statics(model: &Model, pose: &Pose<L>) -> Self {
         let mass = &model.mass;
-        let leg = V3::splat(&(mass.leg_mass * -model.gravity));
         let com = rotate(&pose.rot, &mass.com_local);
         let force = V3::splat(&(mass.platform_mass * -model.gravity - model.load.force));
         let e_point = rotate(&pose.rot, &model.load.at_local);
         let moment_c = -(e_point - com).cross(V3::splat(&model.load.force)) - V3::splat(&model.load.moment);
-        Self { c: [leg; 3], h: [V3::zero(); 3], force, moment_c, com }
+        match model.geometry.kind {
+            MechanismKind::Prs3 => {
+                let leg = V3::splat(&(mass.leg_mass * -model.gravity));
+                let arm = 0.5 * model.geometry.leg_length;
+                Self { c: [leg; 3], h: [V3::zero(); 3], force, moment_c, com, arm }
+            }
+            MechanismKind::Rps3 => {
+                // The weights' moment about B_j: (ℓ_c/2)·e×(−m_c·g) + (q − ℓ_p/2)·e×(−m_p·g).
+                let (cyl, pis) = (&mass.cylinder, &mass.piston);
+                let c = V3::splat(&((cyl.mass + pis.mass) * -model.gravity));
+                let down = V3::splat(&-model.gravity);
+                let h = each3(|j| {
+                    let lever =
+                        c_::<L>(0.5 * cyl.length * cyl.mass) + (pose.q[j] - c_::<L>(0.5 * pis.length)).scale(pis.mass);
+                    pose.e[j].cross(down).times(lever)
+                });
+                Self { c: [c; 3], h, force, moment_c, com, arm: 0.0 }
+            }
+        }
     }
 }
 
@@ -362,12 +427,22 @@ impl Loads<f64> {
         let v = |w: Vector3<f64>| V3::splat(&w);
         let mut c = [V3::zero(); 3];
         let mut h = [V3::zero(); 3];
+        let mut arm = 0.0;
         for j in 0..3 {
-            c[j] = v(mass.leg_mass * (inertial.leg_com_acc[j] - model.gravity));
-            if inertial.moving {
-                let inertia: Matrix3<f64> = leg_inertia_world(mass, &pose.e[j]);
-                let w = inertial.leg_omega[j];
-                h[j] = v(inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w)));
+            match model.geometry.kind {
+                MechanismKind::Prs3 => {
+                    arm = 0.5 * model.geometry.leg_length;
+                    c[j] = v(mass.leg_mass * (inertial.leg_com_acc[j] - model.gravity));
+                    if inertial.moving {
+                        let inertia: Matrix3<f64> = leg_inertia_world(mass, &pose.e[j]);
+                        let w = inertial.leg_omega[j];
+                        h[j] = v(inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w)));
+                    }
+                }
+                MechanismKind::Rps3 => {
+                    let (cj, hj) = mass.rps_limb(pose, inertial, &model.gravity, j);
+                    (c[j], h[j]) = (v(cj), v(hj));
+                }
             }
         }
         let com = pose.rot * mass.com_local;
@@ -379,7 +454,7 @@ impl Loads<f64> {
             let w = inertial.omega;
             moment_c += inertia * inertial.omega_dot + w.cross(&(inertia * w));
         }
-        Self { c, h, force: v(force), moment_c: v(moment_c), com: v(com) }
+        Self { c, h, force: v(force), moment_c: v(moment_c), com: v(com), arm }
     }
 }
 
@@ -459,12 +534,11 @@ impl<L: Lane> Reduced<L> {
     #[inline(always)]
     pub fn reactions(&self, model: &Model, pose: &Pose<L>, loads: &Loads<L>) -> Reactions<L> {
         let geom = &model.geometry;
-        let l = geom.leg_length;
         let y = each3(|j| V3::<L>::splat(&geom.y[j]));
-        let (cl, h) = (&loads.c, &loads.h);
+        let (cl, h, arm) = (&loads.c, &loads.h, loads.arm);
         let mut gamma = [c::<L>(0.0); 3];
         for j in 0..3 {
-            gamma[j] = -(h[j] + pose.e[j].cross(cl[j]).scale(0.5 * l)).dot(y[j]) / c(l);
+            gamma[j] = -(h[j] + pose.e[j].cross(cl[j]).scale(arm)).dot(y[j]) / pose.ell[j];
         }
         // About P: Σ r_j×f_Sj = M_C + (C − P)×Σ f_Sj.
         let mut f = loads.force;
@@ -479,7 +553,7 @@ impl<L: Lane> Reduced<L> {
         let (mut f_r, mut m_r, mut f_s) = ([V3::zero(); 3], [V3::zero(); 3], [V3::zero(); 3]);
         for j in 0..3 {
             let fs = pose.e[j].times(u[2 * j][0]) + y[j].times(u[2 * j + 1][0]) + self.n[j].times(gamma[j]);
-            let mr = h[j] + pose.e[j].cross(fs).scale(l) + pose.e[j].cross(cl[j]).scale(0.5 * l);
+            let mr = h[j] + pose.e[j].cross(fs).times(pose.ell[j]) + pose.e[j].cross(cl[j]).scale(arm);
             f_s[j] = fs;
             f_r[j] = fs + cl[j];
             // The couple has no component about y_j: keep the exact form μ1·x_j + μ2·z.

@@ -36,6 +36,8 @@ impl Mask for bool {
 /// One value per lane.
 pub trait Lane: Elementary {
     type M: Mask;
+    /// Poses in one value: 1 for `f64`, [`LANES`] for a batch.
+    const WIDTH: usize;
     fn abs(self) -> Self;
     /// `o` where `o > self`, else `self` (so NaN in `self` stays; unlike `f64::max`,
     /// whose choice between `0.0` and `-0.0` may differ between scalar and vector code).
@@ -49,10 +51,13 @@ pub trait Lane: Elementary {
     fn select(m: Self::M, a: Self, b: Self) -> Self;
     /// Lane `i`.
     fn get(self, i: usize) -> f64;
+    /// `f(i)` in lane `i` (for lanes computed one at a time).
+    fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
 }
 
 impl Lane for f64 {
     type M = bool;
+    const WIDTH: usize = 1;
     #[inline(always)]
     fn abs(self) -> Self {
         f64::abs(self)
@@ -88,6 +93,10 @@ impl Lane for f64 {
     #[inline(always)]
     fn get(self, _: usize) -> f64 {
         self
+    }
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f64) -> Self {
+        f(0)
     }
 }
 
@@ -211,6 +220,7 @@ impl Elementary for F8 {
 
 impl Lane for F8 {
     type M = M8;
+    const WIDTH: usize = LANES;
     #[inline(always)]
     fn abs(self) -> Self {
         self.map(f64::abs)
@@ -247,6 +257,10 @@ impl Lane for F8 {
     #[inline(always)]
     fn get(self, i: usize) -> f64 {
         self.0[i]
+    }
+    #[inline(always)]
+    fn from_fn(f: impl FnMut(usize) -> f64) -> Self {
+        F8(std::array::from_fn(f))
     }
 }
 

@@ -1,7 +1,7 @@
 //! One pose through the whole pipeline: kinematics → reactions → take-up → error.
 
 use clearance_grid::{Sample, SampleSource};
-use clearance_kinematics::{inverse_kinematics_motion, parasitic};
+use clearance_kinematics::inverse_kinematics_motion;
 use clearance_model::Mode;
 use faer::Mat;
 use rayon::prelude::*;
@@ -155,7 +155,7 @@ fn posture(model: &Model, sample: &Sample, mode: Mode) -> Option<(Pose<f64>, Loa
         }
         Mode::Dynamic => inverse_kinematics_motion(geom, sample.z, sample.psi, sample.theta).ok().map(|(p, m)| {
             let inertial = Inertial::from_motion(&p, &m, &model.mass);
-            (Pose::from_posture(&p), Loads::dynamics(model, &p, &inertial), inertial)
+            (Pose::from_posture(geom, &p), Loads::dynamics(model, &p, &inertial), inertial)
         }),
     }
 }
@@ -194,18 +194,19 @@ fn reactions_only(
     let (pose, loads, _) = posture(model, sample, mode)?;
     let reduced = Reduced::new(model, &pose, conditioned);
     // As `solve_fast` decides: both condition numbers within the limit (NaN is not).
-    let solvable = if conditioned {
-        reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond
-    } else {
-        reduced.regular()
-    };
+    let solvable = !pose.across
+        && if conditioned {
+            reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond
+        } else {
+            reduced.regular()
+        };
     solvable.then(|| reduced.reactions(model, &pose, &loads).get(0))
 }
 
 /// Runs one sample in one mode. Never panics on a bad pose: it becomes a status.
 pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> PoseResult {
     let Some((pose, loads, inertial)) = posture(model, sample, mode) else {
-        let (x, y, phi) = parasitic(model.geometry.platform_radius, sample.psi[0], sample.theta[0]);
+        let (x, y, phi) = model.geometry.parasitic(sample.psi[0], sample.theta[0]);
         return PoseResult::unreachable(x, y, phi);
     };
     match model.solver {
@@ -393,7 +394,7 @@ fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mu
     }
     let reduced = Reduced::new(model, pose, true);
     let conditioned = |k: L| k.le(L::constant(model.singular_cond));
-    let solvable = pose.reachable & conditioned(reduced.cond_g) & conditioned(reduced.cond_m);
+    let solvable = pose.reachable & !pose.across & conditioned(reduced.cond_g) & conditioned(reduced.cond_m);
     if !any(solvable) {
         for (i, o) in out.iter_mut().enumerate() {
             *o = unsolved(pose, &reduced, i);
@@ -441,7 +442,7 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
     result.cond_a = reduced.cond_g;
     result.cond_jp = reduced.cond_m;
     result.status = Status::NearSingular;
-    if !(reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond) {
+    if pose.across || !(reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond) {
         return result;
     }
     equilibrium::assemble(model, &posture, inertial, ws.a.as_mut(), ws.w.as_mut());
@@ -454,7 +455,7 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
     if !ws.lu_jp.solve(ws.jp.as_ref(), ws.dq.as_mut()) {
         return result;
     }
-    let errors = error_system::errors_from(&posture, &geom.y, &take, &ws.dq);
+    let errors = error_system::errors_from(geom, &posture, &take, &ws.dq);
     finish(model, pose, 0, (reduced.cond_g, reduced.cond_m), reactions, &take, errors)
 }
 

@@ -68,3 +68,43 @@ fn batches_give_each_pose_its_scalar_bits() {
     // Every status went through the masks, and exact errors were compared.
     assert!(seen.iter().all(|&k| k > 5), "statuses seen: {seen:?}");
 }
+
+/// The family's layouts (Newton solved lane by lane, stroke limits, legs across
+/// their rails) give each pose the same bits in a batch as alone.
+#[test]
+fn family_batches_give_each_pose_its_scalar_bits() {
+    let mut rng = ChaCha8Rng::seed_from_u64(22);
+    let mut ws = Workspace::new();
+    let mut seen = [0usize; 4];
+    for case in 0..common::FAMILY.len() {
+        for round in 0..6 {
+            let (job, z) = common::family_job(&mut rng, case, [1e-4, 2e-4, 0.0, 3e-4]);
+            let mut model = Model::from_job(&job);
+            model.exact = round % 2 == 0;
+            model.singular_cond = rng.random_range(20.0..400.0);
+            let n = rng.random_range(1..30);
+            let samples: Vec<Sample> = (0..n)
+                .map(|_| {
+                    common::static_sample(
+                        z + rng.random_range(-0.6..0.6),
+                        rng.random_range(-0.9..0.9),
+                        rng.random_range(-0.9..0.9),
+                    )
+                })
+                .collect();
+            let scalar: Vec<String> =
+                samples.iter().map(|s| bits(&solve_pose(&model, s, Mode::Kinetostatic, &mut ws))).collect();
+            for isa in Isa::available() {
+                for skip in 0..n.min(9) {
+                    let mut out = vec![PoseResult::default(); n - skip];
+                    solve_batches(&model, &samples[skip..], &mut out, isa);
+                    for (i, r) in out.iter().enumerate() {
+                        assert_eq!(bits(r), scalar[skip + i], "case {case}, {isa:?}, pose {}", skip + i);
+                        seen[r.status.index()] += usize::from(skip == 0);
+                    }
+                }
+            }
+        }
+    }
+    assert!(seen[0] > 50 && seen[1] > 5 && seen[2] > 5, "statuses seen: {seen:?}");
+}

@@ -28,6 +28,52 @@ fn flatten(r: &PoseResult) -> Vec<(String, f64)> {
     v
 }
 
+/// `a` and `b` agree to round-off amplified by the conditioning.
+fn assert_agree(a: &PoseResult, b: &PoseResult, w: f64, what: &str) {
+    for ((name, x), (_, y)) in flatten(a).iter().zip(flatten(b)) {
+        // Loads relative to the load scale, errors to the clearance scale (4e-4),
+        // both within round-off amplified by the conditioning.
+        let scale = if name.starts_with('f') || name.starts_with('m') { w } else { 4e-4 };
+        let tol = 1e-13 * a.cond_a.max(a.cond_jp) * scale;
+        assert!((x - y).abs() <= tol, "{name}: {x} vs {y} ({what}, cond {})", a.cond_a);
+    }
+}
+
+/// Inclined and horizontal rails, uneven limbs (Newton), the 3-RPS: the batched
+/// fast path, the scalar fast path and the assembled path agree.
+#[test]
+fn fast_and_general_paths_agree_across_the_family() {
+    let mut rng = ChaCha8Rng::seed_from_u64(19);
+    let mut ws = Workspace::new();
+    let mut compared = 0;
+    for case in 0..common::FAMILY.len() {
+        for _ in 0..25 {
+            let (job, z0) = common::family_job(&mut rng, case, [1e-4, 2e-4, 3e-4, 4e-4]);
+            let mut general = Model::from_job(&job);
+            general.solver = SolverKind::General;
+            let mut fast = general.clone();
+            fast.solver = SolverKind::Fast;
+            let w = job.weight() + general.load.force.norm() + general.load.moment.norm();
+            for mode in [Mode::Kinetostatic, Mode::Dynamic] {
+                let r = |rng: &mut ChaCha8Rng, a: f64| {
+                    [rng.random_range(-a..a), rng.random_range(-1.0..1.0), rng.random_range(-5.0..5.0)]
+                };
+                let mut z = r(&mut rng, 0.1);
+                z[0] += z0;
+                let s = Sample { index: 0, t: Some(0.0), z, psi: r(&mut rng, 0.3), theta: r(&mut rng, 0.3) };
+                let (a, b) = (solve_pose(&general, &s, mode, &mut ws), solve_pose(&fast, &s, mode, &mut ws));
+                assert_eq!(a.status, b.status, "case {case}");
+                if a.status != Status::Ok {
+                    continue;
+                }
+                assert_agree(&a, &b, w, &format!("case {case}, {mode:?}"));
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > 250, "{compared}");
+}
+
 #[test]
 fn fast_and_general_paths_agree() {
     let mut rng = ChaCha8Rng::seed_from_u64(8);
@@ -53,13 +99,7 @@ fn fast_and_general_paths_agree() {
             if a.status != Status::Ok {
                 continue;
             }
-            for ((name, x), (_, y)) in flatten(&a).iter().zip(flatten(&b)) {
-                // Loads relative to the load scale, errors to the clearance scale (4e-4),
-                // both within round-off amplified by the conditioning.
-                let scale = if name.starts_with('f') || name.starts_with('m') { w } else { 4e-4 };
-                let tol = 1e-13 * a.cond_a.max(a.cond_jp) * scale;
-                assert!((x - y).abs() <= tol, "{name}: {x} vs {y} ({mode:?}, cond {})", a.cond_a);
-            }
+            assert_agree(&a, &b, w, &format!("{mode:?}"));
             compared += 1;
         }
     }
