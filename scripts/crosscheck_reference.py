@@ -2,12 +2,32 @@
 """Cross-check the engine's `poses` output against scripts/reference_model.py.
 
     python3 scripts/crosscheck_reference.py [--jobs N] [--seed S] [--bin PATH] [--keep DIR]
+                                            [--kinds prototype,3-PRS,3-RPS | all]
 
-For each of N random (seeded) jobs around the paper's prototype this writes the
-job as TOML, runs ``clearance run JOB --out DIR --columns full``, reads
+For each of N random (seeded) jobs this writes the job as TOML, runs
+``clearance run JOB --out DIR --columns full``, reads
 ``DIR/poses/variant=0/*.parquet`` (``variant`` comes from the Hive path),
 joins engine and reference rows on (mode, sample) and compares every column
 the reference knows.
+
+Job families (``--kinds``, comma-separated; ``all`` = every one; default
+``prototype``, whose jobs for a given seed are the same as before the family
+existed):
+
+* ``prototype``: jobs around the paper's 3-PRS prototype (vertical rails, limbs
+  at 0/120/240 deg), no ``kind`` key;
+* ``3-PRS``: ``kind = "3-PRS"`` with rail angles in [-90, 90] deg (often exactly
+  -90, 0, 30 or 90), limb angles that are the symmetric set or perturbations of
+  0/120/240 by up to +-25 deg, platform angles equal to them or perturbed
+  independently;
+* ``3-RPS``: ``kind = "3-RPS"`` with varied radii, cylinder/piston lengths and
+  masses, default or explicit strokes, symmetric or uneven layouts.
+
+With several families each job draws its family first.  Heights are chosen from
+the reference's own kinematics so that the poses are mostly reachable and well
+conditioned; "edge" jobs sit at the border of the workspace (a share of
+unreachable rows).  Grids and trajectories, kinetostatic and dynamic modes, and
+exact mode (not on edge jobs) all occur.
 
 Comparison rule (per cell, both sides non-null):
 
@@ -23,9 +43,11 @@ Comparison rule (per cell, both sides non-null):
       c_t + L*c_a (position errors, linear and exact), c_a + c_t/L (rotation
       errors, linear and exact; both sides solve the exact closure in
       perturbation form, so exact errors carry full relative precision too),
-      c_t the largest translational and c_a the angular clearance.  Each column is judged relative to its own magnitude;
-      a column that is essentially zero throughout (y on a Psi = 0 path, the R
-      couples of a symmetric level pose) is judged against 1e-3 of its group's
+      c_t the largest translational and c_a the angular clearance; L is the leg
+      length (3-RPS: the mean of min_length and max_length).  Each column is
+      judged relative to its own magnitude; a column that is essentially zero
+      throughout (y on a Psi = 0 path, the R couples of a symmetric level pose)
+      is judged against 1e-3 of its group's
       magnitude, or 1e-6 of the physical scale, not by the relative error of
       round-off noise.
   The last term is the round-off of a linear solve: eps = 2.2e-16, kappa_row =
@@ -200,6 +222,226 @@ def random_job(rng, index):
     return job, tag
 
 
+# --------------------------------------------------------------------------
+# random jobs of the mechanism family (docs/model.md section 10)
+# --------------------------------------------------------------------------
+FAMILIES_OF_JOBS = ("prototype", "3-PRS", "3-RPS")
+RAIL_ANGLES_EXACT = (-90.0, 0.0, 30.0, 90.0)
+
+
+def _layout(rng):
+    """(limb_angles_deg or None, platform_angles_deg or None, tag)."""
+    c = rng.random()
+    if c < 0.3:
+        limbs = None                                      # default 0/120/240
+    elif c < 0.4:
+        limbs = [0.0, 120.0, 240.0] if rng.random() < 0.5 else [90.0, 210.0, 330.0]
+    else:
+        limbs = [round(b + _r(rng, -25.0, 25.0), 3) for b in (0.0, 120.0, 240.0)]
+    plat = None
+    if rng.random() < 0.4:
+        plat = [round(b + _r(rng, -25.0, 25.0), 3) for b in (0.0, 120.0, 240.0)]
+    tag = "sym" if limbs in (None, [0.0, 120.0, 240.0]) and plat is None else "uneven"
+    if limbs == [90.0, 210.0, 330.0] and plat is None:
+        tag = "rot90"
+    return limbs, plat, tag
+
+
+def _family_masses(rng, kind, rp):
+    mass = {"platform": _r(rng, 5.0, 15.0)}
+    if kind == "3-PRS":
+        mass["leg"] = _r(rng, 1.5, 4.5)
+    else:
+        mass["cylinder"], mass["piston"] = _r(rng, 1.0, 4.0), _r(rng, 0.4, 2.0)
+    if rng.random() < 0.3:
+        m = mass["platform"]
+        mass["platform_inertia"] = [m * rp ** 2 / 4 * _r(rng, 0.5, 1.5),
+                                    m * rp ** 2 / 4 * _r(rng, 0.5, 1.5),
+                                    m * rp ** 2 / 2 * _r(rng, 0.5, 1.5)]
+    pts = []
+    for _ in range(int(rng.integers(0, 3))):
+        pts.append({"mass": _r(rng, 0.5, 20.0),
+                    "at": [_r(rng, -0.2, 0.2), _r(rng, -0.2, 0.2), _r(rng, -0.6, 0.6)]})
+    mass["points"] = pts
+    return mass
+
+
+def _pose_box(z, span_psi, span_th):
+    """Centre, edges and corners of the (psi, theta) box at each height z (n_z * 9 poses)."""
+    o = np.array([-1.0, 0.0, 1.0])
+    ps, th = np.meshgrid(o * span_psi, o * span_th, indexing="ij")
+    Z = np.repeat(np.asarray(z, float), 9)
+    return Z, np.tile(ps.ravel(), len(z)), np.tile(th.ravel(), len(z))
+
+
+def _admissible(P, zs, span_psi, span_th, cond_max=300.0, rail_margin=0.25):
+    """Per candidate height: (every pose of the box reachable and well conditioned,
+    the level pose reachable).  Well conditioned: cond_a, cond_jp <= cond_max and,
+    for 3-PRS, the leg at least `rail_margin` away from lying across its rail."""
+    Z, ps, th = _pose_box(zs, span_psi, span_th)
+    with np.errstate(all="ignore"):
+        kin = rm.kinematics(P, Z, ps, th)
+        good = kin["reach"].copy()
+        G, M = rm.reduced_matrices(kin["p"], kin["A"], kin["e"], P["YJ"])
+        kap = np.fmax(rm.kappa1(G), rm.kappa1(M))
+        good &= np.nan_to_num(kap, nan=np.inf) <= cond_max
+        if P["kind"] == "3-PRS":
+            good &= np.all((kin["e"] * P["DJ"]).sum(-1) >= rail_margin, axis=-1)
+    good = good.reshape(-1, 9)
+    centre = kin["reach"].reshape(-1, 9)[:, 4]
+    return good.all(-1), centre
+
+
+def _family_inputs(rng, job, P, edge, span):
+    """Fill job['grid'] or job['trajectory'] and the modes; returns (traj, ok)."""
+    size = P["size"]
+    if P["kind"] == "3-PRS":
+        zs = np.linspace(0.15, 2.6, 246) * size
+    else:
+        zs = np.linspace(0.05, 1.0, 191) * P["qmax"]
+    traj = rng.random() < 0.5
+    zvar = rng.random() < (0.5 if traj else 0.2) and not edge
+    zamp = _r(rng, 0.02, 0.08) * size if zvar else 0.0
+    allok, centre = _admissible(P, zs, span, span)
+    if edge:
+        # the level pose reachable, some poses of the (wider) box not
+        wide, _ = _admissible(P, zs, 1.6 * span, 1.6 * span, cond_max=np.inf, rail_margin=0.0)
+        cand = np.flatnonzero(centre & ~wide)
+    else:
+        dz = zs[1] - zs[0]
+        k = int(np.ceil(zamp / dz)) + 1
+        ok = allok.copy()
+        for sh in range(1, k + 1):                # the whole z band admissible
+            ok[sh:] &= allok[:-sh]
+            ok[:-sh] &= allok[sh:]
+            ok[:sh] = ok[-sh:] = False
+        cand = np.flatnonzero(ok)
+    if cand.size == 0:
+        return traj, False
+    zc = float(zs[int(rng.choice(cand))] + _r(rng, -0.4, 0.4) * (zs[1] - zs[0]))
+    analysis = job["analysis"]
+    if traj:
+        analysis["modes"] = [["kinetostatic", "dynamic"], ["dynamic"], ["kinetostatic"]][
+            int(rng.choice(3, p=[0.7, 0.15, 0.15]))]
+        t0 = _r(rng, 0.0, 2.0)
+        tr = {"time": {"start": t0, "stop": t0 + _r(rng, 1.0, 4.0), "n": int(rng.integers(81, 401))}}
+        tr["z"] = zc if zamp == 0.0 else dict(_harmonics(rng, 0.0, zamp, 1.5, 6.0), offset=zc)
+        for key in ("psi", "theta"):
+            tr[key] = 0.0 if rng.random() < 0.1 else _harmonics(rng, 0.05, span - 0.05, 1.5, 6.0)
+        job["trajectory"] = tr
+    else:
+        analysis["modes"] = ["kinetostatic"]
+        g = {"z": zc}
+        if zamp > 0.0:
+            g["z"] = {"start": zc - zamp, "stop": zc + zamp, "n": int(rng.integers(2, 4))}
+        if edge:                          # centred on the reachable level pose
+            g["psi"] = _range(rng, 1.5 * span, 5, 17, centred_odd=True)
+            g["theta"] = _range(rng, 1.5 * span, 5, 17, centred_odd=True)
+        else:
+            g["psi"] = _range(rng, span, 5, 17, centred_odd=rng.random() < 0.4)
+            g["theta"] = _range(rng, span, 5, 17, centred_odd=rng.random() < 0.2)
+        job["grid"] = g
+    return traj, True
+
+
+def random_family_job(rng, index, kind):
+    """A sane job of the mechanism family: kind '3-PRS' or '3-RPS'; (job, tag)."""
+    for _attempt in range(50):
+        edge = rng.random() < 0.12
+        job = {"name": f"xcheck_{index:03d}"}
+        mech = {"kind": kind}
+        limbs, plat, ltag = _layout(rng)
+        if kind == "3-PRS":
+            Rb, rp, L = _r(rng, 0.12, 0.3), _r(rng, 0.2, 0.45), _r(rng, 0.6, 1.3)
+            mech.update(base_radius=Rb, platform_radius=rp, leg_length=L)
+            beta = float(rng.choice(RAIL_ANGLES_EXACT)) if rng.random() < 0.5 \
+                else round(_r(rng, -90.0, 90.0), 2)
+            if beta != 0.0 or rng.random() < 0.5:
+                mech["rail_angle_deg"] = beta
+            ktag = f"3-PRS beta={beta:g}"
+        else:
+            Rb, rp = _r(rng, 0.15, 0.45), _r(rng, 0.1, 0.3)
+            lc, lp = _r(rng, 0.4, 1.0), _r(rng, 0.3, 0.9)
+            mech.update(base_radius=Rb, platform_radius=rp, cylinder_length=lc, piston_length=lp)
+            if rng.random() < 0.5:
+                mech["min_length"] = max(lc, lp) + _r(rng, 0.0, 0.1)
+                mech["max_length"] = lc + lp - _r(rng, 0.0, 0.1)
+            ktag = "3-RPS" + (" stroke" if "min_length" in mech else "")
+        if limbs is not None:
+            mech["limb_angles_deg"] = limbs
+        if plat is not None:
+            mech["platform_angles_deg"] = plat
+        if rng.random() < 0.3:
+            mech["gravity"] = [_r(rng, -1.0, 1.0), _r(rng, -1.0, 1.0), _r(rng, -10.5, -9.0)]
+        job["mechanism"] = mech
+        job["mass"] = _family_masses(rng, kind, rp)
+        if rng.random() < 0.5:
+            job["load"] = {"force": [float(v) for v in rng.normal(0, 10, 3)],
+                           "moment": [float(v) for v in rng.normal(0, 2, 3)],
+                           "at": [_r(rng, -0.2, 0.2), _r(rng, -0.2, 0.2), _r(rng, -0.2, 0.3)]}
+        cl = {"s_radial": _logu(rng, -5.0, -3.5), "r_radial": _logu(rng, -5.5, -4.0),
+              "r_axial": _logu(rng, -6.0, -4.0), "r_angular": _logu(rng, -5.0, -3.0)}
+        for k in list(cl):
+            if rng.random() < 0.15:
+                cl[k] = 0.0
+        job["clearance"] = cl
+        job["analysis"] = {"exact": bool(rng.random() < 0.5) and not edge}
+        if rng.random() < 0.2:
+            job["analysis"]["discontinuity_load_fraction"] = _r(rng, 0.01, 0.1)
+        sym = ltag == "sym" and rng.random() < 0.35
+        if sym:
+            # mirror-symmetric about limb 1's plane: indeterminate rows on Psi = 0
+            mech.pop("gravity", None)
+            for pt in job["mass"]["points"]:
+                pt["at"][1] = 0.0
+            job["mass"].pop("platform_inertia", None)
+            if "load" in job:
+                job["load"]["force"][1] = 0.0
+                job["load"]["moment"][0] = job["load"]["moment"][2] = 0.0
+                job["load"]["at"][1] = 0.0
+        span = _r(rng, 0.15, 0.4)
+        try:
+            P = rm.normalize_job(dict(job, grid={"z": 1.0}))
+        except ValueError:
+            continue
+        traj, ok = _family_inputs(rng, job, P, edge, span)
+        if not ok:
+            continue
+        if sym:
+            if traj and rng.random() < 0.5:
+                job["trajectory"]["psi"] = 0.0
+            if not traj:
+                job["grid"]["psi"] = _range(rng, span, 5, 17, centred_odd=True)
+        modes = job["analysis"]["modes"]
+        tag = ktag + f" {ltag}" + (" edge" if edge else "") + (" mirror" if sym else "") + \
+            (" trajectory " + "+".join(modes) if traj else " grid")
+        if job["analysis"]["exact"]:
+            tag += " exact"
+        # keep the key order of the prototype's jobs: analysis after the inputs
+        job["analysis"] = job.pop("analysis")
+        return job, tag
+    raise RuntimeError(f"no admissible {kind} job found in 50 draws")
+
+
+def parse_kinds(text):
+    kinds = list(FAMILIES_OF_JOBS) if text.strip() == "all" else \
+        [k.strip() for k in text.split(",") if k.strip()]
+    bad = [k for k in kinds if k not in FAMILIES_OF_JOBS]
+    if bad or not kinds:
+        raise ValueError(f"--kinds: unknown {bad} (choose from {', '.join(FAMILIES_OF_JOBS)} or all)")
+    return kinds
+
+
+def make_job(rng, index, kinds):
+    """The index-th job for the chosen families: (job, tag).  With the prototype
+    alone no draw is spent on the family (the same jobs as before)."""
+    kind = kinds[0] if len(kinds) == 1 else kinds[int(rng.integers(len(kinds)))]
+    if kind == "prototype":
+        job, tag = random_job(rng, index)
+        return job, ("prototype " + tag) if len(kinds) > 1 else tag
+    return random_family_job(rng, index, kind)
+
+
 def maybe_add_thresholds(rng, job, ref_cols):
     """Sometimes set analysis.singular_cond between the job's condition numbers so
     that near_singular rows occur (docs/conventions.md)."""
@@ -278,7 +520,7 @@ def physical_scale(P):
     """Natural magnitude of each unit group for the job (see the module doc)."""
     c = P["clear"]
     trans = max(c["s_radial"], c["r_radial"], c["r_axial"])
-    L = P["L"]
+    L = P["size"]
     return {"length": L, "angle": 1.0, "err_len": trans + L * c["r_angular"],
             "err_ang": c["r_angular"] + trans / L, "force": P["W"], "couple": P["W"] * L,
             "exact_len": trans + L * c["r_angular"], "exact_ang": c["r_angular"] + trans / L}
@@ -391,7 +633,7 @@ def compare(ref, eng, job_label, stats, P):
         for c in num_cols:
             scale[(m, c)] = max(mc[c], GROUP_FLOOR * mg[group_of(c)],
                                 PHYS_FLOOR * phys.get(group_of(c), 0.0))
-            fam[(m, c)] = family_magnitude(group_of(c), mg, P["L"])
+            fam[(m, c)] = family_magnitude(group_of(c), mg, P["size"])
     S_all = {c: np.array([scale[(m, c)] for m in modes]) for c in num_cols}
     R_all = {c: COND_ALLOWANCE * EPS * kap * np.array([fam[(m, c)] for m in modes])
              for c in num_cols}
@@ -460,7 +702,14 @@ def main(argv=None):
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per engine run")
     ap.add_argument("--reference-only", action="store_true",
                     help="generate the jobs and run only the reference (no engine)")
+    ap.add_argument("--kinds", default="prototype",
+                    help="comma-separated job families: prototype, 3-PRS, 3-RPS, or all "
+                         "(default prototype)")
     args = ap.parse_args(argv)
+    try:
+        kinds = parse_kinds(args.kinds)
+    except ValueError as exc:
+        ap.error(str(exc))
 
     binary = args.bin if os.path.isabs(args.bin) else os.path.join(REPO, args.bin)
     if not args.reference_only and not os.access(binary, os.X_OK):
@@ -477,7 +726,7 @@ def main(argv=None):
     lines = []
     try:
         for i in range(args.jobs):
-            job, tag = random_job(rng, i)
+            job, tag = make_job(rng, i, kinds)
             # round-trip through TOML so both sides read the very same numbers
             job = tomllib.loads(to_toml(job))
             t0 = time.time()

@@ -1,8 +1,26 @@
 """Independent, vectorised NumPy reference of the clearance pose pipeline.
 
-Follows ../../shared/MODEL.md (physics), ../../shared/INTERFACE.md (job keys and
-`poses` column names) and ../docs/conventions.md (sampling, status, nulls,
-condition numbers).  Written without looking at the Rust engine.
+Follows docs/model.md (physics, including the mechanism family of its section 10),
+docs/interface.md (job keys and `poses` column names) and docs/conventions.md
+(sampling, status, nulls, condition numbers).  Written without looking at the
+Rust engine.
+
+Mechanism kinds (``[mechanism] kind``):
+
+* ``"3-PRS"`` (the default): sliders on rails ``d_j = cos(beta) z + sin(beta) x_j``
+  (``rail_angle_deg``, default 0 = the paper's vertical rails), limbs at
+  ``limb_angles_deg`` (default 0/120/240), platform vertices at
+  ``platform_angles_deg`` (default: the limb angles), rigid legs of length L.
+  The paper's prototype is this kind with every default.
+* ``"3-RPS"``: revolute joints fixed at ``B_j = R_b x_j``, actuated legs of a
+  cylinder and a piston (two slender rods), leg length ``q_j = |A_j - B_j|``
+  within ``[min_length, max_length]``.
+
+The parasitic motions (X, Y, Phi) come from the closed forms of docs/model.md
+section 2 for the symmetric layout (limbs exactly at 0/120/240 deg, platform
+vertices at the same angles), otherwise from Newton on the three plane
+constraints ``A_j . y_j = 0`` started at the closed forms (to 1e-14, at most
+50 iterations; no convergence -> ``unreachable``).
 
 Everything is batched over poses: arrays have a leading sample axis N; the
 24x24 equilibrium systems, the 12x12 loop-closure systems and the 9x9 Newton
@@ -11,7 +29,10 @@ steps of the exact mode are solved as stacks with ``np.linalg.solve``.
 Time derivatives (dynamic mode) use forward-mode automatic differentiation
 with second-order Taylor jets (:class:`Jet`): every kinematic quantity carries
 its value, first and second time derivative, propagated exactly (round-off
-only) from the analytic derivatives of the harmonic inputs.
+only) from the analytic derivatives of the harmonic inputs.  Where the
+parasitic motions are solved by Newton their rates come from implicit
+differentiation: two chord iterations in jet arithmetic with the Jacobian of
+the converged solution (each fixes one more derivative order exactly).
 
 Usage::
 
@@ -32,10 +53,10 @@ import math
 import numpy as np
 
 __all__ = [
-    "Jet", "KINDS", "COMPONENTS", "DEFAULTS", "normalize_job", "sample_inputs",
-    "parasitic", "kinematics", "equilibrium_system", "take_up", "loop_system",
-    "euler_errors", "exact_errors", "exp_minus_identity", "same_branch", "compute",
-    "column_names", "kappa1",
+    "Jet", "KINDS", "COMPONENTS", "DEFAULTS", "DEFAULTS_RPS", "MECHANISMS", "normalize_job",
+    "sample_inputs", "parasitic", "parasitic_newton", "plane_residual", "kinematics",
+    "equilibrium_system", "take_up", "loop_system", "euler_errors", "exact_errors",
+    "exp_minus_identity", "same_branch", "compute", "column_names", "kappa1",
 ]
 
 KINDS = ("s_radial", "r_radial", "r_axial", "r_angular")
@@ -48,6 +69,14 @@ EZ = np.array([0.0, 0.0, 1.0])
 I3 = np.eye(3)
 EPS = np.finfo(float).eps
 
+MECHANISMS = ("3-PRS", "3-RPS")
+# Parasitic-motion Newton (docs/model.md section 10.1): step tolerance, iteration cap.
+NEWTON_TOL = 1e-14
+NEWTON_MAX_ITER = 50
+# A 3-PRS leg lies across its rail when sqrt(radicand) = L (e_j . d_j) < ACROSS_RAIL * L.
+ACROSS_RAIL = 1e-6
+
+# Defaults of the default kind, 3-PRS = the paper's prototype.
 DEFAULTS = {
     "mechanism": {"base_radius": 0.18, "platform_radius": 0.36, "leg_length": 1.0,
                   "gravity": [0.0, 0.0, -9.81]},
@@ -58,6 +87,22 @@ DEFAULTS = {
     "analysis": {"modes": ["kinetostatic"], "exact": False,
                  "discontinuity_load_fraction": 0.05, "singular_cond": 1e8,
                  "indeterminate_load_fraction": 1e-9},
+}
+# 3-RPS: the sections that differ from DEFAULTS (min/max_length default from the lengths).
+DEFAULTS_RPS = {
+    "mechanism": {"base_radius": 0.3, "platform_radius": 0.2, "gravity": [0.0, 0.0, -9.81],
+                  "cylinder_length": 0.8, "piston_length": 0.8},
+    "mass": {"platform": 9.8, "cylinder": 2.0, "piston": 1.0, "points": []},
+}
+# Keys each kind accepts; a key of the other kind is an error (docs/interface.md).
+KIND_KEYS = {
+    "3-PRS": {"mechanism": {"kind", "base_radius", "platform_radius", "leg_length", "gravity",
+                            "rail_angle_deg", "limb_angles_deg", "platform_angles_deg"},
+              "mass": {"platform", "leg", "platform_inertia", "points"}},
+    "3-RPS": {"mechanism": {"kind", "base_radius", "platform_radius", "gravity",
+                            "limb_angles_deg", "platform_angles_deg", "cylinder_length",
+                            "piston_length", "min_length", "max_length"},
+              "mass": {"platform", "cylinder", "piston", "platform_inertia", "points"}},
 }
 
 
@@ -241,18 +286,20 @@ def kappa1(M):
         return norm1(M) * norm1(_inv_stack(M))
 
 
-def reduced_matrices(p, A, e):
+def reduced_matrices(p, A, e, yj=None):
     """The 6x6 reductions that docs/conventions.md uses to judge conditioning.
 
     G (equilibrium, legs eliminated): columns [f; r_j x f] for f = e_j, y_j;
     M (error, reciprocal screws):     rows    [(r_j x f)^T, f^T] for the same forces,
-    with r_j = A_j - P.  Written from the convention's text, not from the engine."""
+    with r_j = A_j - P.  Written from the convention's text, not from the engine.
+    yj: the limbs' y_j (3,3), default the prototype's."""
+    YJ_ = YJ if yj is None else yj
     N = p.shape[0]
     G = np.zeros((N, 6, 6))
     M = np.zeros((N, 6, 6))
     for j in range(3):
         r = A[:, j] - p
-        for c, f in enumerate((e[:, j], np.broadcast_to(YJ[j], (N, 3)))):
+        for c, f in enumerate((e[:, j], np.broadcast_to(YJ_[j], (N, 3)))):
             k = 2 * j + c
             mom = np.cross(r, f)
             G[:, 0:3, k], G[:, 3:6, k] = f, mom
@@ -309,16 +356,39 @@ def _merge(base, over):
     return out
 
 
+def _angles(deg, name):
+    """Limb or platform angles in radians: the prototype's exact 0, 2 pi/3, 4 pi/3
+    when the list is exactly [0, 120, 240] deg, deg * pi / 180 otherwise."""
+    vals = [float(d) for d in deg]
+    if len(vals) != 3:
+        raise ValueError(f"mechanism.{name}: three angles expected, got {len(vals)}")
+    if vals == [0.0, 120.0, 240.0]:
+        return ALPHA.copy(), vals
+    return np.array([d * math.pi / 180.0 for d in vals]), vals
+
+
 def normalize_job(job: dict) -> dict:
     """Job dict (from tomllib) with defaults filled in and derived quantities."""
-    j = _merge(DEFAULTS, job)
+    kind = job.get("mechanism", {}).get("kind", "3-PRS")
+    if kind not in MECHANISMS:
+        raise ValueError(f"mechanism.kind: unknown kind {kind!r}")
+    for sec in ("mechanism", "mass"):
+        bad = set(job.get(sec, {})) - KIND_KEYS[kind][sec]
+        if bad:
+            raise ValueError(f"{sec}: key(s) {sorted(bad)} not valid for kind {kind}")
+    if kind == "3-PRS":
+        j = _merge(DEFAULTS, job)
+    else:
+        base = {k: v for k, v in DEFAULTS.items() if k not in ("mechanism", "mass")}
+        j = _merge(_merge(base, DEFAULTS_RPS), job)
     if ("grid" in j) == ("trajectory" in j):
         raise ValueError("exactly one of [grid] or [trajectory] is required")
     mech, mass, load = j["mechanism"], j["mass"], j["load"]
     P = {
+        "kind": kind,
         "Rb": float(mech["base_radius"]), "rp": float(mech["platform_radius"]),
-        "L": float(mech["leg_length"]), "g": np.array(mech["gravity"], float),
-        "m_plat": float(mass["platform"]), "m_leg": float(mass["leg"]),
+        "g": np.array(mech["gravity"], float),
+        "m_plat": float(mass["platform"]),
         "f_ext": np.array(load["force"], float), "m_ext": np.array(load["moment"], float),
         "at_ext": np.array(load["at"], float),
         "clear": {k: float(j["clearance"][k]) for k in KINDS},
@@ -332,6 +402,32 @@ def normalize_job(job: dict) -> dict:
     for m in P["modes"]:
         if m not in ("kinetostatic", "dynamic"):
             raise ValueError(f"unknown mode {m!r}")
+    # layout: limb frames x_j, y_j and platform vertices a'_j
+    alpha, a_deg = _angles(mech.get("limb_angles_deg", [0.0, 120.0, 240.0]), "limb_angles_deg")
+    gamma, g_deg = _angles(mech.get("platform_angles_deg", a_deg), "platform_angles_deg")
+    if a_deg == [0.0, 120.0, 240.0]:
+        xj, yj = XJ, YJ
+    else:
+        xj = np.stack([np.cos(alpha), np.sin(alpha), np.zeros(3)], axis=-1)
+        yj = np.stack([-np.sin(alpha), np.cos(alpha), np.zeros(3)], axis=-1)
+    ux = XJ if g_deg == [0.0, 120.0, 240.0] else \
+        np.stack([np.cos(gamma), np.sin(gamma), np.zeros(3)], axis=-1)
+    P.update(XJ=xj, YJ=yj, AP=P["rp"] * ux, alpha=alpha, gamma=gamma,
+             closed=(a_deg == [0.0, 120.0, 240.0] and g_deg == a_deg))
+    if kind == "3-PRS":
+        beta = float(mech.get("rail_angle_deg", 0.0)) * math.pi / 180.0
+        cb, sb = math.cos(beta), math.sin(beta)
+        P.update(L=float(mech["leg_length"]), m_leg=float(mass["leg"]), cb=cb, sb=sb,
+                 DJ=cb * EZ + sb * xj)
+        P["m_limb"] = P["m_leg"]
+        P["size"] = P["L"]
+    else:
+        lc, lp = float(mech["cylinder_length"]), float(mech["piston_length"])
+        P.update(lc=lc, lp=lp, m_cyl=float(mass["cylinder"]), m_pis=float(mass["piston"]),
+                 qmin=float(mech.get("min_length", max(lc, lp))),
+                 qmax=float(mech.get("max_length", lc + lp)))
+        P["m_limb"] = P["m_cyl"] + P["m_pis"]
+        P["size"] = 0.5 * (P["qmin"] + P["qmax"])     # the legs' typical length
     rp, mp = P["rp"], P["m_plat"]
     if "platform_inertia" in mass:
         I_own = np.diag(np.array(mass["platform_inertia"], float))
@@ -346,7 +442,7 @@ def normalize_job(job: dict) -> dict:
         I_P += mk * (ak @ ak * I3 - np.outer(ak, ak))
     I_C = I_P - m_tot * (c_loc @ c_loc * I3 - np.outer(c_loc, c_loc))
     P.update(m_body=m_tot, c_loc=c_loc, I_C_loc=I_C,
-             W=(m_tot + 3.0 * P["m_leg"]) * float(np.linalg.norm(P["g"])))
+             W=(m_tot + 3.0 * P["m_limb"]) * float(np.linalg.norm(P["g"])))
     P["job"] = j
     return P
 
@@ -403,7 +499,7 @@ def sample_inputs(P_or_job) -> dict:
 
 
 # --------------------------------------------------------------------------
-# Nominal kinematics (MODEL.md section 2)
+# Nominal kinematics (docs/model.md sections 2 and 10)
 # --------------------------------------------------------------------------
 def parasitic(z, psi, theta, rp):
     """Closed forms: returns x, y, phi (works on arrays or Jets)."""
@@ -426,84 +522,238 @@ def _rot(axis, c, s):
     return jstack([jstack(r, -1) for r in rows], -2)
 
 
+def _rotation(psi, theta, phi):
+    """R = Ry(theta) Rx(psi) Rz(phi) (arrays or Jets)."""
+    return (_rot("y", jcos(theta), jsin(theta)) @ _rot("x", jcos(psi), jsin(psi))) \
+        @ _rot("z", jcos(phi), jsin(phi))
+
+
+def plane_residual(P, x, y, phi, psi, theta):
+    """F_j = A_j . y_j (j = 1..3) with A_j = p + R a'_j, p = (x, y, z): the plane
+    constraints of the parasitic motions (z drops out, y_j being horizontal).
+    Arrays (N,) or Jets -> (N, 3)."""
+    YJ_, AP = P["YJ"], P["AP"]
+    RA = (_rotation(psi, theta, phi) @ AP.T).swapaxes(-1, -2)           # R a'_j (N,3,3)
+    xe = x.expand(-1) if isinstance(x, Jet) else x[..., None]
+    ye = y.expand(-1) if isinstance(y, Jet) else y[..., None]
+    return (RA * YJ_).sum(-1) + xe * YJ_[:, 0] + ye * YJ_[:, 1]
+
+
+def _plane_jacobian(P, phi, psi, theta):
+    """d F / d (x, y, phi), (N, 3, 3), at values."""
+    YJ_, AP = P["YJ"], P["AP"]
+    N = phi.shape[0]
+    sph, cph = np.sin(phi), np.cos(phi)
+    z0 = np.zeros(N)
+    dRz = np.stack([np.stack([-sph, -cph, z0], -1), np.stack([cph, -sph, z0], -1),
+                    np.stack([z0, z0, z0], -1)], -2)                  # d Rz / d phi
+    RyRx = _rot("y", np.cos(theta), np.sin(theta)) @ _rot("x", np.cos(psi), np.sin(psi))
+    dRA = (RyRx @ dRz @ AP.T).swapaxes(-1, -2)                           # (N,3,3)
+    J = np.empty((N, 3, 3))
+    J[:, :, 0] = YJ_[:, 0]
+    J[:, :, 1] = YJ_[:, 1]
+    J[:, :, 2] = (dRA * YJ_).sum(-1)
+    return J
+
+
+def parasitic_newton(P, z, psi, theta, max_iter=None, tol=None):
+    """(x, y, phi, converged) solving A_j . y_j = 0 by Newton from the closed forms.
+
+    A row has converged when its Newton step is at most `tol` (default NEWTON_TOL,
+    m and rad, max over the three unknowns; converged rows are frozen); rows that
+    have not after `max_iter` (default NEWTON_MAX_ITER) iterations get NaN and
+    converged = False.
+
+    With Jet inputs the rates follow by implicit differentiation of F(u(t), t) = 0:
+    with J0 the Jacobian at the solution, u <- u - J0^-1 F(u, t) in jet arithmetic,
+    twice from zero rates, the value held at the Newton solution.  The error of a
+    chord iterate is J0^-1 (J0 - J(t)) times the previous one, and J(t) - J0 = O(t):
+    the first iteration makes u' exact, the second u''."""
+    max_iter = NEWTON_MAX_ITER if max_iter is None else max_iter
+    tol = NEWTON_TOL if tol is None else tol
+    zv, psv, thv = _val(z), _val(psi), _val(theta)
+    x0, y0, f0 = parasitic(zv, psv, thv, P["rp"])
+    u = np.stack([x0, y0, f0], -1)
+    N = u.shape[0]
+    active = np.ones(N, bool)
+    conv = np.zeros(N, bool)
+    with np.errstate(all="ignore"):
+        for _ in range(max_iter):
+            if not active.any():
+                break
+            ia = np.flatnonzero(active)
+            ua = u[ia]
+            F = plane_residual(P, ua[:, 0], ua[:, 1], ua[:, 2], psv[ia], thv[ia])
+            J = _plane_jacobian(P, ua[:, 2], psv[ia], thv[ia])
+            du = _solve_stack(J, -F[..., None])[..., 0]
+            u[ia] = ua + du
+            done = np.abs(du).max(-1) <= tol           # False for NaN steps
+            conv[ia[done]] = True
+            active[ia[done]] = False
+    u[~conv] = np.nan
+    if not any(isinstance(a, Jet) for a in (z, psi, theta)):
+        return u[:, 0], u[:, 1], u[:, 2], conv
+    psj = psi if isinstance(psi, Jet) else Jet(psi)
+    thj = theta if isinstance(theta, Jet) else Jet(theta)
+    with np.errstate(all="ignore"):
+        J0inv = _inv_stack(np.where(conv[:, None, None],
+                                    _plane_jacobian(P, np.nan_to_num(u[:, 2]), psv, thv), np.eye(3)))
+        U = Jet(u)
+        for _ in range(2):
+            F = plane_residual(P, U[:, 0], U[:, 1], U[:, 2], psj, thj)
+            corr = J0inv @ F.expand(-1)
+            U = Jet(u, U.d - corr.d[..., 0], U.dd - corr.dd[..., 0])
+    return U[:, 0], U[:, 1], U[:, 2], conv
+
+
 def kinematics(P, z, psi, theta):
     """Nominal pose of every body; inputs arrays (N,) or Jets of shape (N,).
 
-    Returns a dict; entries are Jets when the inputs are Jets."""
-    rp, Rb, L = P["rp"], P["Rb"], P["L"]
-    x, y, phi = parasitic(z, psi, theta, rp)
-    Rm = (_rot("y", jcos(theta), jsin(theta)) @ _rot("x", jcos(psi), jsin(psi))) \
-        @ _rot("z", jcos(phi), jsin(phi))                                  # (N,3,3)
+    Returns a dict; entries are Jets when the inputs are Jets.  `reach` is False
+    where a leg cannot reach its pose (3-PRS), a leg length is outside its stroke
+    (3-RPS) or the parasitic Newton did not converge; `across` (3-PRS) is True
+    where a leg lies across its rail (docs/model.md section 10.1)."""
+    rp, Rb = P["rp"], P["Rb"]
+    XJ_, AP = P["XJ"], P["AP"]
+    N = np.shape(_val(z))[0]
+    if P["closed"]:
+        x, y, phi = parasitic(z, psi, theta, rp)
+        conv = np.ones(N, bool)
+    else:
+        x, y, phi, conv = parasitic_newton(P, z, psi, theta)
+    Rm = _rotation(psi, theta, phi)                                        # (N,3,3)
     p = jstack([x, y, z], -1)                                              # (N,3)
-    ap = rp * XJ                                                           # a'_j (3,3)
-    A = (Rm @ ap.T).swapaxes(-1, -2) + p.expand(-2) if isinstance(p, Jet) \
-        else (Rm @ ap.T).swapaxes(-1, -2) + p[:, None, :]                  # (N,3 limbs,3)
-    rho = (A * XJ).sum(-1)
-    h = A[..., 2]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = L * L - (rho - Rb) * (rho - Rb)
-        q = h - jsqrt(s)
-    reach = np.all(_val(s) >= 0.0, axis=-1)
-    qe = q.expand(-1) if isinstance(q, Jet) else q[..., None]
-    B = qe * EZ + Rb * XJ
-    e = (A - B) / L
+    A = (Rm @ AP.T).swapaxes(-1, -2) + p.expand(-2) if isinstance(p, Jet) \
+        else (Rm @ AP.T).swapaxes(-1, -2) + p[:, None, :]                  # (N,3 limbs,3)
+    out = {"x": x, "y": y, "phi": phi, "R": Rm, "p": p, "A": A}
+    if P["kind"] == "3-PRS":
+        L, cb, sb = P["L"], P["cb"], P["sb"]
+        rho = (A * XJ_).sum(-1)
+        h = A[..., 2]
+        # A_j - b0_j = (rho - Rb) x_j + h z in the limb plane; d_j = cb z + sb x_j;
+        # t: its component across the rail, s: along it (family spec)
+        t = cb * (rho - Rb) - sb * h
+        s = cb * h + sb * (rho - Rb)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rad = L * L - t * t
+            root = jsqrt(rad)
+            q = s - root
+        reach = np.all(_val(rad) >= 0.0, axis=-1) & conv
+        with np.errstate(invalid="ignore"):
+            across = reach & np.any(_val(root) < ACROSS_RAIL * L, axis=-1)
+        qe = q.expand(-1) if isinstance(q, Jet) else q[..., None]
+        B = Rb * XJ_ + qe * P["DJ"]
+        e = (A - B) / L
+        out["across"] = across
+    else:
+        B = np.broadcast_to(Rb * XJ_, (N, 3, 3))
+        D = A - B
+        with np.errstate(invalid="ignore", divide="ignore"):
+            q = jsqrt((D * D).sum(-1))
+            e = D / (q.expand(-1) if isinstance(q, Jet) else q[..., None])
+            qv = _val(q)
+            reach = np.all((qv >= P["qmin"]) & (qv <= P["qmax"]), axis=-1) & conv
+        out["across"] = np.zeros(N, bool)
+        out["Gc"] = B + 0.5 * P["lc"] * e                                  # cylinder CoM
+        out["Gp"] = A - 0.5 * P["lp"] * e                                  # piston CoM
     C = p + Rm @ P["c_loc"]
     E = p + Rm @ P["at_ext"]
-    return {"x": x, "y": y, "phi": phi, "R": Rm, "p": p, "A": A, "B": B, "q": q, "e": e,
-            "C": C, "E": E, "reach": reach}
+    out.update(B=B, q=q, e=e, C=C, E=E, reach=reach)
+    return out
 
 
 def motion(kin, P):
-    """Velocities/accelerations needed by Newton-Euler, from the Jets in kin."""
+    """Velocities/accelerations needed by Newton-Euler, from the Jets in kin.
+
+    Every leg turns about y_j with omega_j = e_j x e_j' (3-RPS: cylinder and
+    piston alike)."""
     Rj, ej = kin["R"], kin["e"]
     Rt = Rj.v.swapaxes(-1, -2)
     omega = vee(Rj.d @ Rt)                      # R' R^T = [w]x
     domega = vee(Rj.dd @ Rt)                    # skew part of R'' R^T = [w']x
     w_leg = np.cross(ej.v, ej.d)                # e x e'
     dw_leg = np.cross(ej.v, ej.dd)              # e x e''
-    a_G = 0.5 * (kin["A"].dd + kin["B"].dd)
-    return {"omega": omega, "domega": domega, "w_leg": w_leg, "dw_leg": dw_leg,
-            "a_G": a_G, "a_C": kin["C"].dd}
+    out = {"omega": omega, "domega": domega, "w_leg": w_leg, "dw_leg": dw_leg,
+           "a_C": kin["C"].dd}
+    if P["kind"] == "3-PRS":
+        out["a_G"] = 0.5 * (kin["A"].dd + kin["B"].dd)
+    else:
+        out["a_cyl"], out["a_pis"] = kin["Gc"].dd, kin["Gp"].dd
+    return out
 
 
 # --------------------------------------------------------------------------
-# Equilibrium A w = b (MODEL.md section 4)
+# Equilibrium A w = b (docs/model.md section 4)
 # unknowns per limb j (offset 8j): f_R (3), mu1, mu2, f_S (3)
 # rows: leg j forces 6j..6j+2, leg j moments 6j+3..6j+5, platform forces 18..20,
 #       platform moments about C 21..23
+# Leg moments are taken about the leg's centre of mass G_j (3-PRS) or about the
+# base joint B_j (3-RPS, the cylinder and the piston summed).
 # --------------------------------------------------------------------------
 def equilibrium_matrix(P, A, B, C):
     N = A.shape[0]
+    XJ_ = P["XJ"]
     M = np.zeros((N, 24, 24))
-    G = 0.5 * (A + B)
+    O = 0.5 * (A + B) if P["kind"] == "3-PRS" else B          # moment point of each leg
     for j in range(3):
         r, c = 6 * j, 8 * j
         M[:, r:r + 3, c:c + 3] = I3
         M[:, r:r + 3, c + 5:c + 8] = -I3
-        M[:, r + 3:r + 6, c + 3] = XJ[j]
+        M[:, r + 3:r + 6, c + 3] = XJ_[j]
         M[:, r + 3:r + 6, c + 4] = EZ
-        M[:, r + 3:r + 6, c:c + 3] = skew(B[:, j] - G[:, j])
-        M[:, r + 3:r + 6, c + 5:c + 8] = -skew(A[:, j] - G[:, j])
+        M[:, r + 3:r + 6, c:c + 3] = skew(B[:, j] - O[:, j])
+        M[:, r + 3:r + 6, c + 5:c + 8] = -skew(A[:, j] - O[:, j])
         M[:, 18:21, c + 5:c + 8] = I3
         M[:, 21:24, c + 5:c + 8] = skew(A[:, j] - C)
     return M
+
+
+def _rod_inertia(m, length, e):
+    """Slender rod about its centre: m l^2/12 across the axis e, 0 along it."""
+    return m * length ** 2 / 12.0 * (I3 - e[..., :, None] * e[..., None, :])
+
+
+def leg_bodies(P, kin_v):
+    """The leg bodies of each limb: list of (mass, centre of mass (N,3,3), inertia
+    about it (N,3,3,3), key of its acceleration in motion())."""
+    A, B, e = kin_v["A"], kin_v["B"], kin_v["e"]
+    if P["kind"] == "3-PRS":
+        return [(P["m_leg"], 0.5 * (A + B), _rod_inertia(P["m_leg"], P["L"], e), "a_G")]
+    return [(P["m_cyl"], B + 0.5 * P["lc"] * e, _rod_inertia(P["m_cyl"], P["lc"], e), "a_cyl"),
+            (P["m_pis"], A - 0.5 * P["lp"] * e, _rod_inertia(P["m_pis"], P["lp"], e), "a_pis")]
 
 
 def equilibrium_rhs(P, kin_v, mot=None):
     """b for kinetostatics (mot None) or dynamics."""
     A, B, C, E, Rm, e = (kin_v[k] for k in ("A", "B", "C", "E", "R", "e"))
     N = A.shape[0]
-    g, ml, m = P["g"], P["m_leg"], P["m_body"]
+    g, m = P["g"], P["m_body"]
     b = np.zeros((N, 24))
-    Ileg = ml * P["L"] ** 2 / 12.0 * (I3 - e[..., :, None] * e[..., None, :])  # (N,3,3,3)
-    for j in range(3):
-        r = 6 * j
-        b[:, r:r + 3] = -ml * g
-        if mot is not None:
-            b[:, r:r + 3] += ml * mot["a_G"][:, j]
-            wj, dwj = mot["w_leg"][:, j], mot["dw_leg"][:, j]
-            Iw = np.einsum("nab,nb->na", Ileg[:, j], wj)
-            b[:, r + 3:r + 6] = np.einsum("nab,nb->na", Ileg[:, j], dwj) + np.cross(wj, Iw)
+    if P["kind"] == "3-PRS":
+        ml = P["m_leg"]
+        Ileg = ml * P["L"] ** 2 / 12.0 * (I3 - e[..., :, None] * e[..., None, :])  # (N,3,3,3)
+        for j in range(3):
+            r = 6 * j
+            b[:, r:r + 3] = -ml * g
+            if mot is not None:
+                b[:, r:r + 3] += ml * mot["a_G"][:, j]
+                wj, dwj = mot["w_leg"][:, j], mot["dw_leg"][:, j]
+                Iw = np.einsum("nab,nb->na", Ileg[:, j], wj)
+                b[:, r + 3:r + 6] = np.einsum("nab,nb->na", Ileg[:, j], dwj) + np.cross(wj, Iw)
+    else:
+        # forces: f_R - f_S = sum_b m_b (a_b - g); moments about B_j:
+        # m_R - (A - B) x f_S = sum_b [(G_b - B) x m_b (a_b - g) + I_b w' + w x I_b w]
+        for mb, Gb, Ib, acc in leg_bodies(P, kin_v):
+            for j in range(3):
+                r = 6 * j
+                fb = np.broadcast_to(-mb * g, (N, 3)).copy()
+                if mot is not None:
+                    fb += mb * mot[acc][:, j]
+                    wj, dwj = mot["w_leg"][:, j], mot["dw_leg"][:, j]
+                    Iw = np.einsum("nab,nb->na", Ib[:, j], wj)
+                    b[:, r + 3:r + 6] += np.einsum("nab,nb->na", Ib[:, j], dwj) + np.cross(wj, Iw)
+                b[:, r:r + 3] += fb
+                b[:, r + 3:r + 6] += np.cross(Gb[:, j] - B[:, j], fb)
     b[:, 18:21] = -m * g - P["f_ext"]
     b[:, 21:24] = -np.cross(E - C, P["f_ext"]) - P["m_ext"]
     if mot is not None:
@@ -520,25 +770,27 @@ def equilibrium_system(P, kin_v, mot=None):
         equilibrium_rhs(P, kin_v, mot)
 
 
-def unpack_reactions(w):
+def unpack_reactions(w, P=None):
     """w (N,24) -> f_R (N,3,3), m_R (N,3,3), f_S (N,3,3), indexed [n, limb, xyz]."""
+    XJ_ = XJ if P is None else P["XJ"]
     W = w.reshape(w.shape[0], 3, 8)
     fR, mu1, mu2, fS = W[..., 0:3], W[..., 3], W[..., 4], W[..., 5:8]
-    mR = mu1[..., None] * XJ + mu2[..., None] * EZ
+    mR = mu1[..., None] * XJ_ + mu2[..., None] * EZ
     return fR, mR, fS
 
 
 # --------------------------------------------------------------------------
-# Take-up (MODEL.md section 5)
+# Take-up (docs/model.md section 5)
 # --------------------------------------------------------------------------
 def take_up(P, fR, mR, fS):
     """Per kind: displacement (N,3,3) and margin (N,3), plus the floor.
 
     Displacements are world vectors: s_radial -> S translation of the platform
     relative to the leg, r_radial / r_axial -> R translation of the leg
-    relative to the slider, r_angular -> R rotation vector."""
-    fy = (fR * YJ).sum(-1)
-    fperp = fR - fy[..., None] * YJ
+    relative to the slider (3-RPS: to the ground), r_angular -> R rotation vector."""
+    YJ_ = P["YJ"]
+    fy = (fR * YJ_).sum(-1)
+    fperp = fR - fy[..., None] * YJ_
     margins = {"s_radial": np.linalg.norm(fS, axis=-1),
                "r_radial": np.linalg.norm(fperp, axis=-1),
                "r_axial": np.abs(fy),
@@ -560,7 +812,7 @@ def take_up(P, fR, mR, fS):
             elif k == "r_radial":
                 d = -c * fperp / safe
             elif k == "r_axial":
-                d = -c * np.sign(fy)[..., None] * YJ
+                d = -c * np.sign(fy)[..., None] * YJ_
             else:
                 d = -c * mR / safe
             disp[k] = np.where(bad[..., None], 0.0, d)
@@ -569,17 +821,19 @@ def take_up(P, fR, mR, fS):
 
 
 # --------------------------------------------------------------------------
-# Error kinematics (MODEL.md section 6): J_P dq_P = J_Cl dq_Cl, 12 x 12
+# Error kinematics (docs/model.md section 6): J_P dq_P = J_Cl dq_Cl, 12 x 12
 # passive unknowns per limb (offset 4j): R rotation about y_j, S rotations about
 # world x, y, z through A_j.  Rows: twist of limb 2 - limb 1, limb 3 - limb 1.
 # --------------------------------------------------------------------------
-def passive_screws(p, A, B):
-    """(N, 3 limbs, 6, 4) screws [w; v_P] of the passive joints of each limb."""
+def passive_screws(p, A, B, yj=None):
+    """(N, 3 limbs, 6, 4) screws [w; v_P] of the passive joints of each limb
+    (the actuated joint, slider or leg length, is locked: no column)."""
+    YJ_ = YJ if yj is None else yj
     N = p.shape[0]
     S = np.zeros((N, 3, 6, 4))
     for j in range(3):
-        S[:, j, 0:3, 0] = YJ[j]
-        S[:, j, 3:6, 0] = np.cross(B[:, j] - p, YJ[j])
+        S[:, j, 0:3, 0] = YJ_[j]
+        S[:, j, 3:6, 0] = np.cross(B[:, j] - p, YJ_[j])
         for k in range(3):
             S[:, j, k, 1 + k] = 1.0
             S[:, j, 3:6, 1 + k] = np.cross(A[:, j] - p, I3[k])
@@ -635,7 +889,7 @@ def euler_errors(psi, theta, dalpha):
 
 
 # --------------------------------------------------------------------------
-# Exact error (MODEL.md section 7)
+# Exact error (docs/model.md section 7)
 # --------------------------------------------------------------------------
 def exp_minus_identity(v):
     """Exp([v]x) - I for v (...,3), free of cancellation: a [v]x + b [v]x^2 with
@@ -669,18 +923,26 @@ def exact_errors(P, kin_v, dB, dth, dA, max_iter=30):
     """Newton on the closure in perturbation form, all poses at once.
 
     Unknowns: dp = p' - p, w with R' = Exp(w) R, and the leg angles phi_j.  With
-    the nominal closure p + R a'_j = B_j + L e_j subtracted, every term of
+    the nominal closure p + R a'_j = B_j + l_j e_j subtracted, every term of
 
-        dp + (Exp(w) - I) R a'_j - dB_j - dA_j - L (Rot(dth_j) Rot(y_j, phi_j) - I) e_j = 0
+        dp + (Exp(w) - I) R a'_j - dB_j - dA_j - l_j (Rot(dth_j) Rot(y_j, phi_j) - I) e_j = 0
 
     is of the size of the clearances (no O(|p|) numbers are ever differenced), so
-    the result keeps full relative precision; the exact error is (w, dp).
+    the result keeps full relative precision; the exact error is (w, dp).  The leg
+    length l_j is L (3-PRS) or the nominal leg length q_j (3-RPS, its actuator
+    locked).
 
     dB, dth, dA: (N,3,3) R translation, R rotation vector, S translation.
     Returns (N,6) [w; dp] (NaN where Newton does not converge) and the converged mask."""
-    Rm, e, L = kin_v["R"], kin_v["e"], P["L"]
+    Rm, e = kin_v["R"], kin_v["e"]
+    YJ_ = P["YJ"]
+    if P["kind"] == "3-PRS":
+        L = Ls = P["L"]                                               # scalar leg length
+    else:
+        L = kin_v["q"][..., None]                                     # (N,3,1) leg lengths
+        Ls = kin_v["q"].max(-1)                                       # (N,) size of the legs
     N = Rm.shape[0]
-    ra0 = np.einsum("nab,jb->nja", Rm, P["rp"] * XJ)                 # R a'_j (N,3,3)
+    ra0 = np.einsum("nab,jb->nja", Rm, P["AP"])                       # R a'_j (N,3,3)
     off = dB + dA                                                     # (N,3,3)
     tilt = exp_minus_identity(dth)                                    # Rot(dth_j) - I (N,3,3,3)
     ytil = I3 + tilt                                                  # Rot(dth_j)
@@ -688,7 +950,7 @@ def exact_errors(P, kin_v, dB, dth, dA, max_iter=30):
 
     def residual(dp, w, phi):
         Ew = exp_minus_identity(w)                                    # (N,3,3)
-        M2 = exp_minus_identity(phi[..., None] * YJ)                  # (N,3,3,3)
+        M2 = exp_minus_identity(phi[..., None] * YJ_)                 # (N,3,3,3)
         turn = tilt + M2 + tilt @ M2                                  # Rot(dth)Rot(y,phi) - I
         F = dp[:, None, :] + np.einsum("nab,njb->nja", Ew, ra0) - off \
             - L * np.einsum("njab,njb->nja", turn, e)
@@ -696,15 +958,15 @@ def exact_errors(P, kin_v, dB, dth, dA, max_iter=30):
 
     # size of the unknowns, for the relative step test (0 on a rigid job)
     def size(dp, w, phi):
-        return np.maximum(np.abs(dp).max(-1), L * np.maximum(np.abs(w).max(-1),
-                                                             np.abs(phi).max(-1)))
+        return np.maximum(np.abs(dp).max(-1), Ls * np.maximum(np.abs(w).max(-1),
+                                                              np.abs(phi).max(-1)))
 
     rel_step = np.full(N, np.inf)
     for _ in range(max_iter):
         F, Ew, M2 = residual(dp, w, phi)
         ra = ra0 + np.einsum("nab,njb->nja", Ew, ra0)                 # R' a'_j
         legdir = e + np.einsum("njab,njb->nja", M2, e)                # Rot(y_j, phi_j) e_j
-        dphi = -L * np.einsum("njab,njb->nja", ytil, np.cross(YJ, legdir))
+        dphi = -L * np.einsum("njab,njb->nja", ytil, np.cross(YJ_, legdir))
         dw = -skew(ra) @ left_jacobian(w)[:, None]                    # (N,3,3,3)
         J = np.zeros((N, 3, 3, 9))
         J[..., 0:3] = I3
@@ -714,7 +976,7 @@ def exact_errors(P, kin_v, dB, dth, dA, max_iter=30):
         step = _solve_stack(J.reshape(N, 9, 9), -F.reshape(N, 9, 1))[..., 0]
         dp, w, phi = dp + step[:, 0:3], w + step[:, 3:6], phi + step[:, 6:9]
         sz = size(dp, w, phi)
-        smax = np.maximum(np.abs(step[:, 0:3]).max(-1), L * np.abs(step[:, 3:9]).max(-1))
+        smax = np.maximum(np.abs(step[:, 0:3]).max(-1), Ls * np.abs(step[:, 3:9]).max(-1))
         with np.errstate(invalid="ignore", divide="ignore"):
             rel_step = np.where(sz > 0, smax / np.where(sz > 0, sz, 1.0),
                                 np.where(smax == 0, 0.0, np.inf))
@@ -758,6 +1020,25 @@ def column_names(job_or_P, columns="full") -> list:
     return names
 
 
+def _substitute_posture(P, N):
+    """A finite posture for the rows that are unreachable (their outputs are null):
+    the level pose at Z = 2 L (3-PRS; the prototype's choice) or Z = the legs'
+    typical length (3-RPS), else the bare level layout."""
+    zero = np.zeros(N)
+    with np.errstate(all="ignore"):
+        ref = kinematics(P, np.full(N, (2.0 if P["kind"] == "3-PRS" else 1.0) * P["size"]),
+                         zero, zero)
+    if all(np.isfinite(ref[k]).all() for k in ("A", "B", "C", "E", "R", "e", "p")):
+        return ref
+    p = np.zeros((N, 3))
+    p[:, 2] = P["size"]
+    A = p[:, None, :] + P["AP"]
+    B = np.broadcast_to(P["Rb"] * P["XJ"], (N, 3, 3))
+    e = (A - B) / np.linalg.norm(A - B, axis=-1)[..., None]
+    return {"A": A, "B": B, "e": e, "p": p, "R": np.broadcast_to(I3, (N, 3, 3)),
+            "C": p + P["c_loc"], "E": p + P["at_ext"]}
+
+
 def _compute_chunk(P, smp, sl, modes):
     z, psi, theta = smp["z"][sl], smp["psi"][sl], smp["theta"][sl]
     N = z.size
@@ -773,25 +1054,27 @@ def _compute_chunk(P, smp, sl, modes):
     good = reach
     kin_s = dict(kin)
     if not np.all(good):
-        ref = kinematics(P, np.full(N, 2.0 * P["L"]), np.zeros(N), np.zeros(N))
+        ref = _substitute_posture(P, N)
         for k in ("A", "B", "C", "E", "R", "e", "p"):
             m = good.reshape((N,) + (1,) * (kin[k].ndim - 1))
             kin_s[k] = np.where(m, kin[k], ref[k])
     Amat = equilibrium_matrix(P, kin_s["A"], kin_s["B"], kin_s["C"])
     bs = [equilibrium_rhs(P, kin_s, mot if m == "dynamic" else None) for m in modes]
     wsol = _solve_stack(Amat, np.stack(bs, -1))                  # (N,24,M)
-    S = passive_screws(kin_s["p"], kin_s["A"], kin_s["B"])
+    S = passive_screws(kin_s["p"], kin_s["A"], kin_s["B"], P["YJ"])
     JP = loop_matrix(S)
-    Gred, Mred = reduced_matrices(kin_s["p"], kin_s["A"], kin_s["e"])
+    Gred, Mred = reduced_matrices(kin_s["p"], kin_s["A"], kin_s["e"], P["YJ"])
     cond_a, cond_jp = kappa1(Gred), kappa1(Mred)
     with np.errstate(all="ignore"):
         cond_a = np.where(np.isfinite(cond_a), cond_a, np.inf)
         cond_jp = np.where(np.isfinite(cond_jp), cond_jp, np.inf)
-    singular = ~((cond_a <= P["singular_cond"]) & (cond_jp <= P["singular_cond"]))
+    # near_singular: an ill-conditioned A or J_P, or a 3-PRS leg across its rail
+    singular = ~((cond_a <= P["singular_cond"]) & (cond_jp <= P["singular_cond"])) | \
+        kin["across"]
 
     out = {}
     for mi, mode in enumerate(modes):
-        fR, mR, fS = unpack_reactions(wsol[..., mi])
+        fR, mR, fS = unpack_reactions(wsol[..., mi], P)
         disp, margins, indet = take_up(P, fR, mR, fS)
         Tcl = np.stack([clearance_twists(k, disp[k], kin_s["p"], kin_s["B"]) for k in KINDS],
                        -1)                                                 # (N,3,6,4)

@@ -5,7 +5,11 @@
 Each test checks the reference against something computed another way
 (numerical root solve, virtual work, power balance, a second error formulation,
 the exact nonlinear closure, finite differences) or against the null/status
-rules of docs/conventions.md.
+rules of docs/conventions.md.  The first part covers the paper's prototype; the
+last part the mechanism family of docs/model.md section 10 (3-PRS with inclined
+or horizontal rails and uneven layouts, 3-RPS).  The Newton test compares with
+scipy.optimize.root (skipped if SciPy is missing) and the 50-digit exact-error
+test uses mpmath.
 """
 
 import os
@@ -66,7 +70,7 @@ def with_job(base, **sections):
 # kinematics
 # --------------------------------------------------------------------------
 def test_parasitic_closed_forms_equal_numerical_root_solve():
-    """X, Y, Phi of MODEL.md s.2 vs Newton on A_j . y_j = 0 (own matrices), 1e-13."""
+    """X, Y, Phi of docs/model.md s.2 vs Newton on A_j . y_j = 0 (own matrices), 1e-13."""
     rp = 0.36
     z, psi, th = random_inputs(200, span=0.8)
     x, y, phi = rm.parasitic(z, psi, th, rp)
@@ -177,7 +181,7 @@ def test_equilibrium_residual_and_cond():
     ka = rm.kappa1(M)
     for k in range(0, 300, 37):
         assert abs(ka[k] - np.linalg.cond(M[k], 1)) <= 1e-12 * ka[k]
-    # kappa_1 is invariant to row/column permutations (conventions.md)
+    # kappa_1 is invariant to row/column permutations (docs/conventions.md)
     perm_r, perm_c = RNG.permutation(24), RNG.permutation(24)
     np.testing.assert_allclose(rm.kappa1(M[:, perm_r][:, :, perm_c]), ka, rtol=1e-12)
     # the R couple has no component along the joint axis
@@ -255,9 +259,10 @@ def test_dynamics_satisfy_power_balance():
 # --------------------------------------------------------------------------
 # error kinematics
 # --------------------------------------------------------------------------
-def _six_by_six_errors(P, kin, disp):
+def _six_by_six_errors(P, kin, disp, yj=rm.YJ):
     """Independent linear error: unknown platform twist (dalpha, dp); per limb the
-    point A_j may only move (relative to the clearance motion c_j) along y_j x e_j."""
+    point A_j may only move (relative to the clearance motion c_j) along y_j x e_j
+    (a rotation about y_j through B_j: the actuated slider or leg length is locked)."""
     A, B, p, e = kin["A"], kin["B"], kin["p"], kin["e"]
     N = p.shape[0]
     c = disp["r_radial"] + disp["r_axial"] + disp["s_radial"] + \
@@ -265,7 +270,7 @@ def _six_by_six_errors(P, kin, disp):
     M = np.zeros((N, 6, 6))
     rhs = np.zeros((N, 6))
     for j in range(3):
-        for r, n in enumerate((e[:, j], np.broadcast_to(rm.YJ[j], (N, 3)))):
+        for r, n in enumerate((e[:, j], np.broadcast_to(yj[j], (N, 3)))):
             # (dp + dalpha x (A - p)) . n = c . n
             M[:, 2 * j + r, 0:3] = np.cross(A[:, j] - p, n)
             M[:, 2 * j + r, 3:6] = n
@@ -311,7 +316,7 @@ def test_euler_errors_reconstruct_dalpha():
 
 
 def test_take_up_directions_and_sag():
-    """Gravity only, S clearance only: the platform sags (MODEL.md s.5); the
+    """Gravity only, S clearance only: the platform sags (docs/model.md s.5); the
     displacement opposes the load; margins are the load magnitudes."""
     job = {"clearance": {"s_radial": 1e-4}, "grid": {"z": 2.05, "psi": {"start": -0.4, "stop": 0.4, "n": 9},
                                                      "theta": {"start": -0.4, "stop": 0.4, "n": 9}}}
@@ -381,7 +386,7 @@ def test_exp_minus_identity_keeps_relative_precision():
 
 
 def _mp_exact(P, z, psi, th, dB, dth, dA):
-    """50-digit solve of MODEL.md s.7 in world coordinates from the float inputs."""
+    """50-digit solve of docs/model.md s.7 in world coordinates from the float inputs."""
     mp = pytest.importorskip("mpmath")
     mp.mp.dps = 50
     rp, Rb, L = mp.mpf(P["rp"]), mp.mpf(P["Rb"]), mp.mpf(P["L"])
@@ -442,7 +447,7 @@ def test_exact_error_matches_50_digit_closure(clear):
 
 
 def test_exact_null_when_newton_fails_or_lands_on_another_branch(monkeypatch):
-    """conventions.md: null if Newton does not converge, or if any component of
+    """docs/conventions.md: null if Newton does not converge, or if any component of
     [d_alpha; d_p] is further from the linear error than max_k |linear_k|."""
     # the branch rule itself, at the boundary
     lin = np.array([[1e-6, -2e-6, 3e-7, 4e-5, -1e-5, 2e-6]])
@@ -549,7 +554,7 @@ def test_indeterminate_contact_on_symmetry_plane():
 
 
 def test_paper_kinetostatic_switch_with_30kg():
-    """MODEL.md s.8: 30 kg one metre above puts limb 1's r_radial load minimum near
+    """docs/model.md s.8: 30 kg one metre above puts limb 1's r_radial load minimum near
     Theta = -0.28 at Psi = 0, Z = 2.05, and f_perp swings round there."""
     job = {"mass": {"points": [{"mass": 30.0, "at": [0.0, 0.0, 1.0]}]}, "clearance": {"r_radial": 1e-4},
            "grid": {"z": 2.05, "psi": 0.0, "theta": {"start": -0.5, "stop": 0.5, "n": 501}}}
@@ -565,14 +570,572 @@ def test_paper_kinetostatic_switch_with_30kg():
     assert lo < i < hi and cosang < 0.0                      # turns by more than 90 degrees
 
 
-def test_crosscheck_job_generator_round_trips_through_toml():
-    """The cross-check's random jobs are valid for the reference and survive TOML."""
+@pytest.mark.parametrize("kinds", ["prototype", "3-PRS", "3-RPS", "all"])
+def test_crosscheck_job_generator_round_trips_through_toml(kinds):
+    """The cross-check's random jobs are valid for the reference and survive TOML; the
+    family jobs carry their kind, and their poses are mostly reachable."""
     import tomllib
     import crosscheck_reference as xc
     rng = np.random.default_rng(7)
+    kl = xc.parse_kinds(kinds)
+    n_ok = n_all = 0
     for i in range(12):
-        job, _ = xc.random_job(rng, i)
+        job, tag = xc.make_job(rng, i, kl)
         assert tomllib.loads(xc.to_toml(job)) == job
         cols = rm.compute(job)
         assert set(np.unique(cols["status"])) <= {"ok", "unreachable", "near_singular",
                                                    "indeterminate_contact"}
+        kind = job.get("mechanism", {}).get("kind")
+        assert kind in ([None] if kl == ["prototype"] else [None, "3-PRS", "3-RPS"] if kinds == "all"
+                        else [kinds])
+        n_ok += int((cols["status"] != "unreachable").sum())
+        n_all += cols["status"].size
+    assert n_ok >= 0.8 * n_all
+    if kinds == "prototype":                   # the same jobs as before the family existed
+        rng1, rng2 = np.random.default_rng(3), np.random.default_rng(3)
+        for i in range(5):
+            assert xc.make_job(rng1, i, ["prototype"]) == xc.random_job(rng2, i)
+
+
+# --------------------------------------------------------------------------
+# the mechanism family (docs/model.md section 10): 3-PRS with any rail and layout, 3-RPS
+# --------------------------------------------------------------------------
+def _family(mech, mass=None, **sections):
+    """LOADED's gravity, masses, load and clearances on another mechanism."""
+    job = with_job(LOADED, mechanism=dict(mech, gravity=[0.3, -0.2, -9.7]), **sections)
+    if mass is not None:
+        job["mass"] = mass
+    return job
+
+
+RPS_MASS = {"platform": 8.0, "cylinder": 2.2, "piston": 0.9, "platform_inertia": [0.15, 0.2, 0.3],
+            "points": [{"mass": 4.0, "at": [0.05, -0.08, 0.4]}, {"mass": 1.5, "at": [-0.1, 0.05, -0.2]}]}
+# name -> (job, (z range), tilt span): every pose of the box is reachable and well conditioned
+FAMILY = {
+    "prs_inclined_uneven": (_family({"kind": "3-PRS", "base_radius": 0.2, "platform_radius": 0.34,
+                                     "leg_length": 1.05, "rail_angle_deg": 35.0,
+                                     "limb_angles_deg": [4.0, 131.0, 228.0],
+                                     "platform_angles_deg": [-7.0, 115.0, 251.0]}), (0.5, 1.2), 0.35),
+    "prs_horizontal_in": (_family({"kind": "3-PRS", "base_radius": 0.55, "platform_radius": 0.25,
+                                   "leg_length": 0.9, "rail_angle_deg": -90.0,
+                                   "limb_angles_deg": [-12.0, 118.0, 255.0]}), (0.58, 0.7), 0.25),
+    "prs_horizontal_out": (_family({"kind": "3-PRS", "rail_angle_deg": 90.0,
+                                    "platform_angles_deg": [10.0, 112.0, 236.0]}), (0.5, 0.8), 0.3),
+    "rps_uneven": (_family({"kind": "3-RPS", "base_radius": 0.32, "platform_radius": 0.22,
+                            "limb_angles_deg": [0.0, 112.0, 236.0],
+                            "platform_angles_deg": [8.0, 125.0, 247.0],
+                            "cylinder_length": 0.75, "piston_length": 0.6}, RPS_MASS), (0.9, 1.2), 0.35),
+    "rps_symmetric": (_family({"kind": "3-RPS"}, RPS_MASS), (0.95, 1.4), 0.4),
+}
+FAMILY_NAMES = list(FAMILY)
+
+
+def family_inputs(name, n, rng=None):
+    job, (zlo, zhi), span = FAMILY[name]
+    rng = RNG if rng is None else rng
+    return rng.uniform(zlo, zhi, n), rng.uniform(-span, span, n), rng.uniform(-span, span, n)
+
+
+def _rot_world(psi, th, phi):
+    return rot("y", th) @ rot("x", psi) @ rot("z", phi)
+
+
+def _plane_constraints(u, z, psi, th, alpha, gamma, rp):
+    """A_j . y_j from the job's angles in degrees, written out with plain matrices."""
+    R = _rot_world(psi, th, u[2])
+    p = np.array([u[0], u[1], z])
+    out = []
+    for a, g in zip(np.radians(alpha), np.radians(gamma)):
+        A = p + R @ (rp * np.array([np.cos(g), np.sin(g), 0.0]))
+        out.append(A @ np.array([-np.sin(a), np.cos(a), 0.0]))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("layout", [
+    ([4.0, 131.0, 228.0], [-7.0, 115.0, 251.0]),
+    ([90.0, 210.0, 330.0], None),                          # a rotated 120 deg set
+    ([-20.0, 137.0, 231.0], None),
+    ([0.0, 120.0, 240.0], [22.0, 103.0, 260.0]),           # symmetric limbs, uneven platform
+    ([13.0, 101.0, 262.0], [-18.0, 142.0, 219.0])])
+def test_newton_parasitics_satisfy_plane_constraints_and_match_scipy_root(layout):
+    """Newton's (X, Y, Phi) for uneven limbs / platform angles: the plane constraints
+    A_j . y_j = 0 (own matrices) hold to 1e-15 m, and scipy.optimize.root (MINPACK
+    Levenberg-Marquardt, its own finite-difference Jacobian, started from zero,
+    residual to 1e-15 m) finds the same root to 1e-12 (m, rad).  The closed forms, valid only for the symmetric layout, violate
+    the constraints here by more than 1 mm somewhere (centimetres for the rotated set)."""
+    optimize = pytest.importorskip("scipy.optimize")
+    limbs, plat = layout
+    mech = {"limb_angles_deg": limbs, "platform_radius": 0.3}
+    if plat is not None:
+        mech["platform_angles_deg"] = plat
+    P = rm.normalize_job({"mechanism": mech, "grid": {"z": 1.0}})
+    assert not P["closed"]
+    gam = limbs if plat is None else plat
+    rng = np.random.default_rng(11)
+    z, psi, th = rng.uniform(0.7, 1.3, 60), rng.uniform(-0.45, 0.45, 60), rng.uniform(-0.45, 0.45, 60)
+    x, y, phi, conv = rm.parasitic_newton(P, z, psi, th)
+    assert conv.all()
+    worst_closed = 0.0
+    x0, y0, phi0 = rm.parasitic(z, psi, th, P["rp"])
+    for k in range(z.size):
+        F = _plane_constraints([x[k], y[k], phi[k]], z[k], psi[k], th[k], limbs, gam, P["rp"])
+        assert np.abs(F).max() <= 1e-15, F
+        sol = optimize.root(_plane_constraints, np.zeros(3), method="lm", tol=1e-13,
+                            args=(z[k], psi[k], th[k], limbs, gam, P["rp"]))
+        assert sol.success and np.abs(sol.fun).max() <= 1e-15, sol
+        np.testing.assert_allclose([x[k], y[k], phi[k]], sol.x, rtol=0, atol=1e-12)
+        worst_closed = max(worst_closed, np.abs(_plane_constraints(
+            [x0[k], y0[k], phi0[k]], z[k], psi[k], th[k], limbs, gam, P["rp"])).max())
+    assert worst_closed > (1e-2 if limbs == [90.0, 210.0, 330.0] else 1e-3), worst_closed
+
+
+def test_newton_non_convergence_is_unreachable(monkeypatch):
+    """No convergence in the iteration cap -> converged False, NaN; in the pipeline
+    status unreachable with x, y, phi null (the cap lowered to one iteration, which
+    never meets the 1e-14 step test from the closed-form start)."""
+    P = rm.normalize_job({"mechanism": {"limb_angles_deg": [4.0, 131.0, 228.0]}, "grid": {"z": 1.0}})
+    z, psi, th = np.array([1.0, 1.1]), np.array([0.2, -0.3]), np.array([0.1, 0.25])
+    _, _, _, conv = rm.parasitic_newton(P, z, psi, th)
+    assert conv.all()
+    x, y, phi, conv = rm.parasitic_newton(P, z, psi, th, max_iter=1)
+    assert not conv.any() and np.isnan(x).all() and np.isnan(phi).all()
+    job = {"mechanism": {"limb_angles_deg": [4.0, 131.0, 228.0]}, "clearance": ALL4,
+           "grid": {"z": 1.0, "psi": {"start": 0.1, "stop": 0.3, "n": 3}, "theta": 0.2}}
+    assert (rm.compute(job)["status"] == "ok").all()
+    monkeypatch.setattr(rm, "NEWTON_MAX_ITER", 1)
+    c = rm.compute(job)
+    assert (c["status"] == "unreachable").all()
+    for row in range(3):
+        assert _nulls(c, row) == set(c) - (ALWAYS - {"x", "y", "phi"})
+
+
+@pytest.mark.parametrize("kind,beta", [("3-PRS", -90.0), ("3-PRS", -50.0), ("3-PRS", 0.0),
+                                       ("3-PRS", 30.0), ("3-PRS", 90.0), ("3-RPS", None)])
+def test_closed_forms_equal_newton_for_symmetric_layout(kind, beta):
+    """Limbs and platform at 0/120/240: the closed forms (the reference's choice) and
+    the Newton solve of the same constraints give the same kinematics at any rail
+    angle, values to 1e-15 (m, rad) and rates to 1e-11 relative."""
+    mech = {"kind": kind}
+    if beta is not None:
+        mech["rail_angle_deg"] = beta
+    P = rm.normalize_job({"mechanism": mech, "grid": {"z": 1.0}})
+    assert P["closed"]
+    Pn = dict(P, closed=False)
+    zc = {-90.0: 0.6, -50.0: 0.8, 0.0: 2.0, 30.0: 1.0, 90.0: 0.6, None: 1.2}[beta]
+    t = np.linspace(0.0, 3.0, 31)
+    ins = [rm.Jet(*rm._harmonic(spec, t)) for spec in (
+        {"offset": zc, "harmonics": [{"amplitude": 0.05, "period": 1.3, "phase": 0.2}]},
+        {"offset": 0.05, "harmonics": [{"amplitude": 0.3, "period": 1.7, "phase": 1.0}]},
+        {"offset": -0.1, "harmonics": [{"amplitude": 0.3, "period": 0.9, "phase": 0.3}]})]
+    kc, kn = rm.kinematics(P, *ins), rm.kinematics(Pn, *ins)
+    assert kc["reach"].all() and np.array_equal(kc["reach"], kn["reach"])
+    for key in ("x", "y", "phi", "q", "A", "B", "e", "R", "C"):
+        if not isinstance(kc[key], rm.Jet):                   # 3-RPS: B is fixed
+            assert np.array_equal(kc[key], kn[key])
+            continue
+        np.testing.assert_allclose(kn[key].v, kc[key].v, rtol=0, atol=1e-15, err_msg=key)
+        for part in ("d", "dd"):
+            a, b = getattr(kn[key], part), getattr(kc[key], part)
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-11 * max(1.0, np.abs(b).max()),
+                                       err_msg=key + part)
+
+
+def test_layout_angles_and_keys():
+    """Exactly [0, 120, 240] gives the prototype's radians; other lists deg*pi/180;
+    keys of the other kind are refused; 3-RPS defaults (family spec)."""
+    P = rm.normalize_job({"mechanism": {"limb_angles_deg": [0, 120, 240],
+                                        "platform_angles_deg": [0.0, 120.0, 240.0]}, "grid": {"z": 2.0}})
+    assert P["closed"] and np.array_equal(P["alpha"], rm.ALPHA) and np.array_equal(P["YJ"], rm.YJ)
+    P = rm.normalize_job({"mechanism": {"limb_angles_deg": [0, 120, 241]}, "grid": {"z": 2.0}})
+    assert not P["closed"] and P["alpha"][2] == 241.0 * np.pi / 180.0
+    assert np.array_equal(P["gamma"], P["alpha"])              # platform default = limbs
+    P = rm.normalize_job({"mechanism": {"platform_angles_deg": [0, 120, 240.5]}, "grid": {"z": 2.0}})
+    assert not P["closed"]
+    for bad in ({"mechanism": {"kind": "3-RPS", "leg_length": 1.0}},
+                {"mechanism": {"kind": "3-RPS", "rail_angle_deg": 10.0}},
+                {"mechanism": {"kind": "3-RPS"}, "mass": {"leg": 3.0}},
+                {"mechanism": {"cylinder_length": 1.0}},
+                {"mass": {"piston": 1.0}},
+                {"mechanism": {"kind": "6-UPS"}}):
+        with pytest.raises(ValueError):
+            rm.normalize_job(dict(bad, grid={"z": 1.0}))
+    P = rm.normalize_job({"mechanism": {"kind": "3-RPS"}, "grid": {"z": 1.0}})
+    assert (P["Rb"], P["rp"], P["lc"], P["lp"], P["qmin"], P["qmax"]) == (0.3, 0.2, 0.8, 0.8, 0.8, 1.6)
+    assert (P["m_plat"], P["m_cyl"], P["m_pis"]) == (9.8, 2.0, 1.0)
+    np.testing.assert_allclose(P["I_C_loc"], np.diag([9.8 * 0.04 / 4, 9.8 * 0.04 / 4, 9.8 * 0.04 / 2]),
+                               rtol=1e-15)
+    assert P["W"] == pytest.approx((9.8 + 9.0) * 9.81, rel=1e-15)
+    P = rm.normalize_job({"mechanism": {"kind": "3-RPS", "cylinder_length": 0.5, "piston_length": 0.7},
+                          "grid": {"z": 1.0}})
+    assert (P["qmin"], P["qmax"]) == (0.7, 1.2)
+
+
+def test_explicit_prototype_keys_are_bitwise_the_prototype():
+    """kind = "3-PRS", rail_angle_deg = 0 and the symmetric angle lists change nothing."""
+    base = with_job(LOADED, analysis={"exact": True, "modes": ["kinetostatic", "dynamic"]},
+                    trajectory={"time": {"start": 0.0, "stop": 2.0, "n": 21}, "z": 2.0,
+                                "psi": {"offset": 0.1, "harmonics": [{"amplitude": 0.3, "period": 1.5}]},
+                                "theta": {"offset": 0.0, "harmonics": [{"amplitude": 0.2, "period": 1.1}]}})
+    expl = with_job(base, mechanism=dict(LOADED["mechanism"], kind="3-PRS", rail_angle_deg=0.0,
+                                         limb_angles_deg=[0.0, 120.0, 240.0],
+                                         platform_angles_deg=[0, 120, 240]))
+    a, b = rm.compute(base), rm.compute(expl)
+    for k in a:
+        if a[k].dtype == object:
+            assert list(a[k]) == list(b[k])
+        else:
+            assert a[k].tobytes() == b[k].tobytes(), k
+
+
+@pytest.mark.parametrize("name", FAMILY_NAMES)
+def test_family_leg_geometry(name):
+    """3-PRS: B_j on its rail (B - R_b x_j parallel to d_j), |A - B| = L, the slider
+    behind A along the rail ((A - B) . d > 0, sqrt(radicand) = L e.d); 3-RPS: B_j fixed,
+    q_j = |A_j - B_j| within the stroke.  Both: A_j in the limb plane.  1e-14 m."""
+    job = FAMILY[name][0]
+    P = rm.normalize_job(job)
+    kin = rm.kinematics(P, *family_inputs(name, 300))
+    assert kin["reach"].all() and not kin["across"].any()
+    A, B, e = kin["A"], kin["B"], kin["e"]
+    al = np.radians(job["mechanism"].get("limb_angles_deg", [0.0, 120.0, 240.0]))
+    xj = np.stack([np.cos(al), np.sin(al), 0 * al], -1)
+    yj = np.stack([-np.sin(al), np.cos(al), 0 * al], -1)
+    np.testing.assert_allclose((A * yj).sum(-1), 0.0, atol=1e-15)
+    np.testing.assert_allclose((B * yj).sum(-1), 0.0, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(e, axis=-1), 1.0, atol=1e-15)
+    Rb = job["mechanism"].get("base_radius", 0.18 if P["kind"] == "3-PRS" else 0.3)
+    if P["kind"] == "3-PRS":
+        b = np.radians(job["mechanism"]["rail_angle_deg"])
+        d = np.cos(b) * np.array([0, 0, 1.0]) + np.sin(b) * xj
+        L = job["mechanism"].get("leg_length", 1.0)
+        np.testing.assert_allclose(np.cross(B - Rb * xj, d), 0.0, atol=1e-14)
+        np.testing.assert_allclose(((B - Rb * xj) * d).sum(-1), kin["q"], atol=1e-14)
+        np.testing.assert_allclose(np.linalg.norm(A - B, axis=-1), L, atol=1e-14)
+        assert np.all(((A - B) * d).sum(-1) > 0)
+    else:
+        np.testing.assert_allclose(B, np.broadcast_to(Rb * xj, B.shape), atol=0)
+        np.testing.assert_allclose(np.linalg.norm(A - B, axis=-1), kin["q"], atol=1e-14)
+        assert np.all((kin["q"] >= P["qmin"]) & (kin["q"] <= P["qmax"]))
+
+
+@pytest.mark.parametrize("name", ["prs_inclined_uneven", "prs_horizontal_in", "rps_uneven",
+                                  "rps_symmetric"])
+def test_family_jet_rates_match_finite_differences(name):
+    """Exact rates (closed forms or implicit differentiation of the Newton solve) vs
+    Richardson finite differences, 1e-8 relative; platform angular velocity vs the
+    Euler-rate formula 1e-13; legs turn about y_j only."""
+    job, (zlo, zhi), span = FAMILY[name]
+    P = rm.normalize_job(job)
+    zs = {"offset": 0.5 * (zlo + zhi), "harmonics": [{"amplitude": 0.2 * (zhi - zlo), "period": 1.3, "phase": 0.2}]}
+    ps = {"offset": -0.05, "harmonics": [{"amplitude": span - 0.1, "period": 1.7, "phase": 2.0}]}
+    ts = {"offset": 0.05, "harmonics": [{"amplitude": 0.7 * (span - 0.1), "period": 2.0, "phase": 0.4},
+                                        {"amplitude": 0.3 * (span - 0.1), "period": 0.7, "phase": -1.0}]}
+    t0 = np.linspace(0.0, 3.0, 13)
+
+    def kin_at(t):
+        return rm.kinematics(P, *(rm.Jet(*rm._harmonic(s, t)) for s in (zs, ps, ts)))
+
+    kj = kin_at(t0)
+    assert kj["reach"].all()
+    keys = ["x", "y", "phi", "q", "A", "B", "C", "e", "R"] + (["Gc", "Gp"] if P["kind"] == "3-RPS" else [])
+    for key in keys:
+        if not isinstance(kj[key], rm.Jet):              # 3-RPS: B is fixed
+            assert np.array_equal(kin_at(t0 + 0.1)[key], kj[key])
+            continue
+        d_fd = richardson(lambda h: kin_at(t0 + h)[key].v)
+        dd_fd = richardson(lambda h: kin_at(t0 + h)[key].d)
+        sc = max(1.0, np.abs(kj[key].d).max())
+        np.testing.assert_allclose(kj[key].d, d_fd, rtol=0, atol=1e-8 * sc, err_msg=key)
+        sc = max(1.0, np.abs(kj[key].dd).max())
+        np.testing.assert_allclose(kj[key].dd, dd_fd, rtol=0, atol=1e-8 * sc, err_msg=key)
+    mot = rm.motion(kj, P)
+    psi, dpsi, _ = rm._harmonic(ps, t0)
+    th, dth, _ = rm._harmonic(ts, t0)
+    for k in range(t0.size):
+        Ry, Rx = rot("y", th[k]), rot("x", psi[k])
+        w = dth[k] * np.array([0, 1.0, 0]) + dpsi[k] * Ry[:, 0] + kj["phi"].d[k] * (Ry @ Rx)[:, 2]
+        np.testing.assert_allclose(mot["omega"][k], w, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(np.cross(mot["w_leg"], P["YJ"]), 0.0, atol=1e-13)
+
+
+def _actuator_forces(P, job, cols, kin, acc_piston=None):
+    """3-PRS: tau_j = f_Rj . d_j (massless slider on its rail).  3-RPS: the axial force
+    of the prismatic joint, from the piston's equilibrium along e_j: the cylinder pushes
+    the piston with F, the platform with -f_Sj, so F - f_S + m_p g = m_p a_p and
+    tau_j = F . e_j = (f_Sj - m_p g + m_p a_p) . e_j."""
+    fR = np.stack([np.stack([cols[f"f_r{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+    fS = np.stack([np.stack([cols[f"f_s{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+    if P["kind"] == "3-PRS":
+        b = np.radians(job["mechanism"].get("rail_angle_deg", 0.0))
+        al = np.radians(job["mechanism"].get("limb_angles_deg", [0.0, 120.0, 240.0]))
+        d = np.cos(b) * np.array([0, 0, 1.0]) + np.sin(b) * np.stack([np.cos(al), np.sin(al), 0 * al], -1)
+        return (fR * d).sum(-1)
+    mpis = job["mass"]["piston"]
+    F = fS - mpis * P["g"] + (0.0 if acc_piston is None else mpis * acc_piston)
+    return (F * kin["e"]).sum(-1)
+
+
+def _leg_points(job, kin):
+    """(mass, centre of mass, slender-rod length) of every leg body, from A, B, e."""
+    m = job["mechanism"]
+    if m.get("kind", "3-PRS") == "3-PRS":
+        return [(job["mass"].get("leg", 3.0), 0.5 * (kin["A"] + kin["B"]), m.get("leg_length", 1.0))]
+    lc, lp = m.get("cylinder_length", 0.8), m.get("piston_length", 0.8)
+    return [(job["mass"]["cylinder"], kin["B"] + 0.5 * lc * kin["e"], lc),
+            (job["mass"]["piston"], kin["A"] - 0.5 * lp * kin["e"], lp)]
+
+
+@pytest.mark.parametrize("name", FAMILY_NAMES)
+def test_family_statics_satisfy_virtual_work(name):
+    """sum tau_j dq_j + dW_gravity + dW_external = 0 for every virtual motion the inverse
+    kinematics allows, with the actuator forces of _actuator_forces; displacements by
+    Richardson differences.  Tolerance 1e-9 of the sum of the magnitudes of the terms."""
+    job = FAMILY[name][0]
+    P = rm.normalize_job(job)
+    z0, psi0, th0 = family_inputs(name, 40)
+    cols = rm.pose_arrays(P, z0, psi0, th0)
+    assert (cols["status"] == "ok").all()
+    kin0 = rm.kinematics(P, z0, psi0, th0)
+    tau = _actuator_forces(P, job, cols, kin0)
+    g, m = P["g"], P["m_body"]
+    for direction in np.eye(3):
+        def geo(h):
+            k = rm.kinematics(P, z0 + h * direction[0], psi0 + h * direction[1], th0 + h * direction[2])
+            parts = [k["q"]] + [G.reshape(-1, 9) for _, G, _ in _leg_points(job, k)] + \
+                [k["C"], k["E"], k["R"].reshape(-1, 9)]
+            return np.concatenate(parts, -1)
+        d = richardson(geo)
+        nb = len(_leg_points(job, kin0))
+        dq = d[:, 0:3]
+        legs = [(mb, d[:, 3 + 9 * i:12 + 9 * i].reshape(-1, 3, 3))
+                for i, (mb, _, _) in enumerate(_leg_points(job, kin0))]
+        o = 3 + 9 * nb
+        dC, dE, dR = d[:, o:o + 3], d[:, o + 3:o + 6], d[:, o + 6:o + 15].reshape(-1, 3, 3)
+        dalpha = rm.vee(dR @ kin0["R"].swapaxes(-1, -2))
+        terms = np.concatenate([tau * dq] + [mb * (dG @ g) for mb, dG in legs] +
+                               [(m * dC @ g)[:, None], (dE @ P["f_ext"])[:, None],
+                                (dalpha @ P["m_ext"])[:, None]], -1)
+        total = terms.sum(-1)
+        assert np.all(np.abs(total) <= 1e-9 * np.abs(terms).sum(-1)), np.abs(total).max()
+
+
+@pytest.mark.parametrize("name", FAMILY_NAMES)
+def test_family_dynamics_satisfy_power_balance(name):
+    """Dynamic reactions: sum tau_j qdot_j + P_gravity + P_ext = dT/dt over all bodies
+    (legs: m v.a + w.I w' with I = m l^2/12 across the rod), tau_j as in
+    _actuator_forces with the piston's acceleration; tolerance 1e-10 of the sum of the
+    magnitudes of the terms."""
+    job0, (zlo, zhi), span = FAMILY[name]
+    job = with_job(job0, clearance={"s_radial": 0.0}, analysis={"modes": ["dynamic"]},
+                   trajectory={"time": {"start": 0.0, "stop": 4.0, "n": 41},
+                               "z": {"offset": 0.5 * (zlo + zhi), "harmonics": [
+                                   {"amplitude": 0.3 * (zhi - zlo), "period": 1.1, "phase": 0.1}]},
+                               "psi": {"offset": 0.05, "harmonics": [{"amplitude": span - 0.1, "period": 1.4, "phase": 1.0}]},
+                               "theta": {"offset": -0.05, "harmonics": [
+                                   {"amplitude": 0.7 * (span - 0.1), "period": 0.9, "phase": 0.0},
+                                   {"amplitude": 0.3 * (span - 0.1), "period": 0.5, "phase": 2.0}]}})
+    P = rm.normalize_job(job)
+    cols = rm.compute(P)
+    assert (cols["status"] == "ok").all()
+    s = rm.sample_inputs(P)
+    kj = rm.kinematics(P, s["zj"], s["psij"], s["thetaj"])
+    kv = {k: (v.v if isinstance(v, rm.Jet) else v) for k, v in kj.items()}
+    mot = rm.motion(kj, P)
+    g = P["g"]
+    legs = _leg_points(job, kj)                              # centres of mass as Jets
+    e = kj["e"].v
+    w, dw = np.cross(e, kj["e"].d), np.cross(e, kj["e"].dd)    # omega_leg = e x e'
+    a_pis = legs[-1][1].dd if P["kind"] == "3-RPS" else None
+    tau = _actuator_forces(P, job, cols, kv, a_pis)
+    Rm = kj["R"].v
+    I_own = Rm @ np.diag(job["mass"]["platform_inertia"]) @ Rm.swapaxes(-1, -2)
+    mp = job["mass"]["platform"]
+    pts = [(pt["mass"], kj["p"] + kj["R"] @ np.array(pt["at"], float)) for pt in job["mass"]["points"]]
+    p_act = (tau * kj["q"].d).sum(-1)
+    p_grav = sum(mb * (G.d @ g).sum(-1) for mb, G, _ in legs) + mp * kj["p"].d @ g + \
+        sum(mk * r.d @ g for mk, r in pts)
+    p_ext = kj["E"].d @ P["f_ext"] + mot["omega"] @ P["m_ext"]
+    dT = mp * (kj["p"].d * kj["p"].dd).sum(-1) + \
+        np.einsum("na,nab,nb->n", mot["omega"], I_own, mot["domega"]) + \
+        sum(mk * (r.d * r.dd).sum(-1) for mk, r in pts)
+    for mb, G, lb in legs:
+        Ib = mb * lb ** 2 / 12 * (np.eye(3) - e[..., :, None] * e[..., None, :])
+        dT = dT + mb * (G.d * G.dd).sum((-1, -2)) + np.einsum("nja,njab,njb->n", w, Ib, dw)
+    scale = np.abs(tau * kj["q"].d).sum(-1) + np.abs(p_grav) + np.abs(p_ext) + np.abs(dT)
+    assert np.all(np.abs(p_act + p_grav + p_ext - dT) <= 1e-10 * scale), \
+        np.max(np.abs(p_act + p_grav + p_ext - dT) / scale)
+    kin_cols = rm.compute(with_job(job, analysis={"modes": ["kinetostatic"]}))
+    assert np.abs(kin_cols["f_s1_z"] - cols["f_s1_z"]).max() > 0.1
+
+
+@pytest.mark.parametrize("name", FAMILY_NAMES)
+@pytest.mark.parametrize("mode", ["kinetostatic", "dynamic"])
+def test_family_reactions_satisfy_newton_euler_about_other_points(name, mode):
+    """All 24 equations, written again here with other moment points: each leg about
+    its spherical joint A_j, m_R + (B - A) x f_R + sum_b (G_b - A) x m_b g =
+    sum_b [(G_b - A) x m_b a_b + I_b w' + w x I_b w]; the platform about P with its parts
+    (the disc about P, point masses as particles).  Accelerations from the test's own
+    jets of the body points; residuals below 1e-11 of W (forces) and W * size (moments)."""
+    job0, (zlo, zhi), span = FAMILY[name]
+    job = with_job(job0, analysis={"modes": [mode]},
+                   trajectory={"time": {"start": 0.0, "stop": 3.0, "n": 31},
+                               "z": {"offset": 0.5 * (zlo + zhi), "harmonics": [
+                                   {"amplitude": 0.3 * (zhi - zlo), "period": 1.3, "phase": 0.4}]},
+                               "psi": {"offset": -0.05, "harmonics": [{"amplitude": span - 0.1, "period": 1.1}]},
+                               "theta": {"offset": 0.05, "harmonics": [{"amplitude": span - 0.1, "period": 0.8,
+                                                                         "phase": 1.0}]}})
+    P = rm.normalize_job(job)
+    cols = rm.compute(P)
+    assert (cols["status"] == "ok").all()
+    s = rm.sample_inputs(P)
+    kj = rm.kinematics(P, s["zj"], s["psij"], s["thetaj"])
+    dyn = 1.0 if mode == "dynamic" else 0.0
+    g = P["g"]
+    fR, fS, mR = (np.stack([np.stack([cols[f"{n}{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+                  for n in ("f_r", "f_s", "m_r"))
+    A, B, e = kj["A"].v, (kj["B"].v if isinstance(kj["B"], rm.Jet) else kj["B"]), kj["e"].v
+    w, dw = np.cross(e, kj["e"].d), np.cross(e, kj["e"].dd)
+    res_f = fR - fS
+    res_m = mR + np.cross(B - A, fR)
+    for mb, G, lb in _leg_points(job, kj):
+        Ib = mb * lb ** 2 / 12 * (np.eye(3) - e[..., :, None] * e[..., None, :])
+        res_f = res_f + mb * g - dyn * mb * G.dd
+        res_m = res_m + np.cross(G.v - A, mb * g - dyn * mb * G.dd) - dyn * (
+            np.einsum("njab,njb->nja", Ib, dw) + np.cross(w, np.einsum("njab,njb->nja", Ib, w)))
+    p, Rm = kj["p"], kj["R"].v
+    om = rm.vee(kj["R"].d @ Rm.swapaxes(-1, -2))
+    dom = rm.vee(kj["R"].dd @ Rm.swapaxes(-1, -2))
+    I_own = Rm @ np.diag(job["mass"]["platform_inertia"]) @ Rm.swapaxes(-1, -2)
+    mp = job["mass"]["platform"]
+    fe, me = np.array(job["load"]["force"]), np.array(job["load"]["moment"])
+    E = p.v + Rm @ np.array(job["load"]["at"])
+    pf = fS.sum(1) + mp * g + fe - dyn * mp * p.dd
+    pm = np.cross(A - p.v[:, None], fS).sum(1) + np.cross(E - p.v, fe) + me - dyn * (
+        np.einsum("nab,nb->na", I_own, dom) + np.cross(om, np.einsum("nab,nb->na", I_own, om)))
+    for pt in job["mass"]["points"]:
+        r = p + kj["R"] @ np.array(pt["at"], float)
+        pf = pf + pt["mass"] * (g - dyn * r.dd)
+        pm = pm + np.cross(r.v - p.v, pt["mass"] * (g - dyn * r.dd))
+    W, size = P["W"], P["size"]
+    assert np.abs(res_f).max() <= 1e-11 * W and np.abs(pf).max() <= 1e-11 * W
+    assert np.abs(res_m).max() <= 1e-11 * W * size and np.abs(pm).max() <= 1e-11 * W * size
+    # the R couple has no component along the revolute axis
+    np.testing.assert_allclose((mR * P["YJ"]).sum(-1), 0.0, atol=1e-13 * W * size)
+
+
+@pytest.mark.parametrize("name", ["prs_inclined_uneven", "rps_uneven"])
+def test_family_take_up_uses_the_limbs_axes(name):
+    """Uneven limbs: the R axial take-up is along the limb's own y_j (from the job's
+    angles), opposite to f_R . y_j; the radial one is normal to it and opposite to
+    f_perp; margins are |f_R . y_j| and |f_perp|.  1e-13 relative (y_j here from
+    np.radians, not the reference's deg * pi / 180)."""
+    job = FAMILY[name][0]
+    P = rm.normalize_job(job)
+    c = rm.pose_arrays(P, *family_inputs(name, 50))
+    al = np.radians(job["mechanism"]["limb_angles_deg"])
+    yj = np.stack([-np.sin(al), np.cos(al), 0 * al], -1)
+    fR = np.stack([np.stack([c[f"f_r{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+    mR = np.stack([np.stack([c[f"m_r{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+    fS = np.stack([np.stack([c[f"f_s{j}_{a}"] for a in "xyz"], -1) for j in (1, 2, 3)], 1)
+    disp, marg, _ = rm.take_up(P, fR, mR, fS)
+    fy = (fR * yj).sum(-1)
+    fperp = fR - fy[..., None] * yj
+    ca, cr = job["clearance"]["r_axial"], job["clearance"]["r_radial"]
+    np.testing.assert_allclose(disp["r_axial"], -ca * np.sign(fy)[..., None] * yj, rtol=0, atol=1e-13 * ca)
+    np.testing.assert_allclose(disp["r_radial"], -cr * fperp / np.linalg.norm(fperp, axis=-1)[..., None],
+                               rtol=0, atol=1e-13 * cr)
+    np.testing.assert_allclose(marg["r_axial"], np.abs(fy), rtol=1e-13)
+    np.testing.assert_allclose(marg["r_radial"], np.linalg.norm(fperp, axis=-1), rtol=1e-13)
+    for j in (1, 2, 3):
+        np.testing.assert_allclose(c[f"margin_r{j}_axial"], np.abs(fy[:, j - 1]), rtol=1e-13)
+
+
+@pytest.mark.parametrize("name", FAMILY_NAMES)
+def test_family_loop_formulation_matches_six_by_six(name):
+    """The 12 x 12 loop system vs the 6 x 6 reciprocal-screw formulation
+    (_six_by_six_errors, with the limbs' own y_j), per kind, 1e-11 of the error scale;
+    totals are the sums of the kinds."""
+    job = FAMILY[name][0]
+    P = rm.normalize_job(job)
+    z, psi, th = family_inputs(name, 200)
+    cols = rm.pose_arrays(P, z, psi, th)
+    assert (cols["status"] == "ok").all()
+    kin = rm.kinematics(P, z, psi, th)
+    w = np.linalg.solve(*[a if i == 0 else a[..., None] for i, a in
+                          enumerate(rm.equilibrium_system(P, kin))])[..., 0]
+    disp, _, indet = rm.take_up(P, *rm.unpack_reactions(w, P))
+    ref = _six_by_six_errors(P, kin, disp, P["YJ"])
+    ours = np.stack([cols[f"err_{c}"] for c in ("rx", "ry", "rz", "x", "y", "z")], -1)
+    np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-11 * np.abs(ref).max())
+    for kind in rm.KINDS:
+        one = {k: (v if k == kind else np.zeros_like(v)) for k, v in disp.items()}
+        ref = _six_by_six_errors(P, kin, one, P["YJ"])
+        ours = np.stack([cols[f"err_{kind}_{c}"] for c in ("rx", "ry", "rz", "x", "y", "z")], -1)
+        np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-11 * np.abs(ref).max(), err_msg=kind)
+
+
+@pytest.mark.parametrize("name", FAMILY_NAMES)
+def test_family_linear_error_equals_exact_to_second_order(name):
+    """|exact - linear| shrinks like clearance^2 (ratio ~100 per decade, accepted
+    60..160 in the median) and stays below 10 |linear|^2 / size (the remainder of a
+    first-order expansion in the pose error itself; horizontal rails amplify the
+    clearances 15-30 times, so a bound in clearance/size alone would not hold)."""
+    job = FAMILY[name][0]
+    P = rm.normalize_job(job)
+    z, psi, th = family_inputs(name, 60)
+    base = job["clearance"]
+    diffs = []
+    for eps in (1e-3, 1e-4, 1e-5):
+        vmax = max(base.values())
+        jb = with_job(job, clearance={k: v / vmax * eps for k, v in base.items()},
+                      analysis={"exact": True})
+        c = rm.pose_arrays(jb, z, psi, th)
+        assert (c["status"] == "ok").all()
+        lin = np.stack([c[f"err_{k}"] for k in ("x", "y", "z", "rx", "ry", "rz")], -1)
+        ex = np.stack([c[f"exact_err_{k}"] for k in ("x", "y", "z", "rx", "ry", "rz")], -1)
+        assert np.isfinite(ex).all()
+        d = np.abs(ex - lin).max(-1)
+        diffs.append(d)
+        assert np.all(d <= 10 * np.abs(lin).max(-1) ** 2 / P["size"])
+    r1, r2 = diffs[0] / diffs[1], diffs[1] / diffs[2]
+    assert 60 < np.median(r1) < 160, np.median(r1)
+    assert 60 < np.median(r2) < 160, np.median(r2)
+
+
+def test_leg_across_rail_is_near_singular():
+    """Horizontal rails pointing inwards (beta = -90): a level platform at Z = L puts
+    the legs vertical, across their rails (sqrt(radicand) = L e.d -> 0).  Within
+    1e-6 L of that: near_singular, q and the condition numbers reported, the rest null;
+    further away: a regular pose."""
+    L = 0.9
+    zs = [L * (1 - 1e-14), L * (1 - 1e-13), L * (1 - 1e-8), L * 0.7]
+    job = {"mechanism": {"kind": "3-PRS", "rail_angle_deg": -90.0, "leg_length": L},
+           "clearance": {"s_radial": 1e-4, "r_radial": 1e-4}, "analysis": {"exact": True},
+           "grid": {"z": 0.0, "psi": 0.0, "theta": 0.0}}
+    P = rm.normalize_job(job)
+    kin = rm.kinematics(P, np.array(zs), np.zeros(4), np.zeros(4))
+    root = L * (kin["e"] * P["DJ"]).sum(-1)
+    assert np.all(root[:2] < 1e-6 * L) and np.all(root[2:] > 1e-5 * L)
+    c = rm.pose_arrays(job, zs, np.zeros(4), np.zeros(4))
+    assert list(c["status"]) == ["near_singular", "near_singular", "ok", "ok"]
+    keep = ALWAYS | {"q1", "q2", "q3", "cond_a", "cond_jp"}
+    for row in (0, 1):
+        assert _nulls(c, row) == (set(c) - keep) | {"t"}
+        assert max(c["cond_a"][row], c["cond_jp"][row]) < 1e8      # flagged by the rail rule alone
+
+
+def test_rps_stroke_limits_make_unreachable():
+    """3-RPS: a leg length outside [min_length, max_length] -> unreachable, with only
+    identity, inputs and the parasitic motions."""
+    job = {"mechanism": {"kind": "3-RPS", "min_length": 0.9, "max_length": 1.3},
+           "clearance": ALL4, "analysis": {"exact": True},
+           "grid": {"z": {"start": 0.7, "stop": 1.5, "n": 9}, "psi": 0.15, "theta": -0.1}}
+    c = rm.compute(job)
+    P = rm.normalize_job(job)
+    kin = rm.kinematics(P, c["z"], c["psi"], c["theta"])
+    inside = np.all((kin["q"] >= 0.9) & (kin["q"] <= 1.3), -1)
+    assert inside.any() and (~inside).any()
+    np.testing.assert_array_equal(c["status"] == "unreachable", ~inside)
+    for row in np.flatnonzero(~inside):
+        assert _nulls(c, row) == set(c) - ALWAYS
+    assert np.isfinite(c["exact_err_x"][inside]).all()
