@@ -60,14 +60,32 @@ fn best(rates: &[f64]) -> (f64, String) {
 
 /// Each measurement is made `repeat` times; the fastest is reported, and every
 /// run is listed in the JSON (`*_runs`).
-pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec, repeat: usize) -> Result<()> {
-    let job = bench_job(poses);
+///
+/// `job` replaces the prototype's grid: its first variant, as written, kinetostatic
+/// (a robot of the family, say).
+pub fn bench(
+    poses: u64,
+    json: bool,
+    solver: SolverKind,
+    compression: Codec,
+    repeat: usize,
+    job: Option<JobSpec>,
+) -> Result<()> {
+    // The general path is slower: the prototype's is measured on a tenth of the poses.
+    let (job, general_job) = match job {
+        None => (bench_job(poses), bench_job(poses / 10)),
+        Some(job) => {
+            let mut first = job.variants("bench job")?.swap_remove(0).job;
+            first.analysis.modes = vec![Mode::Kinetostatic];
+            (first.clone(), first)
+        }
+    };
     let isa = Isa::best().name();
     let n = job.sample_count();
     let threads = rayon::current_num_threads();
     kernel_rate(&bench_job(10_000), SolverKind::Fast); // warm up
     let kernels: Vec<f64> = (0..repeat).map(|_| kernel_rate(&job, SolverKind::Fast)).collect();
-    let kernel_general = kernel_rate(&bench_job(poses / 10), SolverKind::General);
+    let kernel_general = kernel_rate(&general_job, SolverKind::General);
     let dir = std::env::temp_dir().join(format!("clearance-bench-{}", std::process::id()));
     let opts = RunOptions {
         out: dir.clone(),
@@ -99,11 +117,14 @@ pub fn bench(poses: u64, json: bool, solver: SolverKind, compression: Codec, rep
     let bytes_per_pose = bytes as f64 / n as f64;
     if json {
         println!(
-            "{{\"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\", \"compression\": \"{}\", \"bytes_per_pose\": {bytes_per_pose:.1}, \"isa\": \"{isa}\", \"repeat\": {repeat}, \"kernel_runs\": {kernel_runs}, \"end_to_end_runs\": {e2e_runs}}}",
+            "{{\"job\": \"{}\", \"mechanism\": \"{}\", \"kernel_poses_per_s\": {kernel:.1}, \"kernel_general_poses_per_s\": {kernel_general:.1}, \"end_to_end_poses_per_s\": {e2e:.1}, \"threads\": {threads}, \"poses\": {n}, \"solver\": \"{}\", \"compression\": \"{}\", \"bytes_per_pose\": {bytes_per_pose:.1}, \"isa\": \"{isa}\", \"repeat\": {repeat}, \"kernel_runs\": {kernel_runs}, \"end_to_end_runs\": {e2e_runs}}}",
+            job.name(),
+            job.mechanism.kind.name(),
             if solver == SolverKind::Fast { "fast" } else { "general" },
             compression.name()
         );
     } else {
+        println!("job: {} ({})", job.name(), job.mechanism.kind.name());
         println!("poses per measurement: {n}, threads: {threads}, vector instructions: {isa}, best of {repeat}");
         println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
         println!("kernel, general faer path:              {kernel_general:>12.0} poses/s");

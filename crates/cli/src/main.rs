@@ -98,6 +98,10 @@ enum Command {
         /// Runs of each measurement; the fastest is reported, and the JSON lists them all.
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
         repeat: u64,
+        /// Measure this job's grid (first variant, kinetostatic) instead of the prototype's
+        /// (--poses is then ignored).
+        #[arg(long)]
+        job: Option<std::path::PathBuf>,
     },
 }
 
@@ -241,8 +245,12 @@ fn main() -> ExitCode {
                 eprintln!("{} figures in {}", files.len(), out.display());
             })
         }
-        Command::Bench { poses, json, threads, solver, compression, repeat } => {
-            init_threads(threads).and_then(|_| bench::bench(poses, json, solver, compression, repeat as usize))
+        Command::Bench { poses, json, threads, solver, compression, repeat, job } => {
+            let job = match job.map(|p| JobSpec::from_path(&p)).transpose() {
+                Ok(job) => job,
+                Err(e) => return usage(e),
+            };
+            init_threads(threads).and_then(|_| bench::bench(poses, json, solver, compression, repeat as usize, job))
         }
     };
     match result {
