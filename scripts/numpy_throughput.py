@@ -50,7 +50,7 @@ ROOT = Path(__file__).resolve().parent.parent
 KINDS = ("s_radial", "r_radial", "r_axial", "r_angular")
 COMPONENTS = ("x", "y", "z", "rx", "ry", "rz", "phi", "psi", "theta")
 
-# The paper's prototype (INTERFACE.md defaults): no point masses, no external load.
+# The paper's prototype (docs/interface.md defaults): no point masses, no external load.
 RB, RP, L = 0.18, 0.36, 1.0
 G = np.array([0.0, 0.0, -9.81])
 M_PLAT, M_LEG = 9.8, 3.0

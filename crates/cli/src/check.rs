@@ -68,9 +68,7 @@ fn describe(m: &MechanismSpec) -> String {
     }
     let (limbs, platform) = (m.limb_angles_deg(), m.platform_angles_deg());
     if limbs != PROTOTYPE_LIMB_ANGLES_DEG || platform != limbs {
-        out.push_str(&format!(
-            ", limbs at {limbs:?}°, platform joints at {platform:?}° (parasitic motions by Newton)"
-        ));
+        out.push_str(&format!(", limbs at {limbs:?}°, platform joints at {platform:?}° (parasitic motions by Newton)"));
     }
     if m.kind == MechanismKind::Rps3 {
         out.push_str(&format!(", leg stroke {} to {} m", m.min_length(), m.max_length()));

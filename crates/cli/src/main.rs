@@ -1,5 +1,5 @@
 //! `clearance`: pose errors of a 3-PRS robot due to joint clearances, from a job
-//! file to a Parquet dataset. See README.md and shared/INTERFACE.md.
+//! file to a Parquet dataset. See README.md and docs/interface.md.
 
 mod bench;
 mod check;

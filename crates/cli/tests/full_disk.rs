@@ -1,6 +1,6 @@
 //! A full disk (ENOSPC) during `clearance run`, on a real small file system (a
 //! tmpfs): exit code 1, a one- or two-line message naming the file and the error,
-//! and no file under a final name that is incomplete (INTERFACE.md, README "Bad
+//! and no file under a final name that is incomplete (docs/interface.md, README "Bad
 //! input"). The disk fills at every kind of write: `job.toml`, a part's statistics,
 //! a part file, and in finalize `discontinuities.parquet` and `summary.parquet`.
 //!

@@ -1,5 +1,5 @@
 //! The `clearance` binary end to end: exit codes, the output directory contract
-//! (INTERFACE.md), nulls instead of NaN, and reproducibility across threads,
+//! (docs/interface.md), nulls instead of NaN, and reproducibility across threads,
 //! chunk sizes and shards.
 
 use std::collections::BTreeMap;
@@ -268,7 +268,7 @@ fn unwritable_output_fails_with_exit_1_and_no_final_file() {
     assert_eq!(std::fs::read(&blocker).unwrap(), b"not a directory");
 }
 
-/// `bench --json` prints one JSON object with INTERFACE.md's keys, every rate a
+/// `bench --json` prints one JSON object with docs/interface.md's keys, every rate a
 /// positive number and the Parquet size per pose that of the standard columns
 /// (at least a byte a column, at most eight and some overhead uncompressed).
 #[test]

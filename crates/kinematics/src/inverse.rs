@@ -215,7 +215,7 @@ pub fn rotation_sc<T: Elementary>((sf, cf): (T, T), (sp, cp): (T, T), (st, ct): 
     ]
 }
 
-/// Columns `[ŷ, R_y(Θ)x̂, R_y(Θ)R_x(Ψ)ẑ]`: `Δα = M·(ΔΘ, ΔΨ, ΔΦ)` (MODEL.md §6).
+/// Columns `[ŷ, R_y(Θ)x̂, R_y(Θ)R_x(Ψ)ẑ]`: `Δα = M·(ΔΘ, ΔΨ, ΔΦ)` (docs/model.md §6).
 pub fn euler_rates_matrix(psi: f64, theta: f64) -> Matrix3<f64> {
     let (sp, cp) = psi.sin_cos();
     let (st, ct) = theta.sin_cos();

@@ -2,7 +2,7 @@
 //!
 //! A [`Jet`] carries a value and its first two time derivatives. Propagating the
 //! trajectory inputs `(Z, Ψ, Θ)` and their analytic rates through the same closed
-//! forms as the positions gives exact velocities and accelerations (MODEL.md §2
+//! forms as the positions gives exact velocities and accelerations (docs/model.md §2
 //! forbids finite differences), with no second hand-derived formula to keep in sync.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};

@@ -1,6 +1,6 @@
 //! # clearance-kinematics
 //!
-//! Nominal inverse kinematics of the 3-PRS robot (MODEL.md §1–2).
+//! Nominal inverse kinematics of the 3-PRS robot (docs/model.md §1–2).
 //!
 //! Inputs are `(Z, Ψ, Θ)`; the constraints `A_j·y_j = 0` give the parasitic
 //! motions in closed form (paper Eqs. 3–5, corrected):

@@ -1,4 +1,4 @@
-//! MODEL.md §2: velocities and accelerations are exact. Compared with
+//! docs/model.md §2: velocities and accelerations are exact. Compared with
 //! fourth-order central differences of the posture along random trajectories.
 
 use clearance_kinematics::{Geometry, Posture, inverse_kinematics, inverse_kinematics_motion};

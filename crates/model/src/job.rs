@@ -46,7 +46,7 @@ pub struct LoadSpec {
     pub at: [f64; 3],
 }
 
-/// Clearance magnitudes at full take-up (MODEL.md §5). 0 (the default) is rigid.
+/// Clearance magnitudes at full take-up (docs/model.md §5). 0 (the default) is rigid.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ClearanceSpec {
@@ -100,9 +100,9 @@ impl Mode {
 pub struct AnalysisSpec {
     /// Default `["kinetostatic"]`.
     pub modes: Vec<Mode>,
-    /// Also solve the nonlinear closure (MODEL.md §7). Default false.
+    /// Also solve the nonlinear closure (docs/model.md §7). Default false.
     pub exact: bool,
-    /// Vector-load switches count only below this fraction of the weight W (MODEL.md §8).
+    /// Vector-load switches count only below this fraction of the weight W (docs/model.md §8).
     pub discontinuity_load_fraction: f64,
     /// A deciding load at or below this fraction of W makes the take-up indeterminate.
     pub indeterminate_load_fraction: f64,
@@ -365,7 +365,7 @@ impl JobSpec {
             + kind.limbs() as f64 * self.mass.limb(kind)
     }
 
-    /// `W = m_total·|g|`, the natural load scale of MODEL.md §8 (N).
+    /// `W = m_total·|g|`, the natural load scale of docs/model.md §8 (N).
     pub fn weight(&self) -> f64 {
         let g = self.mechanism.gravity;
         self.total_mass() * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt()

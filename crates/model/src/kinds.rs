@@ -1,6 +1,6 @@
-//! The four clearance kinds of MODEL.md §5.
+//! The four clearance kinds of docs/model.md §5.
 
-/// One kind of joint clearance. Kinds are independent and superpose (MODEL.md §5).
+/// One kind of joint clearance. Kinds are independent and superpose (docs/model.md §5).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ClearanceKind {
     /// Radial clearance of the spherical joint S_j (m).

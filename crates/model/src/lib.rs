@@ -4,11 +4,11 @@
 //! with any rails and limb layout, or a 3-RPS),
 //! its masses and loads, the clearance magnitudes, the analysis options and the
 //! samples (a workspace grid or a trajectory). A job file (TOML, see
-//! `shared/INTERFACE.md`) is exactly one [`JobSpec`]; [`JobSpec::from_toml_str`]
+//! docs/interface.md) is exactly one [`JobSpec`]; [`JobSpec::from_toml_str`]
 //! parses, applies defaults (the paper's prototype) and validates it, and
 //! [`JobSpec::variants`] expands its `[[sweep]]` tables into concrete jobs.
 //!
-//! Symbols follow `shared/MODEL.md`: base radius `R_b`, platform radius `r_p`,
+//! Symbols follow docs/model.md: base radius `R_b`, platform radius `r_p`,
 //! leg length `L`, limb angles `α_j = 0°, 120°, 240°`.
 //!
 //! ```
@@ -37,5 +37,5 @@ pub use kinds::{ClearanceKind, KINDS};
 pub use mechanism::{MECHANISM_KINDS, MassSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, PointMass};
 pub use sweep::{MAX_VARIANTS, Variant};
 
-/// Angles of the three limbs about `z` (MODEL.md §1), in radians.
+/// Angles of the three limbs about `z` (docs/model.md §1), in radians.
 pub const LIMB_ANGLES: [f64; 3] = [0.0, 2.0 * std::f64::consts::PI / 3.0, 4.0 * std::f64::consts::PI / 3.0];

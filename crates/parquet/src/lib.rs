@@ -1,7 +1,7 @@
 //! # clearance-parquet
 //!
 //! The output of a run as Arrow record batches and Parquet files
-//! (`shared/INTERFACE.md`, "Output directory"):
+//! (docs/interface.md, "Output directory"):
 //!
 //! - [`PoseSchema`]: the `poses` columns of a column set (`minimal`, `standard`,
 //!   `full`), each with its unit in the field metadata, and the rules that turn a

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use crate::pages::{self, PAGE_ROWS, PageStats};
 use crate::writer::Codec;
 
-/// Which columns to write (INTERFACE.md `--columns`).
+/// Which columns to write (docs/interface.md `--columns`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum ColumnSet {
     /// Identity, inputs, status and the total errors.

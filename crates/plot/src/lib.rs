@@ -1,7 +1,7 @@
 //! # clearance-plot
 //!
 //! PNG figures from a finished `clearance run` directory, the figures of the
-//! paper's sections 3–4 (`shared/paper.md`), one set per variant `K` of the job:
+//! paper's sections 3–4 (cited by title in docs/model.md), one set per variant `K` of the job:
 //!
 //! | run | file under `OUT/variant=K/` | pixels | paper |
 //! |---|---|---|---|

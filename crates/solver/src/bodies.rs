@@ -1,4 +1,4 @@
-//! The moving bodies (MODEL.md §3) and the loads on them, in the form the
+//! The moving bodies (docs/model.md §3) and the loads on them, in the form the
 //! equilibrium needs: a composite platform and three slender legs.
 
 use clearance_kinematics::{Geometry, Motion, Posture};
@@ -164,7 +164,7 @@ pub fn leg_inertia_world(mass: &MassModel, e: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// Which solver runs the two linear systems. Both give the same results to
-/// round-off; `General` assembles the full 24 × 24 and 12 × 12 systems of MODEL.md
+/// round-off; `General` assembles the full 24 × 24 and 12 × 12 systems of docs/model.md
 /// and solves them with faer, `Fast` (the default) solves their 6 × 6 reductions.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SolverKind {

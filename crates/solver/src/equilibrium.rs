@@ -1,4 +1,4 @@
-//! Newton-Euler joint reactions: the 24 × 24 system `A·w = b` (MODEL.md §4,
+//! Newton-Euler joint reactions: the 24 × 24 system `A·w = b` (docs/model.md §4,
 //! paper Eqs. 5–7).
 //!
 //! Unknowns, limb by limb (`w[8j..8j+8]`): `f_Rj` (world x, y, z), `μ1, μ2` with

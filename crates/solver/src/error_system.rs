@@ -1,4 +1,4 @@
-//! Error kinematics with clearance freedoms: `J_P·Δq_P = J_Cl·Δq_Cl` (MODEL.md §6,
+//! Error kinematics with clearance freedoms: `J_P·Δq_P = J_Cl·Δq_Cl` (docs/model.md §6,
 //! paper Eqs. 12–14).
 //!
 //! Twists are `[ω; v_P]`, `v_P` the velocity of the point coinciding with P. Limb j,

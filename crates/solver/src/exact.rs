@@ -1,4 +1,4 @@
-//! Exact error (MODEL.md §7): the take-up displacements applied as finite offsets,
+//! Exact error (docs/model.md §7): the take-up displacements applied as finite offsets,
 //! solving the nonlinear loop closure instead of the velocity approximation.
 //!
 //! Unknowns: the platform pose `(p', R')` and the leg angles `φ_j` (9). For each limb

@@ -3,15 +3,15 @@
 //! The physics of one pose, after its nominal kinematics (`clearance-kinematics`):
 //!
 //! 1. [`equilibrium`]: Newton-Euler joint reactions, the 24 × 24 system `A·w = b`
-//!    (MODEL.md §4), with gravity, point masses, an external wrench and, in dynamics,
+//!    (docs/model.md §4), with gravity, point masses, an external wrench and, in dynamics,
 //!    inertial terms. Solved by faer's partial-pivoting LU ([`LuSolver`]).
-//! 2. [`takeup`]: how each clearance is taken up under those reactions (MODEL.md §5),
+//! 2. [`takeup`]: how each clearance is taken up under those reactions (docs/model.md §5),
 //!    with the contact margins.
 //! 3. [`error_system`]: the 12 × 12 loop-closure system `J_P·Δq_P = J_Cl·Δq_Cl`
-//!    (MODEL.md §6), one right-hand side per clearance kind, giving the pose error
+//!    (docs/model.md §6), one right-hand side per clearance kind, giving the pose error
 //!    `ΔΓ = [Δα; Δp]` and its Euler-angle form.
 //! 4. [`exact`]: the same take-up applied as finite offsets to the nonlinear closure
-//!    (MODEL.md §7).
+//!    (docs/model.md §7).
 //!
 //! [`solve_pose`] runs them in order; a bad pose becomes a [`Status`], never a panic.
 //! [`fast`] solves the same two systems in their 6 × 6 reduced forms (the default,

@@ -1,4 +1,4 @@
-//! How each clearance is taken up under the joint reactions (MODEL.md §5).
+//! How each clearance is taken up under the joint reactions (docs/model.md §5).
 //!
 //! The distal part of a joint is pushed against the wall opposite to the load the
 //! proximal part exerts on it:

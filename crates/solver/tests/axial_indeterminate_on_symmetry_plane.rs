@@ -1,4 +1,4 @@
-//! MODEL.md §8: limb 1's axial load is zero on the symmetry plane Ψ = 0 under dead
+//! docs/model.md §8: limb 1's axial load is zero on the symmetry plane Ψ = 0 under dead
 //! weight, so its axial take-up is indeterminate; the other kinds are still reported,
 //! and a rigid kind (clearance 0) never makes a pose indeterminate.
 

@@ -1,4 +1,4 @@
-//! MODEL.md §5: under gravity alone the platform sags (ΔZ < 0). At the home pose
+//! docs/model.md §5: under gravity alone the platform sags (ΔZ < 0). At the home pose
 //! the sag follows from geometry alone: by symmetry the platform only translates,
 //! by (0, 0, −δ); each vertex is its leg tip (which can only turn about y_j, so it
 //! moves along n_j ⟂ e_j) plus the take-up −s·f̂_j. Projecting on e_j gives

@@ -1,4 +1,4 @@
-//! MODEL.md §9: the linear error equals the exact error to second order as the
+//! docs/model.md §9: the linear error equals the exact error to second order as the
 //! clearances shrink: `|exact − linear| ≤ K·c²`, so the relative difference falls
 //! tenfold per decade of clearance.
 

@@ -45,7 +45,7 @@ pub fn make_run(dir: &Path, job_text: &str, columns: ColumnSet) -> JobSpec {
     job
 }
 
-/// One row of `discontinuities.parquet` (the columns of shared/INTERFACE.md).
+/// One row of `discontinuities.parquet` (the columns of docs/interface.md).
 pub struct SwitchRow {
     pub variant: u64,
     pub mode: &'static str,
