@@ -67,6 +67,26 @@ strings, a null exactly where the reference has NaN (and nowhere else), no NaN
 stored in the engine's files, every expected column present.  A job fails on
 any violation or on a non-zero exit code of the engine.
 
+Worst-case envelope (/work/notes/envelope_spec.md): ``env_<c>``,
+``env_<kind>_<c>`` (c = x, y, z, rx, ry, rz, p, alpha) and ``dominant``.  If the
+engine's output has none of them (an engine from before issue 22), they are
+skipped with a note, not failed; if it has some, all are required.  The env_*
+columns follow the rule above, in their own unit groups (env_len: x, y, z, p;
+env_ang: rx, ry, rz, alpha) with the error columns' natural magnitudes, so they
+neither loosen nor tighten the error columns' floors.  ``dominant`` is compared
+exactly (same nulls, same string), with one allowance: where the engine names
+another joint whose |dp| contribution (reference) equals the reference's
+maximum to the row's tolerance, the two joints tie to round-off (a symmetric
+pose: the spec's tie rule is for exact ties, and which of two mirror limbs
+wins is decided by round-off), so it is counted as a near tie and reported,
+not failed (``--strict-dominant`` fails them too).  The summary quantities of
+the spec (env_p_max, env_p_p95, env_alpha_max, env_alpha_p95,
+dominant_share_<joint>, rms_dp_<joint>) are compared with
+``summary.parquet``'s row of variant 0 and each mode when the engine writes
+them (skipped with a note otherwise): maxima and RMS by the rule above,
+p95 within 5e-4 relative (one histogram bin, 2^(1/2048) - 1 = 3.4e-4, for a
+value on a bin edge), shares within (near ties of the mode)/(ok rows) + 1e-12.
+
 Prints the per-column worst-error table (over all jobs, with where it
 happened), one line per job and finally
 ``N passed, M failed``; the exit code is 1 if any job failed.
@@ -497,9 +517,15 @@ def to_toml(job):
 # --------------------------------------------------------------------------
 # comparison
 # --------------------------------------------------------------------------
+ENV_COLUMNS = tuple(rm.env_column_names())          # env_* and dominant
+EXTRA_COLUMNS = frozenset(rm.extra_column_names())  # reference-only, never compared
+
+
 def group_of(col):
     if col in ("cond_a", "cond_jp", "t"):
         return col
+    if col.startswith("env_"):
+        return "env_len" if col.rsplit("_", 1)[1] in ("x", "y", "z", "p") else "env_ang"
     if col in ("z", "x", "y", "q1", "q2", "q3"):
         return "length"
     if col in ("psi", "theta", "phi"):
@@ -523,13 +549,15 @@ def physical_scale(P):
     L = P["size"]
     return {"length": L, "angle": 1.0, "err_len": trans + L * c["r_angular"],
             "err_ang": c["r_angular"] + trans / L, "force": P["W"], "couple": P["W"] * L,
-            "exact_len": trans + L * c["r_angular"], "exact_ang": c["r_angular"] + trans / L}
+            "exact_len": trans + L * c["r_angular"], "exact_ang": c["r_angular"] + trans / L,
+            "env_len": trans + L * c["r_angular"], "env_ang": c["r_angular"] + trans / L}
 
 
 # groups whose values come out of one linear solve together: (length-like, angle-like)
 FAMILIES = {"force": ("force", "couple"), "couple": ("force", "couple"),
             "err_len": ("err_len", "err_ang"), "err_ang": ("err_len", "err_ang"),
-            "exact_len": ("exact_len", "exact_ang"), "exact_ang": ("exact_len", "exact_ang")}
+            "exact_len": ("exact_len", "exact_ang"), "exact_ang": ("exact_len", "exact_ang"),
+            "env_len": ("env_len", "env_ang"), "env_ang": ("env_len", "env_ang")}
 
 
 def family_magnitude(g, mg, L):
@@ -584,10 +612,19 @@ class Stats:
         w["null"] += n_null
         w["n"] += n_cmp
 
-def compare(ref, eng, job_label, stats, P):
-    """Returns a list of failure strings."""
+def compare(ref, eng, job_label, stats, P, notes=None, strict_dominant=False, near_ties=None):
+    """Returns a list of failure strings; appends remarks (skipped envelope columns,
+    near ties of `dominant`) to `notes` and counts the near ties per mode in
+    `near_ties`.  `ref` is rm.compute(job, extras=True) (the per-joint |dp| columns
+    judge the near ties; compute() without extras works when the engine writes no
+    `dominant`)."""
     fails = []
-    expected = [c for c in ref if c != "variant"]
+    notes = [] if notes is None else notes
+    near_ties = {} if near_ties is None else near_ties
+    expected = [c for c in ref if c != "variant" and c not in EXTRA_COLUMNS]
+    if not any(c in eng for c in ENV_COLUMNS):
+        expected = [c for c in expected if c not in ENV_COLUMNS]
+        notes.append("engine output has no envelope columns (env_*, dominant): not compared")
     missing = [c for c in expected if c not in eng]
     if missing:
         fails.append(f"missing columns: {', '.join(missing[:8])}" + (" ..." if len(missing) > 8 else ""))
@@ -620,7 +657,7 @@ def compare(ref, eng, job_label, stats, P):
     tol = np.where(modes == "dynamic", TOL["dynamic"], TOL["kinetostatic"])
     kap = np.fmax(np.nan_to_num(ref["cond_a"][ri]), np.nan_to_num(ref["cond_jp"][ri]))
     # column scales per mode
-    num_cols = [c for c in expected if c in eng and c not in ("mode", "status", "sample")]
+    num_cols = [c for c in expected if c in eng and c not in ("mode", "status", "sample", "dominant")]
     scale, fam = {}, {}
     for m in np.unique(modes):
         sel = modes == m
@@ -671,6 +708,102 @@ def compare(ref, eng, job_label, stats, P):
             fails.append(f"{c}: {int(nullmis.sum())} null mismatches (first {modes[k]} #{int(samples[k])}: "
                          f"ref {'null' if anull[k] else a[k]}, engine {'null' if bnull[k] else b[k]}, "
                          f"status {rs[k]}/{es[k] if es is not None else '?'})")
+    if "dominant" in expected and "dominant" in eng:
+        fails += compare_dominant(ref, eng, ri, ei, modes, samples, tol, stats, P, notes,
+                                  strict_dominant, near_ties)
+    return fails
+
+
+def compare_dominant(ref, eng, ri, ei, modes, samples, tol, stats, P, notes, strict, near_ties):
+    """`dominant`: same nulls, same joint; a different joint of non-zero clearance
+    whose reference |dp| contribution equals the reference maximum to the row's
+    tolerance is a near tie (counted per mode in `near_ties`, noted, not failed
+    unless `strict`)."""
+    fails = []
+    kind_of = dict(zip(rm.JOINT_NAMES, (k for k, _ in rm.JOINTS)))
+    a = ref["dominant"][ri]
+    b, bnull, _ = eng["dominant"]
+    b, bnull = b[ei], bnull[ei]
+    anull = np.array([v is None for v in a], dtype=bool)
+    nullmis = anull != bnull
+    both = ~anull & ~bnull
+    diff = both & (a != b)
+    near = np.zeros(diff.shape, dtype=bool)
+    for k in np.flatnonzero(diff):
+        if b[k] not in kind_of or P["clear"][kind_of[b[k]]] == 0.0:
+            continue                                      # not a joint, or a rigid one
+        best = ref[f"dp_joint_{a[k]}"][ri[k]]
+        theirs = ref[f"dp_joint_{b[k]}"][ri[k]]
+        near[k] = abs(best - theirs) <= tol[k] * best
+    bad = diff if strict else diff & ~near
+    for m in ("kinetostatic", "dynamic"):
+        sel = both & (modes == m)
+        nb = int((bad & sel).sum())
+        where = f"{m[:3]} #{int(samples[np.flatnonzero(bad & sel)[0]])}" if nb else ""
+        stats.add("dominant", m, np.inf if nb else 0.0, 1.0, where, nb,
+                  int((nullmis & (modes == m)).sum()), int(sel.sum()))
+        near_ties[m] = near_ties.get(m, 0) + int((near & (modes == m)).sum())
+    if near.any():
+        k = int(np.flatnonzero(near)[0])
+        notes.append(f"dominant: {int(near.sum())} near tie(s) accepted (first {modes[k]} "
+                     f"#{int(samples[k])}: ref {a[k]}, engine {b[k]})")
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        fails.append(f"dominant: {int(bad.sum())} mismatches (first {modes[k]} #{int(samples[k])}: "
+                     f"ref {a[k]}, engine {b[k]})")
+    if nullmis.any():
+        k = int(np.flatnonzero(nullmis)[0])
+        fails.append(f"dominant: {int(nullmis.sum())} null mismatches (first {modes[k]} "
+                     f"#{int(samples[k])}: ref {a[k]}, engine {'null' if bnull[k] else b[k]}, "
+                     f"status {ref['status'][ri[k]]})")
+    return fails
+
+
+SUMMARY_P95_RTOL = 5e-4
+
+
+def compare_summary(ref, out_dir, P, notes, near_ties):
+    """The spec's summary quantities against summary.parquet (variant 0, each mode);
+    skipped with a note when the engine does not write them."""
+    import pyarrow.parquet as pq
+    path = os.path.join(out_dir, "summary.parquet")
+    if not os.path.exists(path):
+        notes.append("no summary.parquet: envelope summary not compared")
+        return []
+    rows = [r for r in pq.read_table(path).to_pylist() if r.get("variant") == 0]
+    ours = rm.envelope_summary(ref)
+    names = list(next(iter(ours.values())))
+    if not rows or not any(n in rows[0] for n in names):
+        notes.append("summary.parquet has no envelope statistics: not compared")
+        return []
+    fails = []
+    phys = physical_scale(P)
+    for mode, res in ours.items():
+        row = next((r for r in rows if r.get("mode") == mode), None)
+        if row is None:
+            fails.append(f"summary: no row for mode {mode}")
+            continue
+        tol = TOL[mode]
+        n_ok = int(((ref["mode"] == mode) & (ref["status"] == "ok")).sum())
+        for n in names:
+            if n not in row:
+                fails.append(f"summary {mode}: missing {n}")
+                continue
+            a, b = res[n], row[n]
+            if a is None or b is None:
+                if (a is None) != (b is None):
+                    fails.append(f"summary {mode} {n}: ref {a}, engine {b}")
+                continue
+            if n.startswith("dominant_share_"):
+                lim = near_ties.get(mode, 0) / max(n_ok, 1) + 1e-12
+            elif n.endswith("_p95"):
+                lim = SUMMARY_P95_RTOL * max(abs(a), abs(b))
+            else:
+                unit = "env_ang" if n.startswith("env_alpha") else "env_len"
+                floor = PHYS_FLOOR * phys[unit]
+                lim = tol * max(abs(a), abs(b), floor)
+            if not abs(a - b) <= lim:
+                fails.append(f"summary {mode} {n}: ref {a:.17g}, engine {b:.17g} (allowed {lim:.2e})")
     return fails
 
 
@@ -702,6 +835,8 @@ def main(argv=None):
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per engine run")
     ap.add_argument("--reference-only", action="store_true",
                     help="generate the jobs and run only the reference (no engine)")
+    ap.add_argument("--strict-dominant", action="store_true",
+                    help="fail on near ties of `dominant` too (see the module doc)")
     ap.add_argument("--kinds", default="prototype",
                     help="comma-separated job families: prototype, 3-PRS, 3-RPS, or all "
                          "(default prototype)")
@@ -724,16 +859,17 @@ def main(argv=None):
     stats = Stats()
     passed = failed = 0
     lines = []
+    all_notes = {}
     try:
         for i in range(args.jobs):
             job, tag = make_job(rng, i, kinds)
             # round-trip through TOML so both sides read the very same numbers
             job = tomllib.loads(to_toml(job))
             t0 = time.time()
-            ref = rm.compute(job)
+            ref = rm.compute(job, extras=True)
             if maybe_add_thresholds(rng, job, ref):
                 tag += " singular_cond"
-                ref = rm.compute(job)
+                ref = rm.compute(job, extras=True)
             t_ref = time.time() - t0
             text = to_toml(job)
             job = tomllib.loads(text)
@@ -759,13 +895,16 @@ def main(argv=None):
             except subprocess.TimeoutExpired:
                 rc, err = -1, f"timed out after {args.timeout}s"
             t_eng = time.time() - t0
-            fails = []
+            fails, notes, near_ties = [], [], {}
             if rc != 0:
                 fails.append(f"engine exit {rc}: {err.splitlines()[-1] if err else ''}")
             else:
                 try:
                     eng, nfiles = read_engine(out)
-                    fails += compare(ref, eng, label, stats, rm.normalize_job(job))
+                    Pj = rm.normalize_job(job)
+                    fails += compare(ref, eng, label, stats, Pj, notes, args.strict_dominant, near_ties)
+                    if any(c in eng for c in ENV_COLUMNS):
+                        fails += compare_summary(ref, out, Pj, notes, near_ties)
                 except Exception as exc:  # report, do not crash the whole run
                     fails.append(f"reading/comparing failed: {type(exc).__name__}: {exc}")
             if fails:
@@ -777,6 +916,11 @@ def main(argv=None):
             else:
                 passed += 1
                 lines.append(f"{label} pass ({info}; engine {t_eng:.2f}s, reference {t_ref:.2f}s)")
+            for n in notes:
+                if "near tie" in n:
+                    lines.append(f"    note: {n}")
+                else:
+                    all_notes[n] = all_notes.get(n, 0) + 1
     finally:
         if not args.keep:
             shutil.rmtree(work, ignore_errors=True)
@@ -784,6 +928,8 @@ def main(argv=None):
         print_table(stats)
         print()
     print("\n".join(lines))
+    for n, k in all_notes.items():
+        print(f"note ({k} job(s)): {n}")
     if args.keep:
         print(f"jobs and outputs kept in {work}")
     if args.reference_only:

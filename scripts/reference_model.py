@@ -43,6 +43,19 @@ Usage::
 
 NaN marks the cells the engine writes as null (string columns use None).
 Importing this module has no side effects.
+
+Worst-case envelope and dominant joint (/work/notes/envelope_spec.md): the
+``standard`` and ``full`` sets carry ``env_<c>`` and ``env_<kind>_<c>`` (c = x, y,
+z, rx, ry, rz, p, alpha) and ``dominant``.  They are derived from this module's
+own 12x12 loop system, not from the spec's 6x6 N-columns: :func:`joint_maps`
+solves it for unit take-ups of one joint at a time (its linear map, six
+columns per limb), and :func:`joint_envelopes` maximises over each joint's
+admissible set (ball, disc normal to y_j, segment along y_j, rotation disc
+normal to y_j) in closed form through an orthonormal basis of the set.
+:func:`envelope_summary` gives the summary quantities (env_p_max, env_p_p95,
+dominant_share_*, rms_dp_*), the p95 by :func:`hist_quantile`, the engine's
+histogram quantile.  ``compute(job, extras=True)`` adds reference-only
+per-joint columns (``dp_joint_<joint>``, ``joint_<joint>_<c>``).
 """
 
 from __future__ import annotations
@@ -57,6 +70,9 @@ __all__ = [
     "sample_inputs", "parasitic", "parasitic_newton", "plane_residual", "kinematics",
     "equilibrium_system", "take_up", "loop_system", "euler_errors", "exact_errors",
     "exp_minus_identity", "same_branch", "compute", "column_names", "kappa1",
+    "ENV_COMPONENTS", "JOINTS", "JOINT_NAMES", "joint_name", "env_column_names", "joint_maps",
+    "admissible_bases", "joint_envelopes", "joint_contributions", "dominant_joint",
+    "hist_quantile", "nearest_rank", "envelope_summary", "extra_column_names",
 ]
 
 KINDS = ("s_radial", "r_radial", "r_axial", "r_angular")
@@ -889,6 +905,186 @@ def euler_errors(psi, theta, dalpha):
 
 
 # --------------------------------------------------------------------------
+# Worst-case envelope and dominant joint (/work/notes/envelope_spec.md, issue 22)
+#
+# Derived here from the 12x12 loop system itself, not from the spec's 6x6
+# N = M^-1 columns: each joint's linear map is the pose error of unit take-up
+# displacements of that joint alone (three world translations of limb j's
+# clearance, three world rotation vectors about B_j), and the maximum over the
+# joint's admissible set follows from the set's orthonormal basis U (3 x m) and
+# radius c: over {U w : |w| <= c} the maximum of |g . d| is c |U^T g| and of
+# |H d| is c sigma_max(H U).  The sets: s_radial the ball (U = I3), r_radial
+# the disc normal to y_j (U = [x_j, z]), r_axial the segment along y_j
+# (U = y_j), r_angular the rotation disc normal to y_j (U = [x_j, z]).
+# --------------------------------------------------------------------------
+ENV_COMPONENTS = ("x", "y", "z", "rx", "ry", "rz", "p", "alpha")
+# row of Delta Gamma = [d_alpha; d_p] for x, y, z, rx, ry, rz
+_ENV_ROWS = (3, 4, 5, 0, 1, 2)
+
+
+def joint_name(kind, j):
+    """`s<j>_radial`, `r<j>_radial`, `r<j>_axial`, `r<j>_angular` (j = 1..3)."""
+    return f"s{j}_radial" if kind == "s_radial" else f"r{j}_{kind.split('_', 1)[1]}"
+
+
+# the (kind, limb) order of the tie rule: kinds first, then limbs
+JOINTS = tuple((k, j) for k in KINDS for j in (1, 2, 3))
+JOINT_NAMES = tuple(joint_name(k, j) for k, j in JOINTS)
+
+
+def env_column_names():
+    names = [f"env_{c}" for c in ENV_COMPONENTS]
+    names += [f"env_{k}_{c}" for k in KINDS for c in ENV_COMPONENTS]
+    return names + ["dominant"]
+
+
+def joint_maps(S, JP, p, B):
+    """Linear maps of every joint, from the 12x12 loop system J_P dq_P = J_Cl dq_Cl.
+
+    Returns (Gt, Gr), each (N, 3 limbs, 6, 3): Delta Gamma = [d_alpha; d_p] per unit
+    world translation of limb j's clearance (Gt; the S and R translations have the
+    same twist, a pure translation) and per unit world rotation vector of limb j's
+    leg about B_j (Gr), all other joints rigid."""
+    N = p.shape[0]
+    Tcl = np.zeros((N, 3, 6, 18))
+    for j in range(3):
+        for k in range(3):
+            Tcl[:, j, 3:6, 6 * j + k] = I3[k]                                   # translation
+            Tcl[:, j, 0:3, 6 * j + 3 + k] = I3[k]                               # rotation about B_j
+            Tcl[:, j, 3:6, 6 * j + 3 + k] = np.cross(B[:, j] - p, I3[k])
+    _, rhs = loop_system(S, Tcl)
+    dqP = _solve_stack(JP, rhs)
+    G = pose_error(S, Tcl, dqP).reshape(N, 6, 3, 2, 3)                          # (n, row, j, t/r, k)
+    return G[:, :, :, 0, :].transpose(0, 2, 1, 3), G[:, :, :, 1, :].transpose(0, 2, 1, 3)
+
+
+def admissible_bases(P):
+    """kind -> (orthonormal basis U (3 limbs, 3, m) of the admissible set, rotation?)."""
+    disc = np.stack([P["XJ"], np.broadcast_to(EZ, (3, 3))], -1)                # x_j, z: normal to y_j
+    return {"s_radial": (np.broadcast_to(I3, (3, 3, 3)), False),
+            "r_radial": (disc, False),
+            "r_axial": (P["YJ"][..., None], False),
+            "r_angular": (disc, True)}
+
+
+def _spectral(H):
+    """Largest singular value of a stack (..., r, m)."""
+    if H.shape[-1] == 1:
+        return np.linalg.norm(H[..., 0], axis=-1)
+    return np.linalg.svd(H, compute_uv=False)[..., 0]
+
+
+def joint_envelopes(P, Gt, Gr):
+    """kind -> (N, 3 limbs, 8): per joint, the maximum over its admissible set of
+    |Delta Gamma_c| (c = x, y, z, rx, ry, rz) and of |Delta p|, |Delta alpha|
+    (ENV_COMPONENTS order).  Exactly 0 for a kind with zero clearance."""
+    out = {}
+    bases = admissible_bases(P)
+    N = Gt.shape[0]
+    for kind in KINDS:
+        c = P["clear"][kind]
+        if c == 0.0:
+            out[kind] = np.zeros((N, 3, 8))
+            continue
+        U, is_rot = bases[kind]
+        H = np.einsum("njrk,jkm->njrm", Gr if is_rot else Gt, U)              # (N,3,6,m)
+        comp = np.linalg.norm(H, axis=-1)                                      # (N,3,6)
+        with np.errstate(all="ignore"):
+            e = np.concatenate([comp[..., list(_ENV_ROWS)], _spectral(H[..., 3:6, :])[..., None],
+                                _spectral(H[..., 0:3, :])[..., None]], -1)
+        out[kind] = c * e
+    return out
+
+
+def joint_contributions(P, Gt, Gr, disp):
+    """(N, 12, 6): each joint's own Delta Gamma = [d_alpha; d_p] for the take-up
+    displacements `disp` (take_up's), joints in JOINTS order."""
+    out = []
+    for kind in KINDS:
+        G = Gr if kind == "r_angular" else Gt
+        for j in range(3):
+            out.append(np.einsum("nrk,nk->nr", G[:, j], disp[kind][:, j]))
+    return np.stack(out, 1)
+
+
+def dominant_joint(P, contrib, rows):
+    """Object array of joint names (None where not `rows` or every clearance is 0):
+    the joint of non-zero clearance whose own contribution has the largest |Delta p|,
+    the first in JOINTS order on ties."""
+    N = contrib.shape[0]
+    out = np.full(N, None, dtype=object)
+    cand = np.array([P["clear"][k] != 0.0 for k, _ in JOINTS])
+    if not cand.any():
+        return out
+    dp = np.linalg.norm(contrib[..., 3:6], axis=-1)                            # (N,12)
+    dp = np.where(cand, dp, -np.inf)
+    with np.errstate(invalid="ignore"):
+        idx = np.argmax(np.nan_to_num(dp, nan=-np.inf), axis=-1)              # first maximum
+    names = np.array(JOINT_NAMES, dtype=object)
+    out[rows] = names[idx[rows]]
+    return out
+
+
+def hist_quantile(values, q):
+    """The engine's summary quantile (crates/parquet/src/summary.rs, Series::quantile):
+    nearest rank, rank = clamp(ceil(q n), 1, n); values <= 1e-18 count as zeros (-> 0);
+    otherwise the log-spaced bin (a double's bits >> 41: 2^11 bins per octave) where
+    the rank falls, reported at the bin's geometric centre, at most the maximum.
+    None for no values."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    n = v.size
+    if n == 0:
+        return None
+    rank = min(max(int(math.ceil(q * n)), 1), n)
+    zeros = int((v <= 1e-18).sum())
+    if rank <= zeros:
+        return 0.0
+    bins = np.sort(v[v > 1e-18].view(np.uint64) >> np.uint64(41))
+    b = bins[rank - zeros - 1]
+    lo = np.array([b << np.uint64(41)], np.uint64).view(np.float64)[0]
+    hi = np.array([(b + np.uint64(1)) << np.uint64(41)], np.uint64).view(np.float64)[0]
+    return float(min(math.sqrt(lo * hi), v.max()))
+
+
+def nearest_rank(values, q):
+    """The exact nearest-rank q-quantile (the order statistic hist_quantile bins)."""
+    v = np.sort(np.asarray(values, float)[np.isfinite(values)])
+    if v.size == 0:
+        return None
+    return float(v[min(max(int(math.ceil(q * v.size)), 1), v.size) - 1])
+
+
+def envelope_summary(cols):
+    """Summary quantities of the envelope spec per mode, from compute(..., extras=True):
+    env_p_max, env_p_p95, env_alpha_max, env_alpha_p95 (rows where env is filled),
+    dominant_share_<joint> (share of ok rows the joint dominates) and rms_dp_<joint>
+    (RMS over ok rows of |Delta p| contributed by the joint).  None for a statistic
+    over no row.  Returns {mode: {name: value}}."""
+    if "dp_joint_s1_radial" not in cols:
+        raise ValueError("envelope_summary needs compute(..., extras=True)")
+    out = {}
+    for mode in dict.fromkeys(cols["mode"]):
+        sel = cols["mode"] == mode
+        res = {}
+        for c in ("p", "alpha"):
+            v = cols[f"env_{c}"][sel]
+            v = v[np.isfinite(v)]
+            res[f"env_{c}_max"] = float(v.max()) if v.size else None
+            res[f"env_{c}_p95"] = hist_quantile(v, 0.95)
+        ok = sel & (cols["status"] == "ok")
+        n_ok = int(ok.sum())
+        dom = cols["dominant"][ok]
+        for name in JOINT_NAMES:
+            res[f"dominant_share_{name}"] = (float(np.sum(dom == name)) / n_ok) if n_ok else None
+        for name in JOINT_NAMES:
+            v = cols[f"dp_joint_{name}"][ok]
+            res[f"rms_dp_{name}"] = float(np.sqrt(np.mean(v * v))) if n_ok else None
+        out[mode] = res
+    return out
+
+
+# --------------------------------------------------------------------------
 # Exact error (docs/model.md section 7)
 # --------------------------------------------------------------------------
 def exp_minus_identity(v):
@@ -1010,6 +1206,7 @@ def column_names(job_or_P, columns="full") -> list:
         for j in (1, 2, 3):
             names += [f"margin_r{j}_radial", f"margin_r{j}_axial",
                       f"margin_r{j}_angular", f"margin_s{j}"]
+        names += env_column_names()
     if columns == "full":
         for j in (1, 2, 3):
             names += [f"f_r{j}_{a}" for a in "xyz"] + [f"m_r{j}_{a}" for a in "xyz"] + \
@@ -1082,6 +1279,9 @@ def _compute_chunk(P, smp, sl, modes):
         dqP = _solve_stack(JP, rhs)
         G = pose_error(S, Tcl, dqP)                                        # (N,6,4)
         eul = euler_errors(psi, theta, G[:, 0:3])                          # (N,3,4)
+        if mi == 0:                  # geometry only: the same maps for every mode
+            Gt, Gr = joint_maps(S, JP, kin_s["p"], kin_s["B"])
+            jenv = joint_envelopes(P, Gt, Gr)
         per = np.concatenate([G[:, 3:6], G[:, 0:3], eul], axis=1)          # (N,9,4) in COMPONENTS order
         any_indet = np.zeros(N, bool)
         for k in KINDS:
@@ -1106,6 +1306,20 @@ def _compute_chunk(P, smp, sl, modes):
             cols[f"err_{c}"] = np.where(ok, tot[:, ci], np.nan)
             for ki, k in enumerate(KINDS):
                 cols[f"err_{k}_{c}"] = np.where(full_rows & ~indet[k], per[:, ci, ki], np.nan)
+        # envelope (geometry only): ok and indeterminate_contact rows
+        for ki, k in enumerate(KINDS):
+            ek = jenv[k].sum(1)                                            # (N,8)
+            for ci, c in enumerate(ENV_COMPONENTS):
+                cols[f"env_{k}_{c}"] = np.where(full_rows, ek[:, ci], np.nan)
+        for ci, c in enumerate(ENV_COMPONENTS):
+            cols[f"env_{c}"] = sum(cols[f"env_{k}_{c}"] for k in KINDS)
+        contrib = joint_contributions(P, Gt, Gr, disp)                     # (N,12,6)
+        cols["dominant"] = dominant_joint(P, contrib, ok)
+        dpj = np.linalg.norm(contrib[..., 3:6], axis=-1)
+        for i, name in enumerate(JOINT_NAMES):
+            cols[f"dp_joint_{name}"] = np.where(ok, dpj[:, i], np.nan)
+            for r, c in enumerate(("rx", "ry", "rz", "x", "y", "z")):
+                cols[f"joint_{name}_{c}"] = np.where(ok, contrib[:, i, r], np.nan)
         for j in range(3):
             for a_i, a in enumerate("xyz"):
                 cols[f"f_r{j + 1}_{a}"] = np.where(full_rows, fR[:, j, a_i], np.nan)
@@ -1130,9 +1344,19 @@ def _compute_chunk(P, smp, sl, modes):
     return out
 
 
-def compute(job: dict, columns: str = "full", chunk: int = 4096) -> dict:
+def extra_column_names() -> list:
+    """Reference-only columns that compute(..., extras=True) appends (ok rows, NaN
+    elsewhere): dp_joint_<joint> = |Delta p| of each joint's own contribution to the
+    deterministic error, joint_<joint>_<c> its components (c = x, y, z, rx, ry, rz)."""
+    names = [f"dp_joint_{n}" for n in JOINT_NAMES]
+    names += [f"joint_{n}_{c}" for n in JOINT_NAMES for c in ("x", "y", "z", "rx", "ry", "rz")]
+    return names
+
+
+def compute(job: dict, columns: str = "full", chunk: int = 4096, extras: bool = False) -> dict:
     """All `poses` rows of variant 0: dict column -> array (modes concatenated
-    in the job's order; NaN/None where the engine writes null)."""
+    in the job's order; NaN/None where the engine writes null).  extras=True adds
+    the reference-only per-joint columns of extra_column_names()."""
     P = job if "job" in job else normalize_job(job)
     smp = sample_inputs(P)
     n = smp["z"].size
@@ -1144,7 +1368,7 @@ def compute(job: dict, columns: str = "full", chunk: int = 4096) -> dict:
         for m in modes:
             res[m]["sample"] = np.arange(sl.start, sl.stop, dtype=np.uint64)
             parts[m].append(res[m])
-    names = column_names(P, columns)
+    names = column_names(P, columns) + (extra_column_names() if extras else [])
     out = {}
     for name in names:
         if name == "variant":

@@ -500,8 +500,9 @@ ALWAYS = {"variant", "mode", "sample", "z", "psi", "theta", "status", "x", "y", 
 
 
 def _nulls(cols, row):
-    return {k for k, v in cols.items() if v.dtype != object and k not in ("sample", "variant")
-            and np.isnan(v[row])}
+    """Columns null at `row`: NaN, or None in a string column (`dominant`)."""
+    return {k for k, v in cols.items() if k not in ("sample", "variant")
+            and (v[row] is None if v.dtype == object else np.isnan(v[row]))}
 
 
 def test_unreachable_rows_carry_only_identity_inputs_parasitics():
@@ -545,7 +546,8 @@ def test_indeterminate_contact_on_symmetry_plane():
         null = {f"err_{x}" for x in rm.COMPONENTS} | {f"err_r_axial_{x}" for x in rm.COMPONENTS} | \
             {f"err_r_angular_{x}" for x in rm.COMPONENTS} | \
             {f"exact_err_{x}" for x in ("x", "y", "z", "rx", "ry", "rz")}
-        assert _nulls(c, row) == null | {"t"}
+        # the envelope (geometry only) stays filled, `dominant` is for ok rows only
+        assert _nulls(c, row) == null | {"t", "dominant"}
     # a rigid kind is never indeterminate and its errors are exactly 0
     c2 = rm.compute(with_job(job, clearance={"s_radial": 1e-4, "r_radial": 1e-4}))
     assert (c2["status"] == "ok").all()
@@ -1139,3 +1141,421 @@ def test_rps_stroke_limits_make_unreachable():
     for row in np.flatnonzero(~inside):
         assert _nulls(c, row) == set(c) - ALWAYS
     assert np.isfinite(c["exact_err_x"][inside]).all()
+
+
+# --------------------------------------------------------------------------
+# worst-case envelope and dominant joint (/work/notes/envelope_spec.md)
+# --------------------------------------------------------------------------
+ENV_KINDS_OF_JOBS = ["prototype", "3-PRS", "3-RPS"]
+# relative round-off allowed between two linear solves of the same system
+ENV_RTOL = 1e-11
+
+
+def _env_random_jobs(kind, n, seed):
+    """n random cross-check jobs of one family (some kinds of clearance are 0,
+    grids and trajectories, kinetostatic and dynamic, some edge/mirror jobs)."""
+    import crosscheck_reference as xc
+    rng = np.random.default_rng(seed)
+    return [xc.make_job(rng, i, [kind])[0] for i in range(n)]
+
+
+def _maps_at(P, z, psi, th):
+    """Nominal kinematics and each joint's linear map (rm.joint_maps) at explicit poses."""
+    kin = rm.kinematics(P, z, psi, th)
+    S = rm.passive_screws(kin["p"], kin["A"], kin["B"], P["YJ"])
+    JP = rm.loop_matrix(S)
+    Gt, Gr = rm.joint_maps(S, JP, kin["p"], kin["B"])
+    return kin, S, JP, Gt, Gr
+
+
+def _norm3(c, pre, comps):
+    return np.sqrt(sum(c[f"{pre}{x}"] ** 2 for x in comps))
+
+
+@pytest.mark.parametrize("kind", ENV_KINDS_OF_JOBS)
+def test_deterministic_error_inside_envelope(kind):
+    """On random jobs of every family: at every pose the deterministic error lies
+    inside the envelope, per component and for |dp|, |dalpha|, per kind (rows where
+    the kind is determinate) and in total (ok rows):  |err| <= env (1 + 1e-11) + 1e-13
+    of the job's largest envelope (round-off of two different solves).  Also the
+    null rules: env filled exactly on ok / indeterminate_contact rows (all kinds, the
+    envelope being geometry only), 0 for a kind of zero clearance, env_c = sum over
+    kinds; `dominant` set exactly on ok rows when some clearance is non-zero."""
+    n_rows = n_ok = 0
+    worst = 0.0
+    for job in _env_random_jobs(kind, 8, {"prototype": 11, "3-PRS": 12, "3-RPS": 13}[kind]):
+        P = rm.normalize_job(job)
+        c = rm.compute(job)
+        st = c["status"]
+        filled = (st == "ok") | (st == "indeterminate_contact")
+        ok = st == "ok"
+        n_rows += st.size
+        n_ok += int(ok.sum())
+        for name in rm.env_column_names()[:-1]:
+            np.testing.assert_array_equal(np.isfinite(c[name]), filled, err_msg=name)
+        any_cl = any(v != 0.0 for v in P["clear"].values())
+        np.testing.assert_array_equal(np.array([d is not None for d in c["dominant"]]), ok & any_cl)
+        scale = max(np.nanmax(np.r_[c["env_p"], 0.0]), P["size"] * np.nanmax(np.r_[c["env_alpha"], 0.0]))
+        for x in rm.ENV_COMPONENTS:
+            np.testing.assert_allclose(c[f"env_{x}"][filled],
+                                       sum(c[f"env_{k}_{x}"][filled] for k in rm.KINDS), rtol=1e-14)
+        for k in rm.KINDS:
+            if P["clear"][k] == 0.0:
+                assert all((c[f"env_{k}_{x}"][filled] == 0.0).all() for x in rm.ENV_COMPONENTS)
+        checks = []
+        for k in rm.KINDS:
+            det = np.isfinite(c[f"err_{k}_x"])
+            for x in ("x", "y", "z", "rx", "ry", "rz"):
+                checks.append((np.abs(c[f"err_{k}_{x}"][det]), c[f"env_{k}_{x}"][det], x))
+            checks.append((_norm3(c, f"err_{k}_", "xyz")[det], c[f"env_{k}_p"][det], "p"))
+            checks.append((_norm3(c, f"err_{k}_", ("rx", "ry", "rz"))[det], c[f"env_{k}_alpha"][det], "alpha"))
+        for x in ("x", "y", "z", "rx", "ry", "rz"):
+            checks.append((np.abs(c[f"err_{x}"][ok]), c[f"env_{x}"][ok], x))
+        checks.append((_norm3(c, "err_", "xyz")[ok], c["env_p"][ok], "p"))
+        checks.append((_norm3(c, "err_", ("rx", "ry", "rz"))[ok], c["env_alpha"][ok], "alpha"))
+        for err, env, x in checks:
+            a = 1e-13 * (scale if x in ("x", "y", "z", "p") else scale / P["size"])
+            assert np.all(err <= env * (1 + ENV_RTOL) + a), (job["name"], x)
+            if err.size:
+                worst = max(worst, float(np.max(np.where(env > a, err / np.where(env > a, env, 1), 0))))
+    assert n_ok > 0.3 * n_rows
+    assert worst <= 1 + ENV_RTOL
+    print(f"{kind}: {n_rows} rows, {n_ok} ok, worst |err|/env = {worst:.6f}")
+
+
+N_SPHERE = 2000          # random unit vectors per (pose, joint) on the ball's sphere
+N_CIRCLE = 2000          # evenly spaced directions (random phase) per (pose, joint) on a disc's circle
+
+
+def _brute_force(P, kin, S, JP, n_pose_rng):
+    """Per joint, the largest |Delta Gamma_c|, |Delta p|, |Delta alpha| over sampled
+    take-ups (the boundary of each admissible set is enough: |linear map| is convex),
+    each sample's Delta Gamma from the loop system with that joint's twist alone.
+    Returns kind -> (N, 3, 8) in rm.ENV_COMPONENTS order."""
+    p, B = kin["p"], kin["B"]
+    N = p.shape[0]
+    out = {}
+    for kind in rm.KINDS:
+        c = P["clear"][kind]
+        res = np.zeros((N, 3, 8))
+        for j in range(3):
+            if kind == "s_radial":
+                u = n_pose_rng.normal(size=(N, N_SPHERE, 3))
+                d = u / np.linalg.norm(u, axis=-1, keepdims=True)
+            elif kind == "r_axial":
+                d = np.broadcast_to(np.stack([P["YJ"][j], -P["YJ"][j]]), (N, 2, 3))
+            else:
+                ph = n_pose_rng.uniform(0, 2 * np.pi, (N, 1)) + 2 * np.pi * np.arange(N_CIRCLE) / N_CIRCLE
+                d = np.cos(ph)[..., None] * P["XJ"][j] + np.sin(ph)[..., None] * rm.EZ
+            d = c * d                                                   # (N, K, 3)
+            K = d.shape[1]
+            T = np.zeros((N, 3, 6, K))
+            if kind == "r_angular":                                     # rotation about B_j
+                T[:, j, 0:3] = d.transpose(0, 2, 1)
+                T[:, j, 3:6] = np.cross(B[:, j, None, :] - p[:, None, :], d).transpose(0, 2, 1)
+            else:                                                       # translation
+                T[:, j, 3:6] = d.transpose(0, 2, 1)
+            _, rhs = rm.loop_system(S, T)
+            G = rm.pose_error(S, T, np.linalg.solve(JP, rhs))            # (N, 6, K)
+            res[:, j, 0:3] = np.abs(G[:, 3:6]).max(-1)
+            res[:, j, 3:6] = np.abs(G[:, 0:3]).max(-1)
+            res[:, j, 6] = np.linalg.norm(G[:, 3:6], axis=1).max(-1)
+            res[:, j, 7] = np.linalg.norm(G[:, 0:3], axis=1).max(-1)
+        out[kind] = res
+    return out
+
+
+def _envelope_jobs():
+    jobs = [("prototype_loaded", LOADED, random_inputs(40, span=0.45))]
+    for name in ("prs_inclined_uneven", "prs_horizontal_in", "rps_uneven", "rps_symmetric"):
+        jobs.append((name, FAMILY[name][0], family_inputs(name, 40, np.random.default_rng(5))))
+    return jobs
+
+
+def test_envelope_equals_brute_force_over_sampled_take_ups():
+    """The envelope (per joint from rm.joint_envelopes, per kind from the output
+    columns) against the maximum over sampled take-ups of each joint:
+
+    * no sample exceeds it:  brute <= env (1 + 1e-11)  (round-off only);
+    * segment (r_axial, both ends): equal to 1e-11;
+    * discs (r_radial, r_angular; N_CIRCLE = 2000 evenly spaced directions, random
+      phase): the maximiser is within pi/N of a sample, so the deficit is at most
+      1 - cos(pi/N) = 1.2e-6 (for |g.u| and for |H u| >= sigma_1 |v_1.u| alike);
+    * ball (s_radial; N_SPHERE = 2000 random unit vectors): for one component,
+      |g.u|/|g| of a uniform u is uniform on [0, 1] (Archimedes), so the relative
+      deficit D of the sampled maximum has P(D > eps) = (1 - eps)^N exactly: median
+      ln2/N = 3.5e-4, mean 1/(N+1), and P(D > 1e-3) = 13.5 %: "1e-3 for 2000 samples"
+      would fail one maximum in seven.  Over the K joint maxima of the test, the
+      bound that fails with probability < 1e-6 is eps = ln(K 1e6)/N (about 0.011).
+      That alone is weak, so also: the mean of N D over the component maxima must be
+      1 (within 0.85..1.15; standard error ~0.03 here); a closed form off by a relative
+      delta would shift it by N delta, so delta >~ 1e-4 is detected.  |dp| and |dalpha|
+      (sigma_max) have stochastically smaller deficits and get the bound only.
+    Sums over limbs: the kind's relative deficit is at most its joints' largest."""
+    rng = np.random.default_rng(2026)
+    eps_disc = 1 - np.cos(np.pi / N_CIRCLE)
+    ball_nd = []
+    jobs = _envelope_jobs()
+    K = sum(z[0].size for _, _, z in jobs) * 3 * 8
+    eps_ball = np.log(K * 1e6) / N_SPHERE
+    for name, job, (z, psi, th) in jobs:
+        P = rm.normalize_job(job)
+        cols = rm.pose_arrays(P, z, psi, th)
+        ok = (cols["status"] == "ok") | (cols["status"] == "indeterminate_contact")
+        assert ok.all(), name
+        kin, S, JP, Gt, Gr = _maps_at(P, z, psi, th)
+        env = rm.joint_envelopes(P, Gt, Gr)
+        brute = _brute_force(P, kin, S, JP, rng)
+        for kind in rm.KINDS:
+            e, b = env[kind], brute[kind]
+            # the output columns are the sums over the limbs of the joint maxima
+            for ci, x in enumerate(rm.ENV_COMPONENTS):
+                np.testing.assert_allclose(cols[f"env_{kind}_{x}"], e[..., ci].sum(1), rtol=1e-14)
+            tiny = 1e-13 * e.max()
+            assert np.all(b <= e * (1 + ENV_RTOL) + tiny), (name, kind)
+            rel = np.where(e > tiny, 1 - b / np.where(e > tiny, e, 1), 0.0)
+            eps = {"s_radial": eps_ball, "r_axial": ENV_RTOL}.get(kind, eps_disc + ENV_RTOL)
+            assert rel.max() <= eps, (name, kind, rel.max(), eps)
+            # the same for the sums over limbs (the env_<kind>_<c> columns)
+            bs, es = b.sum(1), e.sum(1)
+            rels = np.where(es > 3 * tiny, 1 - bs / np.where(es > 3 * tiny, es, 1), 0.0)
+            assert rels.max() <= eps, (name, kind)
+            if kind == "s_radial":
+                big = e[..., 0:6] > 1e-6 * e[..., 0:6].max()          # skip components ~0 by symmetry
+                ball_nd.append(N_SPHERE * rel[..., 0:6][big])
+    nd = np.concatenate(ball_nd)
+    assert nd.size > 1000 and 0.85 < nd.mean() < 1.15, (nd.size, nd.mean())
+    print(f"ball: {nd.size} component maxima, mean N*deficit {nd.mean():.3f} (expect 1), "
+          f"bound eps {eps_ball:.4f}; disc bound {eps_disc:.2e}")
+
+
+def test_envelope_matches_the_specs_n_column_closed_forms():
+    """The spec's formulas (N = M^-1 of the 6x6 reciprocal-screw map, columns
+    n_2j, n_2j+1 per unit of e_j . v_j and y_j . v_j; theta l_j for r_angular; a 3x2
+    spectral norm for s_radial's |dp|) equal the envelope derived from the 12x12 loop
+    system, to 1e-10 of each (pose, kind, unit)'s largest value.  This also checks the
+    premises: a translation along u_j = e_j x y_j and a rotation about e_j do not
+    move the platform."""
+    for name, job, (z, psi, th) in _envelope_jobs():
+        P = rm.normalize_job(job)
+        kin, S, JP, Gt, Gr = _maps_at(P, z, psi, th)
+        env = rm.joint_envelopes(P, Gt, Gr)
+        _, M = rm.reduced_matrices(kin["p"], kin["A"], kin["e"], P["YJ"])
+        Nm = np.linalg.inv(M)                                       # (N, 6, 6): [d_alpha; d_p] per d
+        order = [3, 4, 5, 0, 1, 2]                                  # x y z rx ry rz
+        lj = np.linalg.norm(kin["A"] - kin["B"], axis=-1)           # (N, 3)
+        for kind in rm.KINDS:
+            cl = P["clear"][kind]
+            spec = np.zeros((z.size, 3, 8))
+            for j in range(3):
+                na, nb = Nm[:, :, 2 * j], Nm[:, :, 2 * j + 1]        # (N, 6)
+                if kind == "s_radial":
+                    comp = cl * np.sqrt(na ** 2 + nb ** 2)
+                    sp = cl * np.linalg.svd(np.stack([na[:, 3:6], nb[:, 3:6]], -1), compute_uv=False)[:, 0]
+                    sa = cl * np.linalg.svd(np.stack([na[:, 0:3], nb[:, 0:3]], -1), compute_uv=False)[:, 0]
+                else:
+                    n = na if kind == "r_radial" else nb
+                    f = cl * (lj[:, j] if kind == "r_angular" else np.ones(z.size))   # (N,)
+                    comp = f[:, None] * np.abs(n)
+                    sp = f * np.linalg.norm(n[:, 3:6], axis=-1)
+                    sa = f * np.linalg.norm(n[:, 0:3], axis=-1)
+                spec[:, j, 0:6] = comp[:, order]
+                spec[:, j, 6], spec[:, j, 7] = sp, sa
+            for idx in ([0, 1, 2, 6], [3, 4, 5, 7]):                  # lengths, angles
+                sc = np.abs(spec[..., idx]).max(-1, keepdims=True)
+                diff = np.abs(env[kind][..., idx] - spec[..., idx])
+                assert np.all(diff <= 1e-10 * sc), (name, kind, float((diff / np.maximum(sc, 1e-300)).max()))
+        # premises of the spec's two-column form
+        u = np.cross(kin["e"], P["YJ"])                             # (N, 3, 3)
+        sc = np.abs(Gt).max()
+        assert np.abs(np.einsum("njrk,njk->njr", Gt, u)).max() <= 1e-12 * sc
+        assert np.abs(np.einsum("njrk,njk->njr", Gr, kin["e"])).max() <= 1e-12 * np.abs(Gr).max()
+
+
+@pytest.mark.parametrize("kind", ENV_KINDS_OF_JOBS)
+def test_dominant_joint_and_per_joint_contributions(kind):
+    """On random jobs of every family (ok rows): the twelve joints' own contributions
+    add up to the deterministic error (in total and per kind; 1e-11 of the job's
+    error scale, two different solves); each lies inside that joint's envelope; the
+    r_axial take-up sits at an end of its segment, so there each joint's |dp|
+    contribution *is* its maximum; the dominant joint's |dp| is the largest among
+    the joints of non-zero clearance, and it is the first such joint in the order
+    s_radial, r_radial, r_axial, r_angular x limbs 1..3; a zero-clearance joint
+    contributes exactly 0."""
+    names = rm.JOINT_NAMES
+    n_dom = 0
+    for job in _env_random_jobs(kind, 8, {"prototype": 21, "3-PRS": 22, "3-RPS": 23}[kind]):
+        P = rm.normalize_job(job)
+        c = rm.compute(job, extras=True)
+        ok = c["status"] == "ok"
+        if not ok.any():
+            continue
+        comps = ("x", "y", "z", "rx", "ry", "rz")
+        sc_len = max(np.abs(c[f"err_{k}_{x}"][ok]).max() for k in rm.KINDS for x in "xyz")
+        sc_ang = max(np.abs(c[f"err_{k}_{x}"][ok]).max() for k in rm.KINDS for x in ("rx", "ry", "rz"))
+        sc_len = max(sc_len, sc_ang * P["size"])
+        for x in comps:
+            tol = 1e-11 * (sc_len if x in "xyz" else sc_len / P["size"])
+            tot = sum(c[f"joint_{n}_{x}"][ok] for n in names)
+            assert np.abs(tot - c[f"err_{x}"][ok]).max() <= tol, (job["name"], x)
+            for k in rm.KINDS:
+                part = sum(c[f"joint_{rm.joint_name(k, j)}_{x}"][ok] for j in (1, 2, 3))
+                assert np.abs(part - c[f"err_{k}_{x}"][ok]).max() <= tol, (job["name"], k, x)
+        for n, (k, j) in zip(names, rm.JOINTS):
+            if P["clear"][k] == 0.0:
+                assert (c[f"dp_joint_{n}"][ok] == 0.0).all()
+        # contributions inside each joint's own envelope; r_axial attains it
+        z, psi, th = c["z"][ok], c["psi"][ok], c["theta"][ok]
+        kin, S, JP, Gt, Gr = _maps_at(P, z, psi, th)
+        env = rm.joint_envelopes(P, Gt, Gr)
+        for n, (k, j) in zip(names, rm.JOINTS):
+            dp = c[f"dp_joint_{n}"][ok]
+            e = env[k][:, j - 1, 6]
+            assert np.all(dp <= e * (1 + ENV_RTOL) + 1e-13 * sc_len), (job["name"], n)
+            if k == "r_axial":
+                np.testing.assert_allclose(dp, e, rtol=ENV_RTOL, atol=1e-13 * sc_len)
+        # the dominant joint
+        dp = np.stack([c[f"dp_joint_{n}"][ok] for n in names], -1)
+        cand = np.array([P["clear"][k] != 0.0 for k, _ in rm.JOINTS])
+        dom = c["dominant"][ok]
+        if not cand.any():
+            assert all(d is None for d in dom)
+            continue
+        best = np.where(cand, dp, -1.0).max(-1)
+        for r in range(dom.size):
+            i = names.index(dom[r])
+            assert cand[i] and dp[r, i] == best[r]
+            assert not np.any(cand[:i] & (dp[r, :i] == best[r]))        # the first of equals
+        n_dom += dom.size
+    assert n_dom > 100
+
+
+def test_dominant_tie_rule_and_symmetric_near_ties():
+    """Exact ties go to the first joint in order; on the prototype's level pose
+    the three limbs are equivalent, so their contributions are equal to round-off
+    (the winner is then decided by round-off, see the cross-check's near-tie rule)."""
+    P = rm.normalize_job({"clearance": {"s_radial": 1e-4}, "grid": {"z": 2.0}})
+    contrib = np.zeros((2, 12, 6))
+    contrib[:, 0, 3] = contrib[:, 1, 4] = 1e-5                       # s1 and s2 tie exactly
+    d = rm.dominant_joint(P, contrib, np.array([True, False]))
+    assert d[0] == "s1_radial" and d[1] is None
+    contrib[:, 6, 3] = 5.0                                           # r_axial joint: zero clearance
+    assert rm.dominant_joint(P, contrib, np.array([True, True]))[0] == "s1_radial"
+    c = rm.compute({"clearance": {"s_radial": 1e-4}, "grid": {"z": 2.0}}, extras=True)
+    dps = np.array([c[f"dp_joint_s{j}_radial"][0] for j in (1, 2, 3)])
+    assert np.ptp(dps) <= 1e-13 * dps.max()
+    assert c["dominant"][0] in ("s1_radial", "s2_radial", "s3_radial")
+
+
+def test_summary_quantile_is_the_engines_histogram_nearest_rank():
+    """hist_quantile: nearest rank ceil(q n), reported at the geometric centre of
+    its 2^-11-octave bin, so within 2^(1/4096) - 1 = 1.7e-4 of the exact order
+    statistic; zeros (<= 1e-18) give 0; the maximum caps it; None for no value.
+    Also the case of the engine's own unit test (p95 of 1e-6 .. 1e-3 ~ 950e-6)."""
+    rng = np.random.default_rng(3)
+    half_bin = 2.0 ** (1 / 4096) - 1
+    for n in (1, 2, 7, 20, 1000, 12345):
+        v = 10.0 ** rng.uniform(-8, -2, n)
+        for q in (0.0, 0.5, 0.95, 1.0):
+            a, b = rm.hist_quantile(v, q), rm.nearest_rank(v, q)
+            assert abs(a / b - 1) <= half_bin * (1 + 1e-12) and a <= v.max()
+    v = np.arange(1, 1001) * 1e-6
+    assert abs(rm.hist_quantile(v, 0.95) / 950e-6 - 1) < 1e-3
+    assert rm.hist_quantile(np.zeros(10), 0.95) == 0.0
+    assert rm.hist_quantile(np.r_[np.zeros(94), np.ones(6)], 0.95) == 1.0     # rank 95 -> a 1
+    assert rm.hist_quantile(np.r_[np.zeros(95), np.ones(5)], 0.95) == 0.0
+    assert rm.hist_quantile([], 0.95) is None
+
+
+def test_envelope_summary():
+    """envelope_summary: max/p95 over filled rows, shares of ok rows (summing to 1
+    when some clearance is non-zero), RMS of each joint's |dp| over ok rows; per mode."""
+    job = {"clearance": {"s_radial": 1e-4, "r_radial": 3e-5, "r_axial": 2e-5, "r_angular": 1e-4},
+           "trajectory": {"time": {"start": 0.0, "stop": 5.0, "n": 201}, "z": 2.05,
+                          "psi": {"harmonics": [{"amplitude": 0.2, "period": 5.0}]},
+                          "theta": {"harmonics": [{"amplitude": 0.4, "period": 2.5, "phase": 0.3}]}},
+           "analysis": {"modes": ["kinetostatic", "dynamic"]}}
+    c = rm.compute(job, extras=True)
+    s = rm.envelope_summary(c)
+    assert set(s) == {"kinetostatic", "dynamic"}
+    for mode, res in s.items():
+        sel = c["mode"] == mode
+        ok = sel & (c["status"] == "ok")
+        assert res["env_p_max"] == np.nanmax(c["env_p"][sel])
+        assert abs(res["env_alpha_p95"] / rm.nearest_rank(c["env_alpha"][sel], 0.95) - 1) < 2e-4
+        assert abs(sum(res[f"dominant_share_{n}"] for n in rm.JOINT_NAMES) - 1) < 1e-12
+        for n in rm.JOINT_NAMES:
+            assert res[f"dominant_share_{n}"] == np.mean(c["dominant"][ok] == n)
+            np.testing.assert_allclose(res[f"rms_dp_{n}"], np.sqrt(np.mean(c[f"dp_joint_{n}"][ok] ** 2)))
+    with pytest.raises(ValueError):
+        rm.envelope_summary(rm.compute(job))
+
+
+def _fake_engine(ref, drop=()):
+    """The reference's columns in read_engine()'s form (values, null mask, NaN stored)."""
+    eng = {}
+    for k, v in ref.items():
+        if k == "variant" or k in drop or k in rm.extra_column_names():
+            continue
+        if v.dtype == object:
+            eng[k] = (v.copy(), np.array([x is None for x in v]), False)
+        else:
+            null = np.isnan(v) if v.dtype.kind == "f" else np.zeros(v.shape, bool)
+            eng[k] = (v.astype(float), null, np.zeros(v.shape, bool))
+    return eng
+
+
+def test_crosscheck_envelope_comparison(tmp_path):
+    """The cross-check's envelope path, on a fake engine that writes the reference's
+    own values: without env columns a note and no failure; with them a pass; a
+    perturbed env cell, a partial set, a wrong `dominant` fail; a `dominant` naming
+    another joint tied to round-off (level pose, three equivalent limbs) is a noted
+    near tie (a failure with strict_dominant); the summary against summary.parquet."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    import crosscheck_reference as xc
+    job = {"clearance": {"s_radial": 1e-4, "r_radial": 3e-5},
+           "grid": {"z": 2.0, "psi": {"start": -0.2, "stop": 0.2, "n": 5},
+                    "theta": {"start": -0.2, "stop": 0.2, "n": 5}}}
+    P = rm.normalize_job(job)
+    ref = rm.compute(job, extras=True)
+
+    def run(eng, strict=False):
+        notes, ties = [], {}
+        return xc.compare(ref, eng, "t", xc.Stats(), P, notes, strict, ties), notes, ties
+
+    fails, notes, _ = run(_fake_engine(ref, drop=rm.env_column_names()))
+    assert fails == [] and any("no envelope columns" in n for n in notes)
+    fails, notes, _ = run(_fake_engine(ref))
+    assert fails == [] and notes == []
+    eng = _fake_engine(ref)
+    eng["env_p"][0][7] *= 1 + 1e-7
+    assert any(f.startswith("env_p:") for f in run(eng)[0])
+    assert any("missing columns" in f for f in run(_fake_engine(ref, drop=("env_r_axial_z",)))[0])
+    level = int(np.flatnonzero((ref["psi"] == 0) & (ref["theta"] == 0))[0])
+    dps = {n: ref[f"dp_joint_{n}"][level] for n in ("s1_radial", "s2_radial", "s3_radial")}
+    other = next(n for n in dps if n != ref["dominant"][level])
+    assert abs(dps[other] / dps[ref["dominant"][level]] - 1) < 1e-12
+    eng = _fake_engine(ref)
+    eng["dominant"][0][level] = other
+    fails, notes, ties = run(eng)
+    assert fails == [] and ties["kinetostatic"] == 1 and any("near tie" in n for n in notes)
+    assert any(f.startswith("dominant:") for f in run(eng, strict=True)[0])
+    clear = int(np.flatnonzero(ref["psi"] == 0.2)[0])
+    eng = _fake_engine(ref)
+    eng["dominant"][0][clear] = "r1_axial" if ref["dominant"][clear] != "r1_axial" else "r2_axial"
+    assert any(f.startswith("dominant:") for f in run(eng)[0])
+    # summary.parquet
+    summ = rm.envelope_summary(ref)["kinetostatic"]
+    pq.write_table(pa.Table.from_pylist([dict(variant=0, mode="kinetostatic", **summ)]),
+                   tmp_path / "summary.parquet")
+    notes = []
+    assert xc.compare_summary(ref, str(tmp_path), P, notes, {}) == [] and notes == []
+    bad = dict(summ, env_p_p95=summ["env_p_p95"] * (1 + 1e-3))
+    pq.write_table(pa.Table.from_pylist([dict(variant=0, mode="kinetostatic", **bad)]),
+                   tmp_path / "summary.parquet")
+    assert any("env_p_p95" in f for f in xc.compare_summary(ref, str(tmp_path), P, [], {}))
+    pq.write_table(pa.Table.from_pylist([{"variant": 0, "mode": "kinetostatic", "dp_max": 1.0}]),
+                   tmp_path / "summary.parquet")
+    notes = []
+    assert xc.compare_summary(ref, str(tmp_path), P, notes, {}) == [] and notes

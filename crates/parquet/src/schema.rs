@@ -21,7 +21,8 @@ use crate::writer::Codec;
 pub enum ColumnSet {
     /// Identity, inputs, status and the total errors.
     Minimal,
-    /// Adds per-kind errors, parasitic motions, actuators and margins (the default).
+    /// Adds per-kind errors, parasitic motions, actuators, margins, the worst-case
+    /// envelope and the dominant joint (the default).
     Standard,
     /// Adds reactions and condition numbers.
     Full,
@@ -69,7 +70,9 @@ mod slot {
     pub const COND_JP: usize = 94;
     /// Δp then Δα.
     pub const EXACT: usize = 95;
-    pub const COUNT: usize = 101;
+    /// The envelope of all kinds, then of each kind: x, y, z, rx, ry, rz, p, alpha.
+    pub const ENVELOPE: usize = 101;
+    pub const COUNT: usize = 141;
 }
 
 struct FloatColumn {
@@ -84,7 +87,13 @@ pub struct PoseSchema {
     floats: Vec<FloatColumn>,
     /// The slot of each float column, in column order.
     slots: Vec<usize>,
+    /// Whether the `dominant` column (after `status`) is in the set.
+    dominant: bool,
 }
+
+/// The envelope's parts: each component of `[Δp; Δα]`, then bounds on `|Δp|`, `|Δα|`.
+const ENVELOPE_PARTS: [(&str, &str); 8] =
+    [("x", "m"), ("y", "m"), ("z", "m"), ("rx", "rad"), ("ry", "rad"), ("rz", "rad"), ("p", "m"), ("alpha", "rad")];
 
 const ERR_PARTS: [(&str, &str); 9] = [
     ("x", "m"),
@@ -168,6 +177,11 @@ fn row_values(s: &Sample, r: &PoseResult, v: &mut Row<'_>) {
             v.set(base + 6 + i, r.reactions.f_s[j][i]);
         }
     }
+    let total = r.envelope_total();
+    v.set_all(slot::ENVELOPE, &total);
+    for (k, env) in r.envelope.iter().enumerate() {
+        v.set_all(slot::ENVELOPE + 8 * (k + 1), env);
+    }
     if let Some(e) = r.exact {
         // The stored exact error is [Δα; Δp]; columns follow the err_* order (Δp first).
         v.set_all(slot::EXACT, &e[3..]);
@@ -211,6 +225,12 @@ impl PoseSchema {
                 f.push(float(format!("margin_r{l}_angular"), "N*m", base + 2));
                 f.push(float(format!("margin_s{l}"), "N", base + 3));
             }
+            let kinds = std::iter::once(String::new()).chain(KINDS.iter().map(|k| format!("{}_", k.name())));
+            for (k, kind) in kinds.enumerate() {
+                for (i, (c, unit)) in ENVELOPE_PARTS.iter().enumerate() {
+                    f.push(float(format!("env_{kind}{c}"), unit, slot::ENVELOPE + 8 * k + i));
+                }
+            }
         }
         if set >= ColumnSet::Full {
             for j in 0..3 {
@@ -237,9 +257,13 @@ impl PoseSchema {
             Field::new("t", DataType::Float64, true).with_metadata(unit("s")),
             Field::new("status", DataType::Utf8, false).with_metadata(unit("")),
         ];
+        let dominant = set >= ColumnSet::Standard;
+        if dominant {
+            fields.push(Field::new("dominant", DataType::Utf8, true).with_metadata(unit("")));
+        }
         fields.extend(f.iter().map(|c| Field::new(&c.name, DataType::Float64, true).with_metadata(unit(c.unit))));
         let slots = f.iter().map(|c| c.slot).collect();
-        Self { schema: Arc::new(Schema::new(fields)), floats: f, slots }
+        Self { schema: Arc::new(Schema::new(fields)), floats: f, slots, dominant }
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -257,6 +281,7 @@ impl PoseSchema {
             sample: vec![0; rows],
             t: vec![0.0; rows],
             status: vec![Status::Unreachable; rows],
+            dominant: vec![NO_JOINT; rows],
             floats: self.slots.iter().map(|_| vec![0.0; rows]).collect(),
             nulls: (0..=self.slots.len()).map(|_| AtomicBool::new(false)).collect(),
         }
@@ -268,6 +293,7 @@ impl PoseSchema {
             mode,
             sample: vec![0; rows],
             status: vec![Status::Unreachable; rows],
+            dominant: vec![NO_JOINT; rows],
             pages: pages::page_spans(rows).iter().map(|_| None).collect(),
         }
     }
@@ -294,8 +320,11 @@ impl PoseSchema {
         };
         let (t_nulls, float_nulls) = cols.nulls.split_first().expect("t has a flag");
         let [mode, sample, status] = label_columns(mode, cols.sample, &cols.status);
-        let mut out: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 4);
+        let mut out: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 5);
         out.extend([mode, sample, float((cols.t, t_nulls)), status]);
+        if self.dominant {
+            out.push(dominant_column(&cols.dominant));
+        }
         // Columns on the pool: a serial pass over a whole unit would leave it idle.
         out.par_extend(cols.floats.into_par_iter().zip(float_nulls).map(float));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
@@ -310,6 +339,27 @@ impl PoseSchema {
             }
         }
         self.finish(mode, cols)
+    }
+}
+
+/// `dominant` of a row without one (not `ok`, or every clearance zero).
+pub(crate) const NO_JOINT: u8 = u8::MAX;
+
+/// The names of the `dominant` column's values, by `3·kind + limb`.
+pub(crate) fn joint_names() -> [String; 12] {
+    std::array::from_fn(|i| clearance_solver::joint_name(i / 3, i % 3))
+}
+
+/// The `dominant` column from each row's `3·kind + limb` ([`NO_JOINT`]: null).
+pub(crate) fn dominant_column(index: &[u8]) -> ArrayRef {
+    let names = joint_names();
+    Arc::new(StringArray::from_iter(index.iter().map(|&i| names.get(i as usize).map(String::as_str))))
+}
+
+impl PoseSchema {
+    /// Whether the set has the `dominant` column.
+    pub(crate) fn has_dominant(&self) -> bool {
+        self.dominant
     }
 }
 
@@ -334,6 +384,8 @@ pub struct PartPages {
     pub(crate) mode: Mode,
     pub(crate) sample: Vec<u64>,
     pub(crate) status: Vec<Status>,
+    /// Each row's dominant joint, `3·kind + limb` ([`NO_JOINT`]: none).
+    pub(crate) dominant: Vec<u8>,
     /// Each page's bytes, every double column's page in schema order (`t` first).
     pub(crate) pages: Vec<Option<EncodedPage>>,
 }
@@ -360,6 +412,7 @@ impl PartPages {
     /// rows, the last few shorter), to fill in parallel.
     pub fn pages<'a>(&'a mut self, schema: &'a PoseSchema) -> Vec<PageWriter<'a>> {
         let (mut sample, mut status) = (&mut self.sample[..], &mut self.status[..]);
+        let mut dominant = &mut self.dominant[..];
         pages::page_spans(sample.len())
             .into_iter()
             .zip(&mut self.pages)
@@ -368,7 +421,9 @@ impl PartPages {
                 sample = rest;
                 let (page_status, rest) = std::mem::take(&mut status).split_at_mut(rows);
                 status = rest;
-                PageWriter { schema, first, sample: page_sample, status: page_status, out }
+                let (page_dominant, rest) = std::mem::take(&mut dominant).split_at_mut(rows);
+                dominant = rest;
+                PageWriter { schema, first, sample: page_sample, status: page_status, dominant: page_dominant, out }
             })
             .collect()
     }
@@ -381,6 +436,7 @@ pub struct PageWriter<'a> {
     first: usize,
     sample: &'a mut [u64],
     status: &'a mut [Status],
+    dominant: &'a mut [u8],
     out: &'a mut Option<EncodedPage>,
 }
 
@@ -413,7 +469,7 @@ impl PageWriter<'_> {
         mut bytes: Vec<u8>,
         fill: impl FnOnce(&mut BlockSink<'_>) -> R,
     ) -> Result<R, parquet::errors::ParquetError> {
-        let PageWriter { schema, sample, status, out, .. } = self;
+        let PageWriter { schema, sample, status, dominant, out, .. } = self;
         let rows = sample.len();
         let n = schema.slots.len();
         buf.t.resize(PAGE_ROWS, 0.0);
@@ -421,7 +477,7 @@ impl PageWriter<'_> {
         let result = {
             let floats = buf.floats.chunks_mut(PAGE_ROWS).map(|c| &mut c[..rows]).collect();
             // No null flags: each page's encoder finds its nulls from the values' range.
-            let mut sink = BlockSink::new(schema, sample, &mut buf.t[..rows], status, floats, None);
+            let mut sink = BlockSink::new(schema, sample, &mut buf.t[..rows], status, dominant, floats, None);
             fill(&mut sink)
         };
         bytes.clear();
@@ -443,6 +499,7 @@ pub struct UnitColumns {
     sample: Vec<u64>,
     t: Vec<f64>,
     status: Vec<Status>,
+    dominant: Vec<u8>,
     floats: Vec<Vec<f64>>,
     /// Whether `t` (first), then each float column, holds a value that is not finite.
     nulls: Vec<AtomicBool>,
@@ -456,7 +513,10 @@ impl UnitColumns {
             .chunks_mut(block)
             .zip(self.t.chunks_mut(block))
             .zip(self.status.chunks_mut(block))
-            .map(|((sample, t), status)| BlockSink::new(schema, sample, t, status, Vec::new(), Some(&self.nulls)))
+            .zip(self.dominant.chunks_mut(block))
+            .map(|(((sample, t), status), dominant)| {
+                BlockSink::new(schema, sample, t, status, dominant, Vec::new(), Some(&self.nulls))
+            })
             .collect();
         for col in &mut self.floats {
             for (sink, part) in sinks.iter_mut().zip(col.chunks_mut(block)) {
@@ -487,6 +547,7 @@ pub struct BlockSink<'a> {
     sample: &'a mut [u64],
     t: &'a mut [f64],
     status: &'a mut [Status],
+    dominant: &'a mut [u8],
     floats: Vec<&'a mut [f64]>,
     slots: &'a [usize],
     /// The unit's flags of columns with a value that is not finite (`t` first), for
@@ -517,6 +578,7 @@ impl<'a> BlockSink<'a> {
         sample: &'a mut [u64],
         t: &'a mut [f64],
         status: &'a mut [Status],
+        dominant: &'a mut [u8],
         floats: Vec<&'a mut [f64]>,
         nulls: Option<&'a [AtomicBool]>,
     ) -> Self {
@@ -524,6 +586,7 @@ impl<'a> BlockSink<'a> {
             sample,
             t,
             status,
+            dominant,
             floats,
             slots: &schema.slots,
             nulls,
@@ -539,6 +602,7 @@ impl<'a> BlockSink<'a> {
         let t = s.t.unwrap_or(f64::NAN);
         self.t[i] = t;
         self.status[i] = r.status;
+        self.dominant[i] = r.dominant.map_or(NO_JOINT, |(k, j)| (3 * k + j) as u8);
         if self.tile_len == TILE || (self.tile_len > 0 && i != self.tile_start + self.tile_len) {
             self.flush();
         }

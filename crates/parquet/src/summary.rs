@@ -174,6 +174,17 @@ pub struct SummaryStats {
     pub dalpha_kind: [Series; 4],
     pub cond_a_max: f64,
     pub cond_jp_max: f64,
+    /// The envelope's bounds on |Δp| and |Δα| (`ok` and indeterminate poses).
+    #[serde(default)]
+    pub env_p: Series,
+    #[serde(default)]
+    pub env_alpha: Series,
+    /// Per joint (`[kind][limb]`), over `ok` poses: how often it dominates, and the sum
+    /// of squares of its own contribution to |Δp|.
+    #[serde(default)]
+    pub dominant: [[u64; 3]; 4],
+    #[serde(default)]
+    pub joint_sum_sq: [[f64; 3]; 4],
 }
 
 fn norms(e: &PoseError) -> (f64, f64) {
@@ -193,7 +204,10 @@ impl SummaryStats {
 
     /// Every series: total, then per kind.
     fn series_mut(&mut self) -> impl Iterator<Item = &mut Series> {
-        [&mut self.dp, &mut self.dalpha].into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind)
+        [&mut self.dp, &mut self.dalpha, &mut self.env_p, &mut self.env_alpha]
+            .into_iter()
+            .chain(&mut self.dp_kind)
+            .chain(&mut self.dalpha_kind)
     }
 
     pub fn push(&mut self, r: &PoseResult) {
@@ -208,8 +222,23 @@ impl SummaryStats {
             let (p, a) = norms(&r.total);
             self.dp.push(p);
             self.dalpha.push(a);
+            if let Some((k, j)) = r.dominant {
+                self.dominant[k][j] += 1;
+            }
+            for (sums, limbs) in self.joint_sum_sq.iter_mut().zip(&r.contribution) {
+                for (sum, v) in sums.iter_mut().zip(limbs) {
+                    if v.is_finite() {
+                        *sum += v * v;
+                    }
+                }
+            }
         }
         if matches!(r.status, Status::Ok | Status::IndeterminateContact) {
+            let [env_p, env_alpha] = [6, 7].map(|c| r.envelope.iter().map(|k| k[c]).sum::<f64>());
+            if env_p.is_finite() && env_alpha.is_finite() {
+                self.env_p.push(env_p);
+                self.env_alpha.push(env_alpha);
+            }
             for k in 0..4 {
                 if r.kind_ok[k] {
                     let (p, a) = norms(&r.errors[k]);
@@ -240,6 +269,14 @@ impl SummaryStats {
         self.dalpha.merge(&o.dalpha);
         self.cond_a_max = self.cond_a_max.max(o.cond_a_max);
         self.cond_jp_max = self.cond_jp_max.max(o.cond_jp_max);
+        self.env_p.merge(&o.env_p);
+        self.env_alpha.merge(&o.env_alpha);
+        for k in 0..4 {
+            for j in 0..3 {
+                self.dominant[k][j] += o.dominant[k][j];
+                self.joint_sum_sq[k][j] += o.joint_sum_sq[k][j];
+            }
+        }
     }
 }
 
@@ -293,6 +330,21 @@ pub fn summary_batch(param_names: &[String], rows: &[SummaryRow]) -> RecordBatch
         let k = kind.index();
         stat_cols(format!("dp_{}", kind.name()), "m", &move |s| &s.dp_kind[k]);
         stat_cols(format!("dalpha_{}", kind.name()), "rad", &move |s| &s.dalpha_kind[k]);
+    }
+    stat_cols("env_p".into(), "m", &|s| &s.env_p);
+    stat_cols("env_alpha".into(), "rad", &|s| &s.env_alpha);
+    // Per joint: the share of ok poses it dominates and the RMS of its own |Δp|.
+    for (k, j) in (0..4).flat_map(|k| (0..3).map(move |j| (k, j))) {
+        let name = clearance_solver::joint_name(k, j);
+        let ok = |r: &SummaryRow| r.stats.status[Status::Ok.index()];
+        fields.push(field(&format!("dominant_share_{name}"), DataType::Float64, true, "1"));
+        cols.push(Arc::new(Float64Array::from_iter(
+            rows.iter().map(|r| (ok(r) > 0).then(|| r.stats.dominant[k][j] as f64 / ok(r) as f64)),
+        )));
+        fields.push(field(&format!("rms_dp_{name}"), DataType::Float64, true, "m"));
+        cols.push(Arc::new(Float64Array::from_iter(
+            rows.iter().map(|r| (ok(r) > 0).then(|| (r.stats.joint_sum_sq[k][j] / ok(r) as f64).sqrt())),
+        )));
     }
     fields.push(field("switches", DataType::UInt64, false, "1"));
     cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.switches.iter().sum()))));

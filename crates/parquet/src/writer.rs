@@ -145,6 +145,7 @@ fn properties(schema: &Schema, opts: &WriteOptions, extra: &[(String, String)]) 
         .set_offset_index_disabled(true)
         .set_column_dictionary_enabled(ColumnPath::from("mode"), true)
         .set_column_dictionary_enabled(ColumnPath::from("status"), true)
+        .set_column_dictionary_enabled(ColumnPath::from("dominant"), true)
         .set_column_dictionary_enabled(ColumnPath::from("kind"), true)
         .set_max_row_group_row_count(Some(opts.row_group_rows))
         .set_key_value_metadata(Some(kv))
@@ -325,7 +326,7 @@ pub fn write_part(
         path: path.to_path_buf(),
         source: parquet::errors::ParquetError::General(msg),
     };
-    let PartPages { mode, sample, status, pages } = part;
+    let PartPages { mode, sample, status, dominant, pages } = part;
     let rows = sample.len();
     let sample: ArrayRef = Arc::new(UInt64Array::from(sample.clone()));
     let modes = [mode.name()];
@@ -344,7 +345,8 @@ pub fn write_part(
             at += stats.bytes;
         }
     }
-    // In schema order (`label_columns`): mode, sample, t, status, then the floats.
+    // In schema order (`label_columns`): mode, sample, t, status, dominant (standard
+    // and full sets), then the floats.
     let mut chunks = chunks.into_iter();
     let t = chunks.next().ok_or_else(|| enc("no t column".into()))?;
     let mut columns = vec![
@@ -353,6 +355,10 @@ pub fn write_part(
         Column::Doubles(t),
         Column::Labels(&statuses, status_index),
     ];
+    let dominant = crate::schema::dominant_column(dominant);
+    if schema.has_dominant() {
+        columns.push(Column::Array(&dominant));
+    }
     columns.extend(chunks.map(Column::Doubles));
     let opts = WriteOptions { row_group_rows: rows.max(1), ..opts.clone() };
     let arrow_schema = schema.schema();

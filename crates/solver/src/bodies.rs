@@ -189,6 +189,9 @@ pub struct Model {
     pub singular_cond: f64,
     pub exact: bool,
     pub solver: SolverKind,
+    /// Also compute the worst-case envelope and each joint's contribution
+    /// (`PoseResult::envelope`, `contribution`); off, they are NaN.
+    pub envelope: bool,
 }
 
 impl Model {
@@ -209,6 +212,7 @@ impl Model {
             singular_cond: job.analysis.singular_cond,
             exact: job.analysis.exact,
             solver: SolverKind::default(),
+            envelope: true,
         }
     }
 }

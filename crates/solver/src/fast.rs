@@ -174,8 +174,10 @@ impl<L: Lane> Lu6<L> {
 
     /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse `(L·U)⁻¹`: `A⁻¹ = (L·U)⁻¹·P`
     /// only reorders its columns, which changes neither norm.
+    ///
+    /// Also returns `A⁻¹` itself, its columns put back in order.
     #[inline(always)]
-    fn inverse_norms(&self) -> (L, L) {
+    fn inverse_norms(&self) -> (L, L, A6<L>) {
         let lu = &self.lu;
         let zero = c::<L>(0.0);
         // Y = L⁻¹, lower triangular with a unit diagonal: row i is zero past column i.
@@ -211,7 +213,17 @@ impl<L: Lane> Lu6<L> {
             }
             row_max = row_max.max(sum);
         }
-        (col_sums.iter().fold(zero, |m, &s| m.max(s)), row_max)
+        // Column `perm[i]` of A⁻¹ is column i of (L·U)⁻¹.
+        let mut inv = [[zero; 6]; 6];
+        for (i, &p) in self.perm.iter().enumerate() {
+            for col in 0..6 {
+                let m = p.eq(c(col as f64));
+                for r in 0..6 {
+                    inv[r][col] = L::select(m, x[r][i], inv[r][col]);
+                }
+            }
+        }
+        (col_sums.iter().fold(zero, |m, &s| m.max(s)), row_max, inv)
     }
 }
 
@@ -489,6 +501,10 @@ pub struct Reduced<L: Lane> {
     /// `n_j = y_j × e_j`.
     n: [V3<L>; 3],
     g: Lu6<L>,
+    /// `G⁻¹` (NaN when the conditioning was not asked for): row `2j + k` of it, read
+    /// as `[Δp; Δα]`, is the pose error per unit of `f·v_j` (`f = e_j`, `y_j`; `v_j` the
+    /// velocity at `A_j` of limb j's clearance twist), which the envelope maximises.
+    ginv: A6<L>,
     /// `κ₁(G)` and `κ₁(M)`; infinite when singular, NaN when not asked for.
     pub cond_g: L,
     pub cond_m: L,
@@ -512,17 +528,19 @@ impl<L: Lane> Reduced<L> {
             }
         }
         let (mut cond_g, mut cond_m) = (c::<L>(f64::NAN), c::<L>(f64::NAN));
+        let mut ginv = [[c::<L>(f64::NAN); 6]; 6];
         let lu = if conditioning {
             let (norm_one, norm_inf) = norms(&g);
             let lu = Lu6::new(g);
-            let (inv_one, inv_inf) = lu.inverse_norms();
+            let (inv_one, inv_inf, inv) = lu.inverse_norms();
             let finite = |k: L| L::select(lu.regular & k.finite(), k, c(f64::INFINITY));
             (cond_g, cond_m) = (finite(norm_one * inv_one), finite(norm_inf * inv_inf));
+            ginv = inv;
             lu
         } else {
             Lu6::new(g)
         };
-        Self { n, g: lu, cond_g, cond_m }
+        Self { n, g: lu, ginv, cond_g, cond_m }
     }
 
     /// Whether `G` could be factored.
@@ -566,7 +584,9 @@ impl<L: Lane> Reduced<L> {
     /// Per-kind pose errors `[Δα; Δp]` (order of `KINDS`) from `M·t = d`, that is
     /// `Gᵀ·(S·t) = d`.
     #[inline(always)]
-    pub fn errors(&self, model: &Model, pose: &Pose<L>, take: &TakeUps<L>) -> [[L; 6]; 4] {
+    ///
+    /// Also returns each joint's own contribution to `|Δp|`, by kind and limb.
+    pub fn errors(&self, model: &Model, pose: &Pose<L>, take: &TakeUps<L>) -> ([[L; 6]; 4], [[L; 3]; 4]) {
         let y = each3(|j| V3::<L>::splat(&model.geometry.y[j]));
         // Row i holds component i of every kind's right-hand side.
         let mut rhs = [[c::<L>(0.0); 4]; 6];
@@ -581,8 +601,57 @@ impl<L: Lane> Reduced<L> {
             }
         }
         let s = self.g.solve_transposed(&rhs);
+        // Joint (j, kind) alone: rows 2j and 2j + 1 of G⁻¹ (its Δp half) times its loads.
+        let mut contribution = [[c::<L>(0.0); 3]; 4];
+        for j in 0..3 {
+            let (u, v) = (&self.ginv[2 * j], &self.ginv[2 * j + 1]);
+            for kind in 0..4 {
+                let (a, b) = (rhs[2 * j][kind], rhs[2 * j + 1][kind]);
+                let dp = each3(|i| u[i] * a + v[i] * b);
+                contribution[kind][j] = (dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2]).sqrt();
+            }
+        }
         // t = S·s: the halves swap back.
-        each4(|k| [s[3][k], s[4][k], s[5][k], s[0][k], s[1][k], s[2][k]])
+        (each4(|k| [s[3][k], s[4][k], s[5][k], s[0][k], s[1][k], s[2][k]]), contribution)
+    }
+
+    /// The worst case over every admissible take-up (docs/model.md, "The envelope"):
+    /// per kind (order of `KINDS`), the largest `|Δp_x|, |Δp_y|, |Δp_z|, |Δα_x|, |Δα_y|,
+    /// |Δα_z|` and bounds on `|Δp|` and `|Δα|`. The error is linear in each joint's
+    /// displacement and the joints are independent, so each maximum is a sum over the
+    /// limbs of one joint's maximum over its set: a ball (`s_radial`, both rows of the
+    /// limb), a disc `⟂ y_j` (`r_radial`: only the row along `e_j` moves the platform), a
+    /// segment along `y_j` (`r_axial`), a disc of rotations `⟂ y_j` about `B_j`
+    /// (`r_angular`: `A_j` moves by `ℓ_j` times the rotation, along `n_j`, read by the
+    /// `y_j` row).
+    #[inline(always)]
+    pub fn envelope(&self, model: &Model, pose: &Pose<L>) -> [[L; 8]; 4] {
+        let [s, r, a, th] = model.clearance;
+        let mut env = [[c::<L>(0.0); 8]; 4];
+        for j in 0..3 {
+            let (u, v) = (&self.ginv[2 * j], &self.ginv[2 * j + 1]);
+            let ell = pose.ell[j];
+            // G⁻¹'s rows hold Δp first, then Δα.
+            for i in 0..6 {
+                env[0][i] = env[0][i] + (u[i] * u[i] + v[i] * v[i]).sqrt().scale(s);
+                env[1][i] = env[1][i] + u[i].abs().scale(r);
+                env[2][i] = env[2][i] + v[i].abs().scale(a);
+                env[3][i] = env[3][i] + (v[i].abs() * ell).scale(th);
+            }
+            for (slot, base) in [(6, 0), (7, 3)] {
+                let dot =
+                    |x: &[L; 6], y: &[L; 6]| x[base] * y[base] + x[base + 1] * y[base + 1] + x[base + 2] * y[base + 2];
+                let (uu, vv, uv) = (dot(u, u), dot(v, v), dot(u, v));
+                // The larger singular value of the 3 × 2 block [u v].
+                let half = (uu - vv).scale(0.5);
+                let sigma = ((uu + vv).scale(0.5) + (half * half + uv * uv).sqrt()).sqrt();
+                env[0][slot] = env[0][slot] + sigma.scale(s);
+                env[1][slot] = env[1][slot] + uu.sqrt().scale(r);
+                env[2][slot] = env[2][slot] + vv.sqrt().scale(a);
+                env[3][slot] = env[3][slot] + (vv.sqrt() * ell).scale(th);
+            }
+        }
+        env
     }
 }
 

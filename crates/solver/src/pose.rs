@@ -11,7 +11,7 @@ use crate::bodies::{Inertial, Model};
 use crate::equilibrium::{self, JointReactions};
 use crate::error_system::{self, PoseError};
 use crate::exact::exact_error;
-use crate::fast::{Loads, Pose, Reduced, euler_inverse, pose_error};
+use crate::fast::{Loads, Pose, Reactions, Reduced, euler_inverse, pose_error};
 use crate::lanes::{F8, LANES, Lane, Mask, lane3};
 use crate::linalg::LuSolver;
 use crate::takeup::{Margins, TakeUp, take_up, take_ups};
@@ -66,6 +66,56 @@ pub struct PoseResult {
     pub cond_jp: f64,
     /// Exact error `[Δα; Δp]` (only with `analysis.exact` on an `ok` pose).
     pub exact: Option<[f64; 6]>,
+    /// The worst case over every admissible take-up, per kind (order of `KINDS`):
+    /// the largest `|Δp_x|, |Δp_y|, |Δp_z|, |Δα_x|, |Δα_y|, |Δα_z|`, and bounds on `|Δp|`
+    /// and `|Δα|` (ok and indeterminate poses; NaN when `Model::envelope` is off).
+    pub envelope: [[f64; 8]; 4],
+    /// Each joint's own contribution to `|Δp|` of the deterministic error, by kind and
+    /// limb (ok poses; NaN when `Model::envelope` is off).
+    pub contribution: [[f64; 3]; 4],
+    /// The joint whose own take-up moves P most, `(kind index, limb index)`: see
+    /// [`PoseResult::dominant_of`].
+    pub dominant: Option<(usize, usize)>,
+}
+
+impl PoseResult {
+    /// The envelope of all kinds together: each kind's bound summed.
+    pub fn envelope_total(&self) -> [f64; 8] {
+        std::array::from_fn(|c| self.envelope.iter().map(|k| k[c]).sum())
+    }
+
+    /// The joint whose take-up moves P most, as `(kind index, limb index)`: among the
+    /// kinds with a clearance, the largest contribution (ties: the first in kind, then
+    /// limb order). `None` unless the pose is `ok` and some clearance is non-zero.
+    pub fn dominant_of(&self, clearance: &[f64; 4]) -> Option<(usize, usize)> {
+        if self.status != Status::Ok {
+            return None;
+        }
+        let mut best: Option<((usize, usize), f64)> = None;
+        for (k, limbs) in self.contribution.iter().enumerate() {
+            if clearance[k] == 0.0 {
+                continue;
+            }
+            for (j, &v) in limbs.iter().enumerate() {
+                if v.is_finite() && best.is_none_or(|(_, b)| v > b) {
+                    best = Some(((k, j), v));
+                }
+            }
+        }
+        best.map(|(at, _)| at)
+    }
+}
+
+/// The name of a joint and clearance kind, as the `dominant` column spells it
+/// (`s1_radial`, `r2_axial`, …).
+pub fn joint_name(kind: usize, limb: usize) -> String {
+    let (joint, what) = match kind {
+        0 => ("s", "radial"),
+        1 => ("r", "radial"),
+        2 => ("r", "axial"),
+        _ => ("r", "angular"),
+    };
+    format!("{joint}{}_{what}", limb + 1)
 }
 
 impl Default for PoseResult {
@@ -91,6 +141,9 @@ impl PoseResult {
             cond_a: f64::NAN,
             cond_jp: f64::NAN,
             exact: None,
+            envelope: [[f64::NAN; 8]; 4],
+            contribution: [[f64::NAN; 3]; 4],
+            dominant: None,
         }
     }
 }
@@ -404,13 +457,20 @@ fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mu
     let reactions = reduced.reactions(model, pose, loads);
     let take = take_ups(&model.geometry, &reactions, &model.clearance, model.indeterminate_floor);
     let inv = euler_inverse(pose);
-    let t = reduced.errors(model, pose, &take);
+    let (t, contribution) = reduced.errors(model, pose, &take);
     let errors = [pose_error(t[0], &inv), pose_error(t[1], &inv), pose_error(t[2], &inv), pose_error(t[3], &inv)];
+    let envelope = model.envelope.then(|| reduced.envelope(model, pose));
     for (i, o) in out.iter_mut().enumerate() {
         *o = if solvable.get(i) {
             let cond = (reduced.cond_g.get(i), reduced.cond_m.get(i));
             let e = [errors[0].get(i), errors[1].get(i), errors[2].get(i), errors[3].get(i)];
-            finish(model, pose, i, cond, reactions.get(i), &take.get(i), e)
+            let mut r = finish(model, pose, i, cond, reactions.get(i), &take.get(i), e);
+            if let Some(env) = &envelope {
+                r.envelope = env.map(|k| k.map(|v| v.get(i)));
+                r.contribution = contribution.map(|k| k.map(|v| v.get(i)));
+                r.dominant = r.dominant_of(&model.clearance);
+            }
+            r
         } else {
             unsolved(pose, &reduced, i)
         };
@@ -456,7 +516,15 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
         return result;
     }
     let errors = error_system::errors_from(geom, &posture, &take, &ws.dq);
-    finish(model, pose, 0, (reduced.cond_g, reduced.cond_m), reactions, &take, errors)
+    let mut r = finish(model, pose, 0, (reduced.cond_g, reduced.cond_m), reactions, &take, errors);
+    if model.envelope {
+        // Both come from the reduction, which the general path factors for its conditioning.
+        let takes = take_ups(geom, &Reactions::from_joint(&reactions), &model.clearance, model.indeterminate_floor);
+        r.envelope = reduced.envelope(model, pose);
+        r.contribution = reduced.errors(model, pose, &takes).1;
+        r.dominant = r.dominant_of(&model.clearance);
+    }
+    r
 }
 
 /// A solvable pose's result from its reactions, take-up and per-kind errors.
@@ -492,5 +560,8 @@ fn finish<L: Lane>(
         cond_a: cond.0,
         cond_jp: cond.1,
         exact,
+        envelope: [[f64::NAN; 8]; 4],
+        contribution: [[f64::NAN; 3]; 4],
+        dominant: None,
     }
 }
