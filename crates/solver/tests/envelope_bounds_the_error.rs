@@ -62,12 +62,12 @@ fn samples(geom: &Geometry, k: usize, j: usize, size: f64) -> Vec<Vector3<f64>> 
 fn check_pose(model: &Model, pose: &Posture, r: &PoseResult) -> usize {
     let clearance = model.clearance;
     let mut compared = 0;
-    for k in 0..4 {
+    for (k, &size) in clearance.iter().enumerate() {
         // The brute-force maximum of each component, |Δp| and |Δα|, summed over limbs.
         let mut brute = [0.0f64; 8];
         for j in 0..3 {
             let mut best = [0.0f64; 8];
-            for d in samples(&model.geometry, k, j, clearance[k]) {
+            for d in samples(&model.geometry, k, j, size) {
                 let e = response(&model.geometry, pose, k, j, d);
                 for c in 0..6 {
                     best[c] = best[c].max(e[c].abs());
