@@ -6,7 +6,7 @@ use clearance_solver::Workspace;
 
 use crate::search::{Segment, Solved};
 use crate::trace::{Decider, min_bit, turn_bit};
-use crate::{Discontinuity, LOCATE_TOL, brent_min, brent_root, dot, vector};
+use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector};
 
 /// A refined minimum of the magnitude lying between samples `lo` and `hi` (the
 /// determinate samples either side of it; for a minimum at a sample, its neighbours).
@@ -19,9 +19,10 @@ struct Dip {
     hi: usize,
 }
 
-/// A Brent minimum closer than this to an end of its interval is that end's: the
-/// magnitude falls all the way to it (ten times Brent's tolerance).
-const EDGE: f64 = 10.0 * LOCATE_TOL;
+/// A Brent minimum closer than this (relative to its interval) to an end of its
+/// interval is that end's: the magnitude falls all the way to it (ten times the
+/// minimiser's tolerance).
+const EDGE: f64 = 10.0 * SCAN_TOL;
 
 /// The step of the five-point difference of `|f|²` that polishes a minimum: its
 /// truncation (`h⁴`) is negligible, its round-off (`ε·|f|²/h`) moves the root by
@@ -49,9 +50,11 @@ pub(crate) fn switches(
     let min_on = |lo: usize, hi: usize, ws: &mut Workspace| {
         // The squared magnitude has the same minimum and is smooth there (the
         // magnitude itself is a V when the load passes near zero).
-        brent_min(ev.param(lo), ev.param(hi), LOCATE_TOL, |p| squared(p, ws).unwrap_or(f64::INFINITY))
+        let (plo, phi) = (ev.param(lo), ev.param(hi));
+        brent_min(plo, phi, SCAN_TOL * (phi - plo), |p| squared(p, ws).unwrap_or(f64::INFINITY))
     };
-    let inside = |p: f64, lo: usize, hi: usize| p > ev.param(lo) + EDGE && p < ev.param(hi) - EDGE;
+    let edge = |lo: usize, hi: usize| EDGE * (ev.param(hi) - ev.param(lo));
+    let inside = |p: f64, lo: usize, hi: usize| p > ev.param(lo) + edge(lo, hi) && p < ev.param(hi) - edge(lo, hi);
 
     // Every interior sampled minimum, refined on each side on its own.
     let mut minima = Vec::new();
@@ -76,7 +79,7 @@ pub(crate) fn switches(
         if !in_left && !in_right {
             // Both sides fall towards the sample: the minimum is there.
             let (p, m2) = if left.1 <= right.1 { left } else { right };
-            if (p - ev.param(k)).abs() <= EDGE {
+            if (p - ev.param(k)).abs() <= edge(a, k).max(edge(k, c)) {
                 dips.push(Dip { p, m: m2.sqrt(), lo: a, hi: c });
             }
         }
@@ -122,7 +125,8 @@ pub(crate) fn switches(
         if dot(load(solved, left, ws), load(solved, right, ws)) >= 0.0 {
             continue;
         }
-        let p = polish(dip.p, ev.param(dip.lo), ev.param(dip.hi), |p| squared(p, ws));
+        let (lo, hi) = (ev.param(dip.lo), ev.param(dip.hi));
+        let p = polish(dip.p, lo, hi, 2.0 * SCAN_TOL * (hi - lo), |p| squared(p, ws));
         let (before, after) = (solved.get(left, ws), solved.get(right, ws));
         out.push(ev.record(kind, j, p, ws, &before, &after));
     }
@@ -144,14 +148,14 @@ fn walk(side: impl Iterator<Item = usize>, mut stops: impl FnMut(usize, Option<u
 /// The minimum near `p` (in `[lo, hi]`) as the root of `d|f|²/ds`: Brent's
 /// minimiser resolves it only to about `√ε` of the dip's width where the dip is
 /// shallow. `p` itself where no sign change of the derivative brackets it.
-fn polish(p: f64, lo: f64, hi: f64, mut squared: impl FnMut(f64) -> Option<f64>) -> f64 {
+fn polish(p: f64, lo: f64, hi: f64, width: f64, mut squared: impl FnMut(f64) -> Option<f64>) -> f64 {
     let h = DIFF_STEP;
     let mut slope = |s: f64| -> Option<f64> {
         let (f2, f1) = (squared(s + 2.0 * h)?, squared(s + h)?);
         let (b1, b2) = (squared(s - h)?, squared(s - 2.0 * h)?);
         Some((8.0 * (f1 - b1) - (f2 - b2)) / (12.0 * h))
     };
-    let mut width = 1e-7;
+    let mut width = width.max(1e-7);
     loop {
         let (a, b) = ((p - width).max(lo), (p + width).min(hi));
         let (Some(ga), Some(gb)) = (slope(a), slope(b)) else { return p };

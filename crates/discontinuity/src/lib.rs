@@ -50,6 +50,12 @@ use rayon::prelude::*;
 /// Locations are refined to this absolute tolerance in the path parameter (rad, m or s).
 pub const LOCATE_TOL: f64 = 1e-9;
 
+/// Relative tolerance (of the sample interval) of the minimisations that look for a
+/// dip or an extremum of the other sign, before a switch is located to
+/// [`LOCATE_TOL`]: the minimum's value is then good to `1e-8` of the dip's depth,
+/// and every sampled minimum takes a third of the evaluations it took to 1e-9.
+const SCAN_TOL: f64 = 1e-4;
+
 /// One refined switch of one joint's take-up.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Discontinuity {

@@ -4,9 +4,10 @@
 
 use clearance_solver::Workspace;
 
+use crate::minimise::brent_min_below;
 use crate::search::{Segment, Side, Solved};
 use crate::trace::{Decider, min_bit, neg_bit};
-use crate::{LOCATE_TOL, axial, brent_min, brent_root};
+use crate::{LOCATE_TOL, SCAN_TOL, axial, brent_root};
 
 /// One zero of the load, with the points either side that the jump is read between.
 pub(crate) struct Crossing {
@@ -49,7 +50,9 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
             // The load's sign at both ends: look for the extremum of the other sign.
             let sign = if negative(k) { -1.0 } else { 1.0 };
             let (plo, phi) = (ev.param(lo), ev.param(hi));
-            let (pm, least) = brent_min(plo, phi, LOCATE_TOL, |p| {
+            // One point of the other sign is enough; narrower excursions than the
+            // tolerance are too narrow for any sampling.
+            let (pm, least) = brent_min_below(plo, phi, SCAN_TOL * (phi - plo), -floor, |p| {
                 ev.reactions_at(p, ws).map_or(f64::INFINITY, |r| sign * axial(&r, model, j))
             });
             if least >= -floor {
