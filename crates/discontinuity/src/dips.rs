@@ -118,7 +118,9 @@ pub(crate) fn switches(
             let Some(next) = next else { return true };
             let (p, q) = (ev.param(from), ev.param(next));
             let (lo, hi) = (p.min(q), p.max(q));
-            here > mag(solved, next, ws) || dips.iter().any(|other| other.p > lo && other.p < hi)
+            // `dips` is sorted: the first one beyond `lo`.
+            let beyond = dips.partition_point(|other| other.p <= lo);
+            here > mag(solved, next, ws) || dips.get(beyond).is_some_and(|other| other.p < hi)
         };
         let left = walk(segment.before(dip.lo + 1), |i, next| stop(i, next, solved, ws));
         let right = walk(segment.after(dip.hi), |i, next| stop(i, next, solved, ws));
@@ -133,8 +135,7 @@ pub(crate) fn switches(
 }
 
 /// The first of `side` (not empty) where `stops(i, the one after i)`.
-fn walk(side: impl Iterator<Item = usize>, mut stops: impl FnMut(usize, Option<usize>) -> bool) -> usize {
-    let mut side = side.peekable();
+fn walk(mut side: impl Iterator<Item = usize>, mut stops: impl FnMut(usize, Option<usize>) -> bool) -> usize {
     let mut here = side.next().expect("a determinate sample on either side");
     loop {
         let next = side.next();
