@@ -68,6 +68,16 @@ pub(crate) fn switches(
             continue;
         }
         minima.push(k);
+        // A dip here that could be a switch is below the threshold, so the walks
+        // from it stop at once where the samples either side are at twice the
+        // threshold or more, and read the directions at two of `a`, `k`, `c`. If
+        // those agree to within 90°, no refinement here can give a switch, nor
+        // stop another dip's walk (which stops at these samples too): skip it.
+        let (la, lk, lc) = (load(solved, a, ws), load(solved, k, ws), load(solved, c, ws));
+        let high = here >= 2.0 * ev.opts.dip_threshold && ev.opts.dip_threshold > model.indeterminate_floor;
+        if high && dot(la, lk) >= 0.0 && dot(lk, lc) >= 0.0 && dot(la, lc) >= 0.0 {
+            continue;
+        }
         let (left, right) = (min_on(a, k, ws), min_on(k, c, ws));
         let (in_left, in_right) = (inside(left.0, a, k), inside(right.0, k, c));
         if in_left {
