@@ -186,8 +186,10 @@ fn stats_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
 
 /// The discontinuity [`Trace`] of each pose of one part, beside its statistics: the
 /// search at the end of the run reads these instead of solving every pose again.
+/// The extension names the bits' meaning: a `.trace` file of an older engine (whose
+/// bits differ) is not read, but rebuilt under this name.
 fn trace_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
-    stats_path(out, variant, mode, chunk).with_extension("trace")
+    stats_path(out, variant, mode, chunk).with_extension("trace2")
 }
 
 fn encode_traces(traces: &[Trace]) -> Vec<u8> {
@@ -345,12 +347,19 @@ impl<'a> Kept<'a> {
         *count += 1;
     }
 
-    fn add_traces(&mut self, unit: &Unit, traces: &[Trace], model: &'a Model, source: &'a SampleSource) {
+    fn add_traces(
+        &mut self,
+        unit: &Unit,
+        traces: &[Trace],
+        model: &'a Model,
+        source: &'a SampleSource,
+        opts: &SearchOptions,
+    ) {
         match self.keep {
             KeepTraces::No => {}
             KeepTraces::Search => {
                 let key = (unit.variant, unit.mode);
-                let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, unit.mode));
+                let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, unit.mode, opts));
                 search.extend(traces);
                 if search.is_complete() {
                     let search = self.searches.remove(&key).expect("just used");
@@ -436,12 +445,12 @@ fn search_after(
     for (u, path) in units.iter().zip(&paths) {
         let bytes = 4 * (u.range.end - u.range.start);
         if std::fs::metadata(path).map(|m| m.len()).ok() != Some(bytes) {
-            let traces = clearance_discontinuity::traces(model, source, mode, search, u.range.clone());
+            let traces = clearance_discontinuity::traces(model, source, mode, u.range.clone());
             write_bytes(path, &encode_traces(&traces), false)?;
         }
     }
     let mut files = TraceFiles::new(units.iter().map(|u| u.range.clone()).collect(), paths);
-    find_discontinuities_read(model, source, mode, SEARCH_TRACES, |range, dst| files.read(range, dst))
+    find_discontinuities_read(model, source, mode, search, SEARCH_TRACES, |range, dst| files.read(range, dst))
 }
 
 /// The trace files of consecutive ranges of samples, read as one array.
@@ -521,11 +530,10 @@ struct Computed<'a> {
 /// soon as its rows are in. `loads` is a buffer to reuse.
 fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
     let (model, source) = &ctx.models[unit.variant as usize];
-    let search = search_options(&ctx.variants[unit.variant as usize]);
     let n = (unit.range.end - unit.range.start) as usize;
     let mut pages = ctx.schema.part(unit.mode, n);
     let mut traces: Vec<Trace> = vec![0; n];
-    loads.resize(n, [0.0; 12]);
+    loads.resize(n, Loads::default());
     // Each page with its rows' traces and loads.
     let (mut rest_traces, mut rest_loads) = (&mut traces[..], &mut loads[..n]);
     let work: Vec<_> = pages
@@ -565,7 +573,7 @@ fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<C
                     for (i, ((s, r), (t, l))) in rows.enumerate() {
                         sink.put(row + i, s, r);
                         stats.push(r);
-                        *t = trace_into(r, model, &search, l);
+                        *t = trace_into(r, model, l);
                     }
                 }
                 all.push(stats);
@@ -721,7 +729,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         // Searched after the part is on its way: the writer need not wait.
                         if let Some(traces) = traces {
                             let (model, source) = &models[unit.variant as usize];
-                            kept.add_traces(unit, &traces, model, source);
+                            let opts = search_options(&variants[unit.variant as usize]);
+                            kept.add_traces(unit, &traces, model, source, &opts);
                         }
                         (n, loads, sent)
                     })

@@ -83,12 +83,21 @@ pub fn brent_root(a: f64, b: f64, fa: f64, fb: f64, tol: f64, mut f: impl FnMut(
 
 /// Brent's bounded minimisation of `f` on `[a, b]` (golden section with parabolic
 /// steps), to an absolute tolerance `xtol` in x. Returns `(x, f(x))`.
-pub fn brent_min(a: f64, b: f64, xtol: f64, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+pub fn brent_min(a: f64, b: f64, xtol: f64, f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    brent_min_below(a, b, xtol, f64::NEG_INFINITY, f)
+}
+
+/// [`brent_min`] that stops at the first point where `f` is below `enough`: a
+/// search for a value of the other sign needs one, not the extremum.
+pub(crate) fn brent_min_below(a: f64, b: f64, xtol: f64, enough: f64, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
     const GOLDEN: f64 = 0.381_966_011_250_105_1; // (3 − √5)/2
     let (mut a, mut b) = if a < b { (a, b) } else { (b, a) };
     let mut x = a + GOLDEN * (b - a);
     let (mut w, mut v) = (x, x);
     let mut fx = f(x);
+    if fx < enough {
+        return (x, fx);
+    }
     let (mut fw, mut fv) = (fx, fx);
     let (mut d, mut e) = (0.0f64, 0.0f64);
     for _ in 0..200 {
@@ -126,6 +135,9 @@ pub fn brent_min(a: f64, b: f64, xtol: f64, mut f: impl FnMut(f64) -> f64) -> (f
         }
         let u = if d.abs() >= tol1 { x + d } else { x + tol1.copysign(d) };
         let fu = f(u);
+        if fu < enough {
+            return (u, fu);
+        }
         if fu <= fx {
             if u >= x {
                 a = x;

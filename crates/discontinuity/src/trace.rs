@@ -7,16 +7,23 @@ use clearance_solver::{Model, PoseResult, solve_in_blocks};
 use rayon::prelude::*;
 
 use crate::paths::{Axis, axes};
-use crate::{Load, SearchOptions, load, solvable};
+use crate::{axial, margin, solvable, vector};
 
-/// One sample's [`Trace`], as bits: whether it is solvable, and per (kind, limb)
-/// whether the deciding load is determinate and whether the sample is a candidate
-/// for the search:
+/// One sample's [`Trace`], as bits. Bit 0: the sample is solvable. Per kind `k`
+/// (order of `KINDS`) and limb `j`, bit `1 + 3k + j`: the deciding load is above
+/// the noise floor (determinate). Then, per limb `j`, the candidates of the search
+/// (MODEL.md §8), each a pre-filter that the search checks exactly:
 ///
-/// - `r_axial`: the load is negative (a switch lies between samples of opposite sign);
-/// - vector loads: the magnitude is below the dip threshold and, as far as the
-///   samples in hand show ([`keep_local_minima`]), an interior local minimum along
-///   some path. Only those can be switches; the search checks them exactly.
+/// - bits `13 + j` (`|f_Sj|`), `16 + j` (`|f⊥j|`) and `22 + j` (`|f_Rj·y_j|`, the
+///   scalar load of `r_axial` and `r_angular`): as far as the samples in hand show
+///   ([`keep_local_minima`]), an interior local minimum of the magnitude along some
+///   path, whatever its value (a dip below the threshold can hide between samples
+///   above it, so only the refined minimum decides);
+/// - bit `19 + j`: `f_Rj·y_j` is negative (a sign change lies between samples of
+///   opposite signs);
+/// - bits `25 + j` (`f_Sj`) and `28 + j` (`f⊥j`): the load's direction may turn by
+///   more than 90° to the next sample along some path (or that sample is
+///   indeterminate, or not in hand), so a dip may hide between monotone samples.
 pub type Trace = u32;
 
 pub(crate) const SOLVABLE: Trace = 1;
@@ -25,57 +32,129 @@ pub(crate) fn det_bit(kind: ClearanceKind, j: usize) -> Trace {
     1 << (1 + 3 * kind.index() + j)
 }
 
-pub(crate) fn low_bit(kind: ClearanceKind, j: usize) -> Trace {
-    det_bit(kind, j) << LOW_SHIFT
+/// The loads a trace follows the magnitude of: `f_Sj`, `f⊥j`, and `f_Rj·y_j`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Decider {
+    SRadial = 0,
+    RRadial = 1,
+    Axial = 2,
 }
 
-/// How far a (kind, limb)'s low bit lies above its determinate bit.
-pub(crate) const LOW_SHIFT: u32 = 12;
+impl Decider {
+    pub(crate) const ALL: [Decider; 3] = [Decider::SRadial, Decider::RRadial, Decider::Axial];
 
-/// The deciding load magnitudes of one sample, by `3·kind.index() + limb`
-/// (zero where it is not solvable).
-pub type Loads = [f64; 12];
+    /// The clearance kind whose determinate bit the search follows.
+    pub(crate) fn kind(self) -> ClearanceKind {
+        match self {
+            Decider::SRadial => ClearanceKind::SRadial,
+            Decider::RRadial => ClearanceKind::RRadial,
+            Decider::Axial => ClearanceKind::RAxial,
+        }
+    }
 
-/// The [`Trace`] of one solved sample, before [`keep_local_minima`], with its load
-/// magnitudes.
-pub fn trace_loads(r: &PoseResult, model: &Model, opts: &SearchOptions) -> (Trace, Loads) {
-    let mut loads = [0.0; 12];
-    let t = trace_into(r, model, opts, &mut loads);
+    /// Index of its magnitude in [`Loads`].
+    fn slot(self, j: usize) -> usize {
+        3 * self as usize + j
+    }
+}
+
+/// Candidate bit: an interior local minimum of the magnitude along some path.
+pub(crate) fn min_bit(d: Decider, j: usize) -> Trace {
+    1 << ([13, 16, 22][d as usize] + j)
+}
+
+/// `f_Rj·y_j < 0`.
+pub(crate) fn neg_bit(j: usize) -> Trace {
+    1 << (19 + j)
+}
+
+/// Candidate bit of a vector load: its direction may turn by more than 90° to the
+/// next sample along some path.
+pub(crate) fn turn_bit(d: Decider, j: usize) -> Trace {
+    debug_assert!(d != Decider::Axial, "a scalar load has no direction");
+    1 << ([25, 28][d as usize] + j)
+}
+
+/// Every candidate bit [`keep_local_minima`] settles.
+fn settled_bits() -> Trace {
+    let mut m = 0;
+    for j in 0..3 {
+        for d in Decider::ALL {
+            m |= min_bit(d, j);
+            if d != Decider::Axial {
+                m |= turn_bit(d, j);
+            }
+        }
+    }
+    m
+}
+
+/// What [`keep_local_minima`] needs of one sample beside its trace: the magnitudes
+/// of `f_Sj`, `f⊥j` and `f_Rj·y_j`, and the directions of `f_Sj` and `f⊥j`. The
+/// directions are single precision: they only decide which intervals the search
+/// looks at, with a slack (`TURN_SLACK`), and the search checks those in full.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Loads {
+    magnitude: [f64; 9],
+    direction: [[f32; 3]; 6],
+}
+
+/// The [`Trace`] of one solved sample, before [`keep_local_minima`], with its loads.
+pub fn trace_loads(r: &PoseResult, model: &Model) -> (Trace, Loads) {
+    let mut loads = Loads::default();
+    let t = trace_into(r, model, &mut loads);
     (t, loads)
 }
 
-/// [`trace_loads`] with the magnitudes written into `loads` (a run's buffer), which
-/// spares a copy per pose.
+/// [`trace_loads`] with the loads written into `loads` (a run's buffer), which
+/// spares a copy per pose. Every candidate bit of a determinate load is set.
 #[inline]
-pub fn trace_into(r: &PoseResult, model: &Model, opts: &SearchOptions, loads: &mut Loads) -> Trace {
-    *loads = [0.0; 12];
+pub fn trace_into(r: &PoseResult, model: &Model, loads: &mut Loads) -> Trace {
+    *loads = Loads::default();
     if !solvable(r) {
         return 0;
     }
+    let reactions = &r.reactions;
     let mut t = SOLVABLE;
     for kind in KINDS {
         for j in 0..3 {
-            let l = load(r, model, kind, j);
-            let magnitude = l.magnitude();
-            loads[3 * kind.index() + j] = magnitude;
-            if magnitude > model.indeterminate_floor {
+            if margin(reactions, model, kind, j) > model.indeterminate_floor {
                 t |= det_bit(kind, j);
             }
-            let low = match l {
-                Load::Scalar(s) => s.is_sign_negative(),
-                Load::Vector(_) => magnitude < opts.dip_threshold,
+        }
+    }
+    for j in 0..3 {
+        for d in Decider::ALL {
+            let determinate = t & det_bit(d.kind(), j) != 0;
+            let magnitude = if d == Decider::Axial {
+                let s = axial(reactions, model, j);
+                if s.is_sign_negative() {
+                    t |= neg_bit(j);
+                }
+                s.abs()
+            } else {
+                let v = vector(reactions, model, d.kind(), j);
+                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                if n > 0.0 {
+                    loads.direction[d.slot(j)] = v.map(|x| (x / n) as f32);
+                }
+                if determinate {
+                    t |= turn_bit(d, j);
+                }
+                n
             };
-            if low {
-                t |= low_bit(kind, j);
+            loads.magnitude[d.slot(j)] = magnitude;
+            if determinate {
+                t |= min_bit(d, j);
             }
         }
     }
     t
 }
 
-/// The [`Trace`] of one solved sample, with every low vector load still a candidate.
-pub fn trace(r: &PoseResult, model: &Model, opts: &SearchOptions) -> Trace {
-    trace_loads(r, model, opts).0
+/// The [`Trace`] of one solved sample, with every candidate bit still set.
+pub fn trace(r: &PoseResult, model: &Model) -> Trace {
+    trace_loads(r, model).0
 }
 
 /// Relative slack of the comparisons in [`keep_local_minima`]: the search solves
@@ -83,58 +162,89 @@ pub fn trace(r: &PoseResult, model: &Model, opts: &SearchOptions) -> Trace {
 /// minimum it would find.
 const SLACK: f64 = 1e-9;
 
-/// The traces of the samples `first..first + traces.len()` with the vector-load
-/// candidate bits cleared where the sample cannot be an interior local minimum
-/// along any path: the search then never solves it. A neighbour outside the range,
-/// not solvable or indeterminate leaves the sample a candidate (the search
+/// Two single-precision unit directions whose dot product is below this may turn
+/// by more than 90° (the rounding of each is about 1e-7).
+const TURN_SLACK: f32 = 1e-4;
+
+/// The traces of the samples `first..first + traces.len()` with the candidate bits
+/// cleared where the samples in hand rule them out: a minimum bit where the sample
+/// is not an interior local minimum of that magnitude along any path, a turn bit
+/// where the direction turns by less than 90° to the next sample along every path.
+/// A neighbour outside the range, or indeterminate, leaves the bit set (the search
 /// decides), so the result never depends on where a range starts or ends; only the
 /// work does. Samples are settled in parallel.
 pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[Loads]) -> Vec<Trace> {
     assert_eq!(traces.len(), loads.len(), "one load set per trace");
     assert!(axes.len() <= 3, "at most three inputs vary");
     let n = traces.len();
-    let vector_low: Trace = KINDS
-        .iter()
-        .filter(|&&k| k != ClearanceKind::RAxial)
-        .flat_map(|&k| (0..3).map(move |j| low_bit(k, j)))
-        .fold(0, |m, b| m | b);
+    let settled = settled_bits();
     (0..n)
         .into_par_iter()
         .with_min_len(4096)
         .map(|i| {
             let mut t = traces[i];
-            if t & vector_low == 0 {
+            if t & settled == 0 {
                 return t;
             }
-            // The neighbours along each axis on which the sample is not a path's end.
-            let mut along = [(None, None); 3];
-            let mut interior = 0;
-            for a in axes.iter().filter(|a| !a.is_end(first + i as u64)) {
+            let global = first + i as u64;
+            // Along each axis: the neighbours (in hand or not) where the sample is
+            // interior, and the next one where it is not the last node.
+            let mut around = [(None, None); 3];
+            let mut next = [None; 3];
+            let (mut interior, mut ahead) = (0, 0);
+            for a in axes {
                 let s = a.stride as usize;
-                along[interior] = (i.checked_sub(s), i.checked_add(s));
-                interior += 1;
-            }
-            for kind in KINDS {
-                if kind == ClearanceKind::RAxial {
-                    continue;
+                let node = (global / a.stride) % a.n;
+                if !a.is_end(global) {
+                    around[interior] = (i.checked_sub(s), Some(i + s));
+                    interior += 1;
                 }
-                for j in 0..3 {
-                    let (low, det) = (low_bit(kind, j), det_bit(kind, j));
-                    if t & low == 0 {
+                if node + 1 < a.n {
+                    next[ahead] = Some(i + s);
+                    ahead += 1;
+                }
+            }
+            for j in 0..3 {
+                for d in Decider::ALL {
+                    let det = det_bit(d.kind(), j);
+                    let slot = d.slot(j);
+                    let bit = min_bit(d, j);
+                    if t & bit != 0 {
+                        let here = loads[i].magnitude[slot];
+                        // Whether the sample `k` (if in hand) does not rule out a minimum here.
+                        let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
+                            Some(k) => {
+                                traces[k] & SOLVABLE == 0
+                                    || traces[k] & det == 0
+                                    || here <= loads[k].magnitude[slot] * (1.0 + SLACK)
+                            }
+                            None => true,
+                        };
+                        if !around[..interior].iter().any(|&(before, after)| allows(before) && allows(after)) {
+                            t &= !bit;
+                        }
+                    }
+                    if d == Decider::Axial || t & turn_bit(d, j) == 0 {
                         continue;
                     }
-                    let slot = 3 * kind.index() + j;
-                    let here = loads[i][slot];
-                    // Whether the sample `k` (if in hand) does not rule out a minimum here.
-                    let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
-                        Some(k) => {
-                            traces[k] & SOLVABLE == 0 || traces[k] & det == 0 || here <= loads[k][slot] * (1.0 + SLACK)
+                    let u = loads[i].direction[slot];
+                    // Whether the interval to `k` may turn: an unsolvable `k` ends the
+                    // segment (no interval), an indeterminate one is skipped by it.
+                    let turns = |k: usize| {
+                        if k >= n {
+                            return true;
                         }
-                        None => true,
+                        if traces[k] & SOLVABLE == 0 {
+                            return false;
+                        }
+                        if traces[k] & det == 0 {
+                            return true;
+                        }
+                        let v = loads[k].direction[slot];
+                        u[0] * v[0] + u[1] * v[1] + u[2] * v[2] < TURN_SLACK
                     };
-                    let candidate = along[..interior].iter().any(|&(before, after)| allows(before) && allows(after));
-                    if !candidate {
-                        t &= !low;
+                    if !next[..ahead].iter().flatten().any(|&k| turns(k)) {
+                        t &= !turn_bit(d, j);
                     }
                 }
             }
@@ -143,27 +253,20 @@ pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[L
         .collect()
 }
 
-/// Samples whose traces [`traces`] settles together: bounds the memory of their
-/// load magnitudes.
+/// Samples whose traces [`traces`] settles together: bounds the memory of their loads.
 const TRACE_CHUNK: u64 = 1 << 16;
 /// Samples solved together by one worker.
 const BLOCK: u64 = 1024;
 
 /// The [`Trace`] of the samples in `range` of a (variant, mode), solving each once.
-pub fn traces(
-    model: &Model,
-    source: &SampleSource,
-    mode: Mode,
-    opts: &SearchOptions,
-    range: std::ops::Range<u64>,
-) -> Vec<Trace> {
+pub fn traces(model: &Model, source: &SampleSource, mode: Mode, range: std::ops::Range<u64>) -> Vec<Trace> {
     let axes = axes(source);
     let mut out = Vec::with_capacity((range.end - range.start) as usize);
     for chunk in clearance_grid::chunks(range.end - range.start, TRACE_CHUNK) {
         let first = range.start + chunk.start;
         let last = range.start + chunk.end;
         let (t, loads): (Vec<Trace>, Vec<Loads>) = solve_in_blocks(model, source, first..last, mode, BLOCK, |_, rs| {
-            rs.iter().map(|r| trace_loads(r, model, opts)).collect::<Vec<_>>()
+            rs.iter().map(|r| trace_loads(r, model)).collect::<Vec<_>>()
         })
         .flatten_iter()
         .unzip();

@@ -1,5 +1,5 @@
 //! The candidates a run's traces keep ([`keep_local_minima`]) lose no switch: the
-//! search over pruned traces finds exactly what it finds when every low sample is
+//! search over pruned traces finds exactly what it finds when every sample is
 //! a candidate, however the samples are cut into ranges, and the pruning does
 //! remove most candidates (otherwise it saves nothing). A [`Search`] given the
 //! traces a range at a time, as a run computes them, finds the same switches, and
@@ -13,14 +13,15 @@ use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, Mode};
 use clearance_solver::{Model, Workspace, solve_pose};
 
-/// Low candidate bits of the vector loads (s_radial, r_radial, r_angular).
-fn vector_candidates(t: &[Trace]) -> u32 {
-    let axial = 0b111 << (13 + 3 * 2);
-    t.iter().map(|t| ((t >> 13) << 13 & !axial).count_ones()).sum()
+/// Candidate bits (the minima and turns that `keep_local_minima` settles): bits
+/// 13 and up, but for the axial load's sign (bits 19..21).
+fn candidates(t: &[Trace]) -> u32 {
+    let sign = 0b111 << 19;
+    t.iter().map(|t| ((t >> 13) << 13 & !sign).count_ones()).sum()
 }
 
-/// `prunes`: whether, with all samples in one range, at most a fifth of the low
-/// vector loads may stay candidates (not so where a load is flat along some axis).
+/// `prunes`: whether, with all samples in one range, at most a fifth of the
+/// candidates may stay (not so where a load is flat along some axis).
 fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
     let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
     let model = Model::from_job(&job);
@@ -29,19 +30,19 @@ fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
     let n = source.len();
     let mut ws = Workspace::new();
     let every: Vec<Trace> =
-        (0..n).map(|i| trace(&solve_pose(&model, &source.sample(i), mode, &mut ws), &model, &opts)).collect();
-    let expected = find_discontinuities_traced(&model, &source, mode, &every);
+        (0..n).map(|i| trace(&solve_pose(&model, &source.sample(i), mode, &mut ws), &model)).collect();
+    let expected = find_discontinuities_traced(&model, &source, mode, &opts, &every);
     assert!(!expected.is_empty(), "the case must have switches to lose");
     for &len in ranges {
         let mut pruned = Vec::new();
         let mut start = 0;
         while start < n {
             let end = (start + len).min(n);
-            pruned.extend(traces(&model, &source, mode, &opts, start..end));
+            pruned.extend(traces(&model, &source, mode, start..end));
             start = end;
         }
-        assert_eq!(find_discontinuities_traced(&model, &source, mode, &pruned), expected, "ranges of {len}");
-        let mut search = Search::new(&model, &source, mode);
+        assert_eq!(find_discontinuities_traced(&model, &source, mode, &opts, &pruned), expected, "ranges of {len}");
+        let mut search = Search::new(&model, &source, mode, &opts);
         let searched: usize = pruned.chunks(len as usize).map(|range| search.extend(range)).sum();
         assert_eq!(searched, paths(&source).len(), "ranges of {len}: every path searched once");
         assert_eq!(search.finish(), expected, "ranges of {len}, searched as they come");
@@ -50,7 +51,7 @@ fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
         let longest = axes(&source).iter().map(|a| a.n as usize).max().unwrap();
         for budget in [1, 5, 29, 100, 700, n as usize] {
             let mut read = 0;
-            let found = find_discontinuities_read(&model, &source, mode, budget, |range, dst: &mut [Trace]| {
+            let found = find_discontinuities_read(&model, &source, mode, &opts, budget, |range, dst: &mut [Trace]| {
                 assert_eq!(dst.len() as u64, range.end - range.start);
                 assert!(dst.len() <= budget.max(longest), "budget {budget}: a read of {}", dst.len());
                 dst.copy_from_slice(&pruned[range.start as usize..range.end as usize]);
@@ -60,7 +61,7 @@ fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
             assert_eq!(found, Ok(expected.clone()), "ranges of {len}, read with a budget of {budget}");
             assert_eq!(read as u64, n * axes(&source).len() as u64, "budget {budget}: each sample read once per axis");
         }
-        let (before, after) = (vector_candidates(&every), vector_candidates(&pruned));
+        let (before, after) = (candidates(&every), candidates(&pruned));
         if prunes && len >= n {
             assert!(after * 5 < before, "ranges of {len}: {after} of {before} candidates left");
         }
@@ -104,7 +105,8 @@ fn search_takes_each_path_as_its_last_sample_arrives() {
     let model = Model::from_job(&job);
     let source = SampleSource::new(&job);
     let traces = vec![0 as Trace; source.len() as usize];
-    let mut search = Search::new(&model, &source, Mode::Kinetostatic);
+    let opts = SearchOptions { dip_threshold: 0.05 * job.weight() };
+    let mut search = Search::new(&model, &source, Mode::Kinetostatic, &opts);
     let counts: Vec<usize> = traces.iter().map(|t| search.extend(std::slice::from_ref(t))).collect();
     let expected: Vec<usize> = (0..60)
         .map(|i| {

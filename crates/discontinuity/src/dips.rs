@@ -1,0 +1,188 @@
+//! Switches of a vector load, `f_Sj` or `f⊥j` (MODEL.md §8): where its magnitude
+//! dips below `discontinuity_load_fraction·W` and its direction swings round by more
+//! than 90° across the dip.
+
+use clearance_solver::Workspace;
+
+use crate::search::{Segment, Solved};
+use crate::trace::{Decider, min_bit, turn_bit};
+use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector};
+
+/// A refined minimum of the magnitude lying between samples `lo` and `hi` (the
+/// determinate samples either side of it; for a minimum at a sample, its neighbours).
+#[derive(Clone, Copy, Debug)]
+struct Dip {
+    p: f64,
+    /// The magnitude there.
+    m: f64,
+    lo: usize,
+    hi: usize,
+}
+
+/// A Brent minimum closer than this (relative to its interval) to an end of its
+/// interval is that end's: the magnitude falls all the way to it (ten times the
+/// minimiser's tolerance).
+const EDGE: f64 = 10.0 * SCAN_TOL;
+
+/// The step of the five-point difference of `|f|²` that polishes a minimum: its
+/// truncation (`h⁴`) is negligible, its round-off (`ε·|f|²/h`) moves the root by
+/// about `1e-11·(m/c)²` for a dip of depth `m` and curvature `c`.
+const DIFF_STEP: f64 = 1e-5;
+
+pub(crate) fn switches(
+    solved: &mut Solved<'_>,
+    segment: &Segment<'_>,
+    d: Decider,
+    j: usize,
+    ws: &mut Workspace,
+    out: &mut Vec<Discontinuity>,
+) {
+    let ev = solved.ev;
+    let (model, kind) = (ev.model, d.kind());
+    let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(&solved.reactions(k, ws), model, kind, j);
+    let mag = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| crate::norm(load(solved, k, ws));
+    let squared = |p: f64, ws: &mut Workspace| {
+        ev.reactions_at(p, ws).map(|r| {
+            let v = vector(&r, model, kind, j);
+            dot(v, v)
+        })
+    };
+    let min_on = |lo: usize, hi: usize, ws: &mut Workspace| {
+        // The squared magnitude has the same minimum and is smooth there (the
+        // magnitude itself is a V when the load passes near zero).
+        let (plo, phi) = (ev.param(lo), ev.param(hi));
+        brent_min(plo, phi, SCAN_TOL * (phi - plo), |p| squared(p, ws).unwrap_or(f64::INFINITY))
+    };
+    let edge = |lo: usize, hi: usize| EDGE * (ev.param(hi) - ev.param(lo));
+    let inside = |p: f64, lo: usize, hi: usize| p > ev.param(lo) + edge(lo, hi) && p < ev.param(hi) - edge(lo, hi);
+
+    // Every interior sampled minimum, refined on each side on its own.
+    let mut minima = Vec::new();
+    let mut dips = Vec::new();
+    for (a, k, c) in segment.triples() {
+        if !segment.has(k, min_bit(d, j)) {
+            continue;
+        }
+        let here = mag(solved, k, ws);
+        if !(here < mag(solved, a, ws) && here <= mag(solved, c, ws)) {
+            continue;
+        }
+        minima.push(k);
+        // A dip here that could be a switch is below the threshold, so the walks
+        // from it stop at once where the samples either side are at twice the
+        // threshold or more, and read the directions at two of `a`, `k`, `c`. If
+        // those agree to within 90°, no refinement here can give a switch, nor
+        // stop another dip's walk (which stops at these samples too): skip it.
+        let (la, lk, lc) = (load(solved, a, ws), load(solved, k, ws), load(solved, c, ws));
+        let high = here >= 2.0 * ev.opts.dip_threshold && ev.opts.dip_threshold > model.indeterminate_floor;
+        if high && dot(la, lk) >= 0.0 && dot(lk, lc) >= 0.0 && dot(la, lc) >= 0.0 {
+            continue;
+        }
+        let (left, right) = (min_on(a, k, ws), min_on(k, c, ws));
+        let (in_left, in_right) = (inside(left.0, a, k), inside(right.0, k, c));
+        if in_left {
+            dips.push(Dip { p: left.0, m: left.1.sqrt(), lo: a, hi: k });
+        }
+        if in_right {
+            dips.push(Dip { p: right.0, m: right.1.sqrt(), lo: k, hi: c });
+        }
+        if !in_left && !in_right {
+            // Both sides fall towards the sample: the minimum is there.
+            let (p, m2) = if left.1 <= right.1 { left } else { right };
+            if (p - ev.param(k)).abs() <= edge(a, k).max(edge(k, c)) {
+                dips.push(Dip { p, m: m2.sqrt(), lo: a, hi: c });
+            }
+        }
+    }
+    // Every other interval whose end directions differ by more than 90°: a dip
+    // between monotone samples.
+    for (a, b) in segment.pairs() {
+        if !segment.has(a, turn_bit(d, j)) || minima.binary_search(&a).is_ok() || minima.binary_search(&b).is_ok() {
+            continue;
+        }
+        if dot(load(solved, a, ws), load(solved, b, ws)) >= 0.0 {
+            continue;
+        }
+        let (p, m2) = min_on(a, b, ws);
+        if inside(p, a, b) {
+            dips.push(Dip { p, m: m2.sqrt(), lo: a, hi: b });
+        }
+    }
+    dips.sort_by(|x, y| x.p.total_cmp(&y.p));
+
+    let floor = model.indeterminate_floor;
+    for dip in &dips {
+        if dip.m >= ev.opts.dip_threshold {
+            continue;
+        }
+        // Where the magnitude has risen back to twice the minimum (never less than
+        // twice the noise floor: at a load through zero the minimum is round-off),
+        // else at the sampled maximum before it falls again (beyond, a direction
+        // belongs to the next dip), else at the segment's end.
+        let twice = 2.0 * dip.m.max(floor);
+        let stop = |from: usize, next: Option<usize>, solved: &mut Solved<'_>, ws: &mut Workspace| {
+            let here = mag(solved, from, ws);
+            if here >= twice {
+                return true;
+            }
+            let Some(next) = next else { return true };
+            let (p, q) = (ev.param(from), ev.param(next));
+            let (lo, hi) = (p.min(q), p.max(q));
+            // `dips` is sorted: the first one beyond `lo`.
+            let beyond = dips.partition_point(|other| other.p <= lo);
+            here > mag(solved, next, ws) || dips.get(beyond).is_some_and(|other| other.p < hi)
+        };
+        let left = walk(segment.before(dip.lo + 1), |i, next| stop(i, next, solved, ws));
+        let right = walk(segment.after(dip.hi), |i, next| stop(i, next, solved, ws));
+        if dot(load(solved, left, ws), load(solved, right, ws)) >= 0.0 {
+            continue;
+        }
+        let (lo, hi) = (ev.param(dip.lo), ev.param(dip.hi));
+        let p = polish(dip.p, lo, hi, 2.0 * SCAN_TOL * (hi - lo), |p| squared(p, ws));
+        let (before, after) = (solved.get(left, ws), solved.get(right, ws));
+        out.push(ev.record(kind, j, p, ws, &before, &after));
+    }
+}
+
+/// The first of `side` (not empty) where `stops(i, the one after i)`.
+fn walk(mut side: impl Iterator<Item = usize>, mut stops: impl FnMut(usize, Option<usize>) -> bool) -> usize {
+    let mut here = side.next().expect("a determinate sample on either side");
+    loop {
+        let next = side.next();
+        if stops(here, next) {
+            return here;
+        }
+        here = next.expect("the last sample stops");
+    }
+}
+
+/// The minimum near `p` (in `[lo, hi]`) as the root of `d|f|²/ds`: Brent's
+/// minimiser resolves it only to about `√ε` of the dip's width where the dip is
+/// shallow. `p` itself where no sign change of the derivative brackets it.
+fn polish(p: f64, lo: f64, hi: f64, width: f64, mut squared: impl FnMut(f64) -> Option<f64>) -> f64 {
+    let h = DIFF_STEP;
+    let mut slope = |s: f64| -> Option<f64> {
+        let (f2, f1) = (squared(s + 2.0 * h)?, squared(s + h)?);
+        let (b1, b2) = (squared(s - h)?, squared(s - 2.0 * h)?);
+        Some((8.0 * (f1 - b1) - (f2 - b2)) / (12.0 * h))
+    };
+    let mut width = width.max(1e-7);
+    loop {
+        let (a, b) = ((p - width).max(lo), (p + width).min(hi));
+        let (Some(ga), Some(gb)) = (slope(a), slope(b)) else { return p };
+        if ga <= 0.0 && gb >= 0.0 {
+            let mut failed = false;
+            let root = brent_root(a, b, ga, gb, LOCATE_TOL, |s| {
+                slope(s).unwrap_or_else(|| {
+                    failed = true;
+                    0.0
+                })
+            });
+            return if failed { p } else { root };
+        }
+        if a <= lo && b >= hi {
+            return p;
+        }
+        width *= 16.0;
+    }
+}

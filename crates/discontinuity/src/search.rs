@@ -1,0 +1,245 @@
+//! The search along one path: its segments, the samples solved on demand, and how
+//! a switch is recorded. The rules themselves are in [`crate::scalar`] and
+//! [`crate::dips`].
+
+use clearance_grid::{Sample, SampleSource};
+use clearance_model::{ClearanceKind, KINDS, Mode};
+use clearance_solver::{
+    JointReactions, Model, PoseError, PoseResult, Workspace, solve_pose, solve_reactions, solve_reactions_if_solvable,
+};
+use std::collections::HashMap;
+
+use crate::trace::{Decider, SOLVABLE, Trace, det_bit, min_bit, neg_bit, turn_bit};
+use crate::{Discontinuity, Path, SearchOptions, dips, margin, scalar};
+
+fn error_of(r: &PoseResult, kind: ClearanceKind) -> [f64; 6] {
+    let e: &PoseError = &r.errors[kind.index()];
+    [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z]
+}
+
+pub(crate) struct Evaluator<'a> {
+    pub model: &'a Model,
+    pub source: &'a SampleSource,
+    pub path: &'a Path,
+    pub mode: Mode,
+    pub opts: &'a SearchOptions,
+}
+
+impl Evaluator<'_> {
+    /// The `k`-th sample of the path.
+    fn node(&self, k: usize) -> Sample {
+        self.source.sample(self.path.sample_index(k))
+    }
+
+    /// The path parameter of the `k`-th sample.
+    pub fn param(&self, k: usize) -> f64 {
+        self.path.params[k]
+    }
+
+    /// The reactions at path parameter `p`, where the pose is solvable: a
+    /// refinement follows the deciding load alone, so it needs neither take-up nor
+    /// errors (the same reactions and verdict as `solve_pose`, for a third of the
+    /// work).
+    pub fn reactions_at(&self, p: f64, ws: &mut Workspace) -> Option<JointReactions> {
+        let s = self.path.sample_at(self.source, p);
+        solve_reactions_if_solvable(self.model, &s, self.mode, ws)
+    }
+
+    /// The whole solution at path parameter `p` (for the jump across a switch).
+    pub fn pose_at(&self, p: f64, ws: &mut Workspace) -> PoseResult {
+        solve_pose(self.model, &self.path.sample_at(self.source, p), self.mode, ws)
+    }
+
+    pub fn record(
+        &self,
+        kind: ClearanceKind,
+        j: usize,
+        p: f64,
+        ws: &mut Workspace,
+        before: &PoseResult,
+        after: &PoseResult,
+    ) -> Discontinuity {
+        let s = self.path.sample_at(self.source, p);
+        let r = solve_reactions_if_solvable(self.model, &s, self.mode, ws);
+        let margin = r.map_or(f64::NAN, |r| margin(&r, self.model, kind, j));
+        let (b, a) = (error_of(before, kind), error_of(after, kind));
+        Discontinuity {
+            mode: self.mode,
+            limb: j + 1,
+            kind,
+            along: self.path.along,
+            param: p,
+            t: s.t,
+            z: s.z[0],
+            psi: s.psi[0],
+            theta: s.theta[0],
+            margin,
+            jump: [0, 1, 2, 3, 4, 5].map(|i| a[i] - b[i]),
+        }
+    }
+}
+
+/// The samples of one path, solved when first asked for.
+pub(crate) struct Solved<'a> {
+    pub ev: &'a Evaluator<'a>,
+    cache: HashMap<usize, PoseResult>,
+    /// Reactions only, for following loads: of the few samples near a candidate (a
+    /// slot per sample of the path was a quarter of the search's time).
+    reactions: HashMap<usize, JointReactions>,
+}
+
+impl Solved<'_> {
+    /// The reactions at the `k`-th sample (a solvable one).
+    pub fn reactions(&mut self, k: usize, ws: &mut Workspace) -> JointReactions {
+        let ev = self.ev;
+        *self
+            .reactions
+            .entry(k)
+            .or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
+    }
+
+    /// The `k`-th sample of the path, solved.
+    pub fn get(&mut self, k: usize, ws: &mut Workspace) -> PoseResult {
+        let ev = self.ev;
+        *self.cache.entry(k).or_insert_with(|| solve_pose(ev.model, &ev.node(k), ev.mode, ws))
+    }
+}
+
+/// The samples `start..end` of a path (one segment: all solvable) whose deciding
+/// load of one limb is determinate, found from their traces as needed.
+pub(crate) struct Segment<'a> {
+    pub trace: &'a dyn Fn(usize) -> Trace,
+    pub start: usize,
+    pub end: usize,
+    pub det: Trace,
+}
+
+impl Segment<'_> {
+    /// The determinate samples from `from` on, in order.
+    pub fn after(&self, from: usize) -> impl Iterator<Item = usize> + '_ {
+        (from..self.end).filter(|&k| (self.trace)(k) & self.det != 0)
+    }
+
+    /// The determinate samples before `to`, nearest first.
+    pub fn before(&self, to: usize) -> impl Iterator<Item = usize> + '_ {
+        (self.start..to).rev().filter(|&k| (self.trace)(k) & self.det != 0)
+    }
+
+    /// Whether the sample has the bit set.
+    pub fn has(&self, k: usize, bit: Trace) -> bool {
+        (self.trace)(k) & bit != 0
+    }
+
+    /// Consecutive determinate samples `(a, k, c)`: `k` runs over the interior ones.
+    pub fn triples(&self) -> impl Iterator<Item = (usize, usize, usize)> + '_ {
+        let mut it = self.after(self.start);
+        let (mut a, mut k) = (it.next(), it.next());
+        it.filter_map(move |c| {
+            let triple = a.zip(k).map(|(a, k)| (a, k, c));
+            (a, k) = (k, Some(c));
+            triple
+        })
+    }
+
+    /// Consecutive determinate samples `(a, b)`.
+    pub fn pairs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let mut previous = None;
+        self.after(self.start).filter_map(move |b| previous.replace(b).map(|a| (a, b)))
+    }
+}
+
+/// The switches along one path, given the [`Trace`] of each of its samples (by
+/// sample index). The traces are read where they lie, never copied: a path (a whole
+/// trajectory) takes no memory per sample.
+pub fn search_path(
+    model: &Model,
+    source: &SampleSource,
+    path: &Path,
+    mode: Mode,
+    opts: &SearchOptions,
+    trace_of: impl Fn(u64) -> Trace,
+    ws: &mut Workspace,
+) -> Vec<Discontinuity> {
+    let ev = Evaluator { model, source, path, mode, opts };
+    let trace = |k: usize| trace_of(path.sample_index(k));
+    let mut solved = Solved { ev: &ev, cache: HashMap::new(), reactions: HashMap::new() };
+    let mut out = Vec::new();
+    // Unreachable or near-singular samples cut the path into segments.
+    let mut start = 0;
+    while start < path.len() {
+        if trace(start) & SOLVABLE == 0 {
+            start += 1;
+            continue;
+        }
+        let mut end = start;
+        // Every bit set somewhere in the segment, and the limbs with a determinate
+        // negative and a determinate positive axial load.
+        let (mut seen, mut negative, mut positive) = (0, 0, 0);
+        while end < path.len() {
+            let t = trace(end);
+            if t & SOLVABLE == 0 {
+                break;
+            }
+            seen |= t;
+            for j in 0..3 {
+                if t & det_bit(ClearanceKind::RAxial, j) != 0 {
+                    if t & neg_bit(j) != 0 {
+                        negative |= 1 << j;
+                    } else {
+                        positive |= 1 << j;
+                    }
+                }
+            }
+            end += 1;
+        }
+        // The crossings of `f_Rj·y_j`, shared by r_axial and r_angular.
+        let mut crossings: [Option<Vec<scalar::Crossing>>; 3] = Default::default();
+        for kind in KINDS {
+            if model.clearance[kind.index()] == 0.0 {
+                continue;
+            }
+            for (j, crossings) in crossings.iter_mut().enumerate() {
+                if matches!(kind, ClearanceKind::RAxial | ClearanceKind::RAngular) {
+                    // Nothing to find: one sign throughout and no sampled minimum.
+                    let changes = negative & positive & (1 << j) != 0;
+                    if !changes && seen & min_bit(Decider::Axial, j) == 0 {
+                        continue;
+                    }
+                    let segment = Segment { trace: &trace, start, end, det: det_bit(ClearanceKind::RAxial, j) };
+                    let found = crossings.get_or_insert_with(|| scalar::crossings(&mut solved, &segment, j, ws));
+                    for c in found.iter() {
+                        let before = c.before.solve(&mut solved, ws);
+                        let after = c.after.solve(&mut solved, ws);
+                        out.push(ev.record(kind, j, c.p, ws, &before, &after));
+                    }
+                } else {
+                    let d = if kind == ClearanceKind::SRadial { Decider::SRadial } else { Decider::RRadial };
+                    if seen & (min_bit(d, j) | turn_bit(d, j)) == 0 {
+                        continue;
+                    }
+                    let segment = Segment { trace: &trace, start, end, det: det_bit(kind, j) };
+                    dips::switches(&mut solved, &segment, d, j, ws, &mut out);
+                }
+            }
+        }
+        start = end;
+    }
+    out
+}
+
+/// One side of a switch, for the jump across it: a sample of the path, or a point
+/// between samples.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Side {
+    Sample(usize),
+    At(f64),
+}
+
+impl Side {
+    pub fn solve(self, solved: &mut Solved<'_>, ws: &mut Workspace) -> PoseResult {
+        match self {
+            Side::Sample(k) => solved.get(k, ws),
+            Side::At(p) => solved.ev.pose_at(p, ws),
+        }
+    }
+}
