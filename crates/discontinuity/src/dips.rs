@@ -1,4 +1,4 @@
-//! Switches of a vector load, `f_Sj` or `f⊥j` (MODEL.md §8): where its magnitude
+//! Switches of a vector load, `f_Sj` or `f⊥j` (docs/model.md §8): where its magnitude
 //! dips below `discontinuity_load_fraction·W` and its direction swings round by more
 //! than 90° across the dip.
 

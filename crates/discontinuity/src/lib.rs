@@ -1,6 +1,6 @@
 //! # clearance-discontinuity
 //!
-//! Where the pose error jumps (MODEL.md §8). Take-up directions follow the joint
+//! Where the pose error jumps (docs/model.md §8). Take-up directions follow the joint
 //! loads; where a deciding load changes sign (`r_axial`: `f_Rj·y_j`) or passes
 //! through or near zero and swings round (`s_radial`: `f_Sj`, `r_radial`: `f⊥`),
 //! the distal part of the joint jumps to the opposite wall and the error steps.

@@ -125,7 +125,7 @@ pub fn axes(source: &SampleSource) -> Vec<Axis> {
     }
 }
 
-/// Every path of the source (MODEL.md §8): along each axis, fastest first, one line
+/// Every path of the source (docs/model.md §8): along each axis, fastest first, one line
 /// per node of the other inputs, in order of its first sample.
 pub fn paths(source: &SampleSource) -> Vec<Path> {
     let len = source.len();

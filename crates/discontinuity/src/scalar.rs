@@ -1,4 +1,4 @@
-//! Switches of a scalar load, `f_Rj·y_j` (MODEL.md §8): its take-up (`r_axial`,
+//! Switches of a scalar load, `f_Rj·y_j` (docs/model.md §8): its take-up (`r_axial`,
 //! and in the 3-limb kinds `r_angular`, whose moment is `|A_j − B_j|·(f_Rj·y_j)·u_j`)
 //! flips wherever it changes sign.
 

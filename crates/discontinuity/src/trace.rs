@@ -12,7 +12,7 @@ use crate::{axial, margin, solvable, vector};
 /// One sample's [`Trace`], as bits. Bit 0: the sample is solvable. Per kind `k`
 /// (order of `KINDS`) and limb `j`, bit `1 + 3k + j`: the deciding load is above
 /// the noise floor (determinate). Then, per limb `j`, the candidates of the search
-/// (MODEL.md §8), each a pre-filter that the search checks exactly:
+/// (docs/model.md §8), each a pre-filter that the search checks exactly:
 ///
 /// - bits `13 + j` (`|f_Sj|`), `16 + j` (`|f⊥j|`) and `22 + j` (`|f_Rj·y_j|`, the
 ///   scalar load of `r_axial` and `r_angular`): as far as the samples in hand show

@@ -1,5 +1,5 @@
 //! In the 3-limb kinds `m_Rj = |A_j − B_j|·(f_Rj·y_j)·u_j`: the `r_angular`
-//! take-up flips exactly where the axial load changes sign (MODEL.md §8). Its
+//! take-up flips exactly where the axial load changes sign (docs/model.md §8). Its
 //! switches are `r_axial`'s, and its margin is `|m_Rj|` there, as a solve at the
 //! switch reads it.
 

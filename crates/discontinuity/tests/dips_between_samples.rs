@@ -1,4 +1,4 @@
-//! What the samples alone do not show (MODEL.md §8): a dip below the threshold
+//! What the samples alone do not show (docs/model.md §8): a dip below the threshold
 //! between samples above it, and two zero crossings of the axial load inside one
 //! sample interval. Each is checked against a brute-force dense scan of the load.
 

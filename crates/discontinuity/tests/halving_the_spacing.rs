@@ -1,4 +1,4 @@
-//! MODEL.md §8: halving the sample spacing neither adds nor moves switches. On the
+//! docs/model.md §8: halving the sample spacing neither adds nor moves switches. On the
 //! geometry and loads of jobs/fig10_r_angular.toml, jobs/fig11_r_radial_added_mass.toml
 //! and jobs/fig16_trajectory_added_mass.toml, with smaller grids for test time: the
 //! lines of the coarse grid are lines of the fine one, and carry the same switches

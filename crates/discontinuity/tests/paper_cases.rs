@@ -1,4 +1,4 @@
-//! MODEL.md §8 on the paper's cases, and independence from the sample spacing.
+//! docs/model.md §8 on the paper's cases, and independence from the sample spacing.
 
 use clearance_discontinuity::{Along, Discontinuity, SearchOptions, find_discontinuities};
 use clearance_grid::SampleSource;
@@ -63,7 +63,7 @@ fn added_mass_brings_radial_switches_and_the_counterweight_removes_them() {
 
 #[test]
 fn trajectory_switch_of_limb_one_near_the_papers_theta() {
-    // MODEL.md §8: 30 kg puts the kinetostatic r_radial switch of limb 1 near Θ = −0.28.
+    // docs/model.md §8: 30 kg puts the kinetostatic r_radial switch of limb 1 near Θ = −0.28.
     let k = run(&trajectory(ABOVE, 501), Mode::Kinetostatic);
     let limb1: Vec<_> = k.iter().filter(|d| d.limb == 1).collect();
     assert_eq!(limb1.len(), 1, "{k:?}");
