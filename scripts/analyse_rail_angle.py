@@ -17,12 +17,12 @@ def main(run: Path) -> None:
     rows = sweep_table(run)
     print(f"{'rail angle (deg)':>16} {'discontinuity-free':>19} {'switches':>9} {'max |dp| (um)':>14} {'p95 |dp| (um)':>14}")
     for beta, share, switches, dmax, p95 in rows:
-        print(f"{beta:>16.0f} {share:>19.1%} {switches:>9d} {dmax:>14.2f} {p95:>14.2f}")
+        print(f"{beta:>16.0f} {share:>19.2%} {switches:>9d} {dmax:>14.2f} {p95:>14.2f}")
     smallest = min(rows, key=lambda r: (r[4], r[0]))
     # Among the angles with the largest share, the one closest to vertical.
     freest = max(rows, key=lambda r: (r[1], -abs(r[0])))
     print(f"\nsmallest p95 position error: {smallest[4]:.2f} um, with the rails at {smallest[0]:g} deg")
-    print(f"largest discontinuity-free share: {freest[1]:.1%}, first reached with the rails at {freest[0]:g} deg")
+    print(f"largest discontinuity-free share: {freest[1]:.2%}, with the rails at {freest[0]:g} deg")
 
 
 if __name__ == "__main__":
