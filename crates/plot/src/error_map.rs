@@ -42,7 +42,12 @@ pub(crate) struct ErrorMap<'a> {
 
 /// The six panels of a figure from raw error columns (m, rad), in display units.
 pub(crate) fn panels(columns: [Option<&[f64]>; 6], slots: usize) -> Vec<MapPanel> {
-    COMPONENTS
+    panels_of(&COMPONENTS, columns, slots)
+}
+
+/// [`panels`] of other components (the envelope's).
+pub(crate) fn panels_of(components: &[Component; 6], columns: [Option<&[f64]>; 6], slots: usize) -> Vec<MapPanel> {
+    components
         .iter()
         .zip(columns)
         .map(|(&component, col)| MapPanel {

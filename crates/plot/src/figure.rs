@@ -33,6 +33,17 @@ pub(crate) const COMPONENTS: [Component; 6] = [
     Component { suffix: "phi", symbol: "Φ", angle: true },
 ];
 
+/// The envelope's components (`env_<suffix>`): the largest |Δp_x|, |Δp_y|, |Δp_z|,
+/// |Δα_x|, |Δα_y|, |Δα_z| over every admissible take-up.
+pub(crate) const ENVELOPE_COMPONENTS: [Component; 6] = [
+    Component { suffix: "x", symbol: "X max", angle: false },
+    Component { suffix: "y", symbol: "Y max", angle: false },
+    Component { suffix: "z", symbol: "Z max", angle: false },
+    Component { suffix: "rx", symbol: "αx max", angle: true },
+    Component { suffix: "ry", symbol: "αy max", angle: true },
+    Component { suffix: "rz", symbol: "αz max", angle: true },
+];
+
 /// Errors are drawn in µm and µrad: clearances are tens to hundreds of µm.
 pub(crate) const ERROR_SCALE: f64 = 1e6;
 

@@ -51,7 +51,7 @@ pub use error::PlotError;
 pub use error_map::MAP_SIZE;
 pub use trajectory::ERROR_SIZE;
 
-use figure::{COMPONENTS, Source};
+use figure::{COMPONENTS, ENVELOPE_COMPONENTS, Source};
 use run_dir::{Layout, ModeData, RunDir};
 use switches::Switch;
 
@@ -199,6 +199,29 @@ impl Context<'_> {
                 map.write(&path)?;
                 written.push(path);
             }
+        }
+        // Beside the error map of all clearances, the worst case over every take-up.
+        for mode in data {
+            let columns = ENVELOPE_COMPONENTS.map(|c| mode.column(&format!("env_{}", c.suffix)));
+            if columns.iter().all(Option::is_none) {
+                continue;
+            }
+            let map = error_map::ErrorMap {
+                title: format!("{} — worst case over every take-up, {}", self.title(), mode.mode),
+                subtitle: format!(
+                    "{}envelope at Z = {} m · {} · grey: no value (unreachable or near-singular)",
+                    self.variant_note(),
+                    short(z0),
+                    self.clearances(Source::Total),
+                ),
+                psi,
+                theta,
+                panels: error_map::panels_of(&ENVELOPE_COMPONENTS, columns, psi.len() * theta.len()),
+                switches: Vec::new(),
+            };
+            let path = self.dir.join(format!("envelope_{}.png", mode.mode));
+            map.write(&path)?;
+            written.push(path);
         }
         Ok(())
     }

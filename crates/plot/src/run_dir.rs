@@ -152,6 +152,7 @@ fn wanted_columns() -> Vec<String> {
             names.push(format!("err_{}_{}", kind.name(), c.suffix));
         }
     }
+    names.extend(crate::figure::ENVELOPE_COMPONENTS.iter().map(|c| format!("env_{}", c.suffix)));
     names
 }
 

@@ -36,12 +36,18 @@ fn grid_maps_for_the_total_and_each_enabled_kind() {
     let out = tmp.path().join("plots");
     let written = plot_run(&run, &out).unwrap();
     let expected = [
+        "variant=0/envelope_kinetostatic.png",
         "variant=0/r_axial_kinetostatic.png",
         "variant=0/r_radial_kinetostatic.png",
         "variant=0/total_kinetostatic.png",
     ];
     assert_eq!(files_under(&out), expected);
-    assert_eq!(written.len(), 3);
+    assert_eq!(written.len(), 4);
+    // The envelope exists wherever the pose is solvable, on the symmetry plane too:
+    // a full map, unlike the total error's.
+    let envelope = Png::open(&out.join("variant=0/envelope_kinetostatic.png"));
+    assert_eq!((envelope.width, envelope.height), MAP_SIZE);
+    assert!(envelope.distinct_colours() > 200, "{} colours", envelope.distinct_colours());
     assert!(written.iter().all(|p| p.starts_with(&out) && p.is_file()));
 
     let total = Png::open(&out.join("variant=0/total_kinetostatic.png"));

@@ -615,7 +615,7 @@ impl<L: Lane> Reduced<L> {
         (each4(|k| [s[3][k], s[4][k], s[5][k], s[0][k], s[1][k], s[2][k]]), contribution)
     }
 
-    /// The worst case over every admissible take-up (docs/model.md, "The envelope"):
+    /// The worst case over every admissible take-up (docs/model.md §11):
     /// per kind (order of `KINDS`), the largest `|Δp_x|, |Δp_y|, |Δp_z|, |Δα_x|, |Δα_y|,
     /// |Δα_z|` and bounds on `|Δp|` and `|Δα|`. The error is linear in each joint's
     /// displacement and the joints are independent, so each maximum is a sum over the

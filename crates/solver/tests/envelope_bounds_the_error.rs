@@ -1,4 +1,4 @@
-//! The worst-case envelope (docs/model.md, "The envelope"): the deterministic error
+//! The worst-case envelope (docs/model.md §11): the deterministic error
 //! lies inside it at every pose, and it equals a brute-force maximum over sampled
 //! take-up displacements, each joint's response computed with the assembled 12 × 12
 //! error system (not the reduction the envelope is built from).
