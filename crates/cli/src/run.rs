@@ -665,6 +665,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         .map(|v| {
             let mut model = Model::from_job(&v.job);
             model.solver = opts.solver;
+            // The envelope and the dominant joint are columns of the standard set.
+            model.envelope = opts.columns >= ColumnSet::Standard;
             (model, SampleSource::new(&v.job))
         })
         .collect();

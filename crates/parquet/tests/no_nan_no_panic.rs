@@ -78,7 +78,8 @@ fn random_jobs_and_poses_never_panic_or_write_nan() {
     let mut statuses = std::collections::BTreeSet::new();
     for _ in 0..300 {
         let job = random_job(&mut rng);
-        let model = Model::from_job(&job);
+        let mut model = Model::from_job(&job);
+        model.envelope = true;
         let schema = PoseSchema::new(ColumnSet::Full, job.analysis.exact);
         for mode in [Mode::Kinetostatic, Mode::Dynamic] {
             let rows: Vec<_> = (0..40)

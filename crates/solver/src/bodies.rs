@@ -190,7 +190,8 @@ pub struct Model {
     pub exact: bool,
     pub solver: SolverKind,
     /// Also compute the worst-case envelope and each joint's contribution
-    /// (`PoseResult::envelope`, `contribution`); off, they are NaN.
+    /// (`PoseResult::envelope`, `contribution`, `dominant`); off (the default), they
+    /// are NaN and `None`. A run turns it on for the column sets that write them.
     pub envelope: bool,
 }
 
@@ -212,7 +213,7 @@ impl Model {
             singular_cond: job.analysis.singular_cond,
             exact: job.analysis.exact,
             solver: SolverKind::default(),
-            envelope: true,
+            envelope: false,
         }
     }
 }

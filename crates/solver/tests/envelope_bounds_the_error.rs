@@ -135,7 +135,8 @@ fn envelope_is_the_worst_case_and_holds_the_error() {
             } else {
                 common::family_job(&mut rng, case, clearance)
             };
-            let model = Model::from_job(&job);
+            let mut model = Model::from_job(&job);
+            model.envelope = true;
             let (zz, psi, theta) =
                 (z + rng.random_range(-0.05..0.05), rng.random_range(-0.3..0.3), rng.random_range(-0.3..0.3));
             let r = solve_pose(&model, &common::static_sample(zz, psi, theta), Mode::Kinetostatic, &mut ws);

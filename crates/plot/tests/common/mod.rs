@@ -22,7 +22,8 @@ pub fn make_run(dir: &Path, job_text: &str, columns: ColumnSet) -> JobSpec {
     std::fs::write(dir.join("job.toml"), job.to_toml_string()).unwrap();
     let schema = PoseSchema::new(columns, job.analysis.exact);
     for variant in job.variants("test.toml").unwrap() {
-        let model = Model::from_job(&variant.job);
+        let mut model = Model::from_job(&variant.job);
+        model.envelope = columns >= ColumnSet::Standard;
         let source = SampleSource::new(&variant.job);
         let mut ws = Workspace::new();
         for &mode in &job.analysis.modes {
