@@ -175,7 +175,7 @@ impl<L: Lane> Lu6<L> {
     /// `‖A⁻¹‖₁` and `‖A⁻¹‖∞`, from the explicit inverse `(L·U)⁻¹`: `A⁻¹ = (L·U)⁻¹·P`
     /// only reorders its columns, which changes neither norm.
     ///
-    /// Also returns `A⁻¹` itself, its columns put back in order.
+    /// Also returns `(L·U)⁻¹` itself ([`Lu6::inverse_of`] puts its columns in order).
     #[inline(always)]
     fn inverse_norms(&self) -> (L, L, A6<L>) {
         let lu = &self.lu;
@@ -213,8 +213,13 @@ impl<L: Lane> Lu6<L> {
             }
             row_max = row_max.max(sum);
         }
-        // Column `perm[i]` of A⁻¹ is column i of (L·U)⁻¹.
-        let mut inv = [[zero; 6]; 6];
+        (col_sums.iter().fold(zero, |m, &s| m.max(s)), row_max, x)
+    }
+
+    /// `A⁻¹` from `(L·U)⁻¹`: column `perm[i]` of `A⁻¹` is column `i` of `(L·U)⁻¹`.
+    #[inline(always)]
+    fn inverse_of(&self, x: &A6<L>) -> A6<L> {
+        let mut inv = [[c::<L>(0.0); 6]; 6];
         for (i, &p) in self.perm.iter().enumerate() {
             for col in 0..6 {
                 let m = p.eq(c(col as f64));
@@ -223,7 +228,7 @@ impl<L: Lane> Lu6<L> {
                 }
             }
         }
-        (col_sums.iter().fold(zero, |m, &s| m.max(s)), row_max, inv)
+        inv
     }
 }
 
@@ -501,10 +506,10 @@ pub struct Reduced<L: Lane> {
     /// `n_j = y_j × e_j`.
     n: [V3<L>; 3],
     g: Lu6<L>,
-    /// `G⁻¹` (NaN when the conditioning was not asked for): row `2j + k` of it, read
+    /// `G⁻¹` (with `model.envelope` and the conditioning): row `2j + k` of it, read
     /// as `[Δp; Δα]`, is the pose error per unit of `f·v_j` (`f = e_j`, `y_j`; `v_j` the
     /// velocity at `A_j` of limb j's clearance twist), which the envelope maximises.
-    ginv: A6<L>,
+    ginv: Option<A6<L>>,
     /// `κ₁(G)` and `κ₁(M)`; infinite when singular, NaN when not asked for.
     pub cond_g: L,
     pub cond_m: L,
@@ -528,14 +533,16 @@ impl<L: Lane> Reduced<L> {
             }
         }
         let (mut cond_g, mut cond_m) = (c::<L>(f64::NAN), c::<L>(f64::NAN));
-        let mut ginv = [[c::<L>(f64::NAN); 6]; 6];
+        let mut ginv = None;
         let lu = if conditioning {
             let (norm_one, norm_inf) = norms(&g);
             let lu = Lu6::new(g);
             let (inv_one, inv_inf, inv) = lu.inverse_norms();
             let finite = |k: L| L::select(lu.regular & k.finite(), k, c(f64::INFINITY));
             (cond_g, cond_m) = (finite(norm_one * inv_one), finite(norm_inf * inv_inf));
-            ginv = inv;
+            if model.envelope {
+                ginv = Some(lu.inverse_of(&inv));
+            }
             lu
         } else {
             Lu6::new(g)
@@ -585,7 +592,8 @@ impl<L: Lane> Reduced<L> {
     /// `Gᵀ·(S·t) = d`.
     #[inline(always)]
     ///
-    /// Also returns each joint's own contribution to `|Δp|`, by kind and limb.
+    /// Also returns each joint's own contribution to `|Δp|`, by kind and limb, when
+    /// `model.envelope` is on (else zeros).
     pub fn errors(&self, model: &Model, pose: &Pose<L>, take: &TakeUps<L>) -> ([[L; 6]; 4], [[L; 3]; 4]) {
         let y = each3(|j| V3::<L>::splat(&model.geometry.y[j]));
         // Row i holds component i of every kind's right-hand side.
@@ -603,8 +611,9 @@ impl<L: Lane> Reduced<L> {
         let s = self.g.solve_transposed(&rhs);
         // Joint (j, kind) alone: rows 2j and 2j + 1 of G⁻¹ (its Δp half) times its loads.
         let mut contribution = [[c::<L>(0.0); 3]; 4];
-        for j in 0..3 {
-            let (u, v) = (&self.ginv[2 * j], &self.ginv[2 * j + 1]);
+        for j in (0..3).filter(|_| model.envelope) {
+            let ginv = self.ginv.as_ref().expect("G⁻¹ is formed with the envelope");
+            let (u, v) = (&ginv[2 * j], &ginv[2 * j + 1]);
             for kind in 0..4 {
                 let (a, b) = (rhs[2 * j][kind], rhs[2 * j + 1][kind]);
                 let dp = each3(|i| u[i] * a + v[i] * b);
@@ -627,9 +636,11 @@ impl<L: Lane> Reduced<L> {
     #[inline(always)]
     pub fn envelope(&self, model: &Model, pose: &Pose<L>) -> [[L; 8]; 4] {
         let [s, r, a, th] = model.clearance;
-        let mut env = [[c::<L>(0.0); 8]; 4];
+        let mut env = [[c::<L>(f64::NAN); 8]; 4];
+        let Some(ginv) = &self.ginv else { return env };
+        env = [[c::<L>(0.0); 8]; 4];
         for j in 0..3 {
-            let (u, v) = (&self.ginv[2 * j], &self.ginv[2 * j + 1]);
+            let (u, v) = (&ginv[2 * j], &ginv[2 * j + 1]);
             let ell = pose.ell[j];
             // G⁻¹'s rows hold Δp first, then Δα.
             for i in 0..6 {
