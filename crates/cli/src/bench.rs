@@ -97,6 +97,7 @@ pub fn bench(
         solver,
         compression,
         quiet: true,
+        direct_io: crate::buffered_io_not_asked(),
     };
     let mut e2es = Vec::with_capacity(repeat);
     let mut bytes = 0;

@@ -13,7 +13,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use clearance_model::{JobError, JobSpec};
 use clearance_parquet::{Codec, ColumnSet};
-use clearance_solver::SolverKind;
+use clearance_solver::{Isa, SolverKind, cap_isa};
 
 #[derive(Parser)]
 #[command(name = "clearance", version, about = "Pose error of a 3-PRS parallel robot due to joint clearances")]
@@ -183,6 +183,22 @@ fn keep_freed_memory() {
     }
 }
 
+/// `CLEARANCE_ISA=portable|avx2|avx512` caps the kernel's vector instructions
+/// (docs/interface.md); a value that names none is ignored with a warning.
+fn cap_isa_from_env() {
+    if let Ok(v) = std::env::var("CLEARANCE_ISA") {
+        match Isa::parse(&v) {
+            Some(isa) => cap_isa(isa),
+            None => eprintln!("clearance: CLEARANCE_ISA={v:?} is not portable, avx2 or avx512; ignored"),
+        }
+    }
+}
+
+/// `CLEARANCE_BUFFERED_IO` set (to anything) writes every file through the page cache.
+fn buffered_io_not_asked() -> bool {
+    std::env::var_os("CLEARANCE_BUFFERED_IO").is_none()
+}
+
 fn main() -> ExitCode {
     // Die quietly like other Unix tools when the reader of stdout goes away
     // (`clearance check JOB | head`), instead of panicking on a broken pipe.
@@ -192,6 +208,7 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     keep_freed_memory();
+    cap_isa_from_env();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run {
@@ -216,8 +233,19 @@ fn main() -> ExitCode {
                 Ok(s) => s,
                 Err(e) => return usage(e),
             };
-            let opts =
-                run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, solver, compression, quiet };
+            let direct_io = buffered_io_not_asked();
+            let opts = run::RunOptions {
+                out,
+                columns,
+                shard,
+                resume,
+                overwrite,
+                chunk_size,
+                solver,
+                compression,
+                quiet,
+                direct_io,
+            };
             init_threads(threads).and_then(|_| run::run(&spec, &job.display().to_string(), &opts)).map(|r| {
                 if !quiet {
                     eprintln!(

@@ -43,6 +43,8 @@ pub struct RunOptions {
     pub solver: SolverKind,
     pub compression: Codec,
     pub quiet: bool,
+    /// Part files past the page cache where the disk allows ([`WriteOptions::direct_io`]).
+    pub direct_io: bool,
 }
 
 /// What a run did.
@@ -265,12 +267,13 @@ fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
         }
     }
     std::fs::create_dir_all(out).with_context(|| format!("cannot create the output directory {}", out.display()))?;
-    Ok(write_bytes(&out.join("job.toml"), job_toml.as_bytes(), false)?)
+    let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
+    Ok(write_bytes(&out.join("job.toml"), job_toml.as_bytes(), &opts)?)
 }
 
 /// An empty completion marker, on the disk before this returns.
 fn write_marker(path: &Path) -> Result<()> {
-    write_bytes(path, b"", true)?;
+    write_bytes(path, b"", &WriteOptions::default())?;
     if let Some(dir) = path.parent() {
         let _ = std::fs::File::open(dir).and_then(|d| d.sync_all());
     }
@@ -437,7 +440,8 @@ fn search_after(
         let bytes = 4 * (u.range.end - u.range.start);
         if std::fs::metadata(path).map(|m| m.len()).ok() != Some(bytes) {
             let traces = clearance_discontinuity::traces(model, source, mode, search, u.range.clone());
-            write_bytes(path, &encode_traces(&traces), false)?;
+            let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
+            write_bytes(path, &encode_traces(&traces), &opts)?;
         }
     }
     let mut files = TraceFiles::new(units.iter().map(|u| u.range.clone()).collect(), paths);
@@ -651,6 +655,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         row_group_rows: opts.chunk_size as usize,
         codec: opts.compression,
         durable: false,
+        direct_io: opts.direct_io,
     };
     let models: Vec<(Model, SampleSource)> = variants
         .iter()
@@ -687,8 +692,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 for dir in [part.path.parent(), part.stats_path.parent()].into_iter().flatten() {
                     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
                 }
-                write_bytes(&part.trace_path, &encode_traces(&part.traces), false)?;
-                write_bytes(&part.stats_path, &serde_json::to_vec(&part.stats)?, false)?;
+                write_bytes(&part.trace_path, &encode_traces(&part.traces), write_opts)?;
+                write_bytes(&part.stats_path, &serde_json::to_vec(&part.stats)?, write_opts)?;
                 write_part(&part.path, schema, &part.pages, write_opts, &part.extra)?;
                 spare.lock().expect("no panic while held").extend(part.pages.into_buffers());
             }
