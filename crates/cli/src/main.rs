@@ -4,16 +4,15 @@
 mod bench;
 mod check;
 mod progress;
-mod run;
 mod status;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use clearance_model::{JobError, JobSpec};
-use clearance_parquet::{Codec, ColumnSet};
-use clearance_solver::{Isa, SolverKind, cap_isa};
+use clearance_engine::{
+    Codec, ColumnSet, EngineError, Isa, JobError, JobSpec, Reporter, RunOptions, SolverKind, cap_isa,
+};
 
 #[derive(Parser)]
 #[command(name = "clearance", version, about = "Pose error of a 3-PRS parallel robot due to joint clearances")]
@@ -234,7 +233,7 @@ fn main() -> ExitCode {
                 Err(e) => return usage(e),
             };
             let direct_io = buffered_io_not_asked();
-            let opts = run::RunOptions {
+            let opts = RunOptions {
                 out,
                 columns,
                 shard,
@@ -243,10 +242,11 @@ fn main() -> ExitCode {
                 chunk_size,
                 solver,
                 compression,
-                quiet,
+                progress: Reporter::new(std::sync::Arc::new(progress::Display::new(quiet))),
                 direct_io,
             };
-            init_threads(threads).and_then(|_| run::run(&spec, &job.display().to_string(), &opts)).map(|r| {
+            let run = |()| clearance_engine::run(&spec, &job.display().to_string(), &opts).map_err(anyhow::Error::from);
+            init_threads(threads).and_then(run).map(|r| {
                 if !quiet {
                     eprintln!(
                         "computed {} of {} poses in {:.2} s{}; output in {}",
@@ -265,7 +265,7 @@ fn main() -> ExitCode {
         },
         Command::Status { dir } => return status::status(&dir),
         Command::Plot { dir, out } => {
-            let out = out.unwrap_or_else(|| dir.join("plots"));
+            let out = out.unwrap_or_else(|| clearance_engine::Layout::new(&dir).plots());
             clearance_plot::plot_run(&dir, &out).map_err(anyhow::Error::from).map(|files| {
                 for f in &files {
                     println!("{}", f.display());
@@ -283,7 +283,10 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) if e.downcast_ref::<run::UsageError>().is_some() || e.downcast_ref::<JobError>().is_some() => {
+        Err(e)
+            if e.downcast_ref::<EngineError>().is_some_and(EngineError::is_usage)
+                || e.downcast_ref::<JobError>().is_some() =>
+        {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }
