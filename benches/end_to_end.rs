@@ -3,8 +3,8 @@
 //!
 //! | bench | what is timed |
 //! |---|---|
-//! | `end_to_end/library/<solver>` | the pose loop of `clearance run` rebuilt from the library crates: chunks of 65 536 samples solved on the rayon pool a page (`PAGE_ROWS` samples) at a time, each page's standard columns encoded as soon as it is filled, summary statistics, `write_part` on a writer thread overlapping the next chunk |
-//! | `end_to_end/cli_run` | `target/release/clearance run JOB --out DIR --quiet` as a child process: the above plus process start, `job.toml`, the discontinuity search along every grid line, `summary.parquet` and `_SUCCESS` — what `clearance bench` calls end to end |
+//! | `end_to_end/library/<solver>` | `clearance_engine::run` in process: chunks of 65 536 samples solved on the rayon pool a page at a time, each page's standard columns encoded as soon as it is filled, part files on a writer thread, the discontinuity search along every grid line, `summary.parquet` and `_SUCCESS` |
+//! | `end_to_end/cli_run` | `target/release/clearance run JOB --out DIR --quiet` as a child process: the above plus process start — what `clearance bench` calls end to end |
 //!
 //! Output goes to a fresh temporary directory per iteration, removed outside the timing.
 //! `cli_run` uses the release binary as it is on disk: build it first with
@@ -16,15 +16,9 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::mpsc::sync_channel;
 
-use clearance_grid::{SampleSource, chunks};
-use clearance_model::{JobSpec, Mode};
-use clearance_parquet::{Codec, ColumnSet, PAGE_ROWS, PartPages, PoseSchema, SummaryStats, WriteOptions, write_part};
-use clearance_solver::{Blocks, Model};
-use common::for_each_solver;
+use clearance_engine::{Codec, ColumnSet, JobSpec, Reporter, RunOptions, SolverKind, run};
 use criterion::{BatchSize, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use rayon::prelude::*;
 
 /// Poses per iteration: 362² = 131 044, two part files of `CHUNK`.
 const LIB_SIDE: u64 = 362;
@@ -32,80 +26,41 @@ const CHUNK: u64 = 65_536;
 /// Poses per iteration of the child-process run: 200² = 40 000.
 const CLI_SIDE: u64 = 200;
 
-/// Grid → poses part files (standard columns) in `out`, as `clearance run` does.
-fn run_poses(job: &JobSpec, model: &Model, source: &SampleSource, schema: &PoseSchema, out: &Path) {
-    let opts = WriteOptions {
-        metadata: vec![("clearance.job".into(), job.to_toml_string())],
-        row_group_rows: CHUNK as usize,
-        ..WriteOptions::default()
+/// The job run into `out` by the engine, in process, as `clearance run` does.
+fn run_job(job: &JobSpec, solver: SolverKind, out: &Path) {
+    let opts = RunOptions {
+        out: out.join("out"),
+        columns: ColumnSet::Standard,
+        shard: None,
+        resume: false,
+        overwrite: false,
+        chunk_size: CHUNK,
+        solver,
+        compression: Codec::Zstd,
+        progress: Reporter::default(),
+        direct_io: true,
     };
-    let dir = out.join("poses").join("variant=0");
-    std::fs::create_dir_all(&dir).expect("create the output directory");
-    let mut total = SummaryStats::default();
-    std::thread::scope(|scope| {
-        let (tx, rx) = sync_channel::<(PathBuf, PartPages)>(1);
-        let opts = &opts;
-        let writer = scope.spawn(move || {
-            for (path, part) in rx {
-                write_part(&path, schema, &part, opts, &[]).expect("write a part file");
-            }
-        });
-        for (k, range) in chunks(source.len(), CHUNK).enumerate() {
-            let mut part = schema.part(Mode::Kinetostatic, (range.end - range.start) as usize);
-            let stats: Vec<SummaryStats> = part
-                .pages(schema)
-                .into_par_iter()
-                .enumerate()
-                .map_init(
-                    || (Blocks::default(), schema.page_buffer()),
-                    |(blocks, buf), (p, page)| {
-                        let first = range.start + (p * PAGE_ROWS) as u64;
-                        let len = page.rows() as u64;
-                        page.write(buf, Codec::Zstd, Vec::new(), |sink| {
-                            let (samples, results) =
-                                blocks.solve(model, source, first..first + len, Mode::Kinetostatic);
-                            let mut stats = SummaryStats::with_capacity(samples.len());
-                            for (i, (s, r)) in samples.iter().zip(results).enumerate() {
-                                sink.put(i, s, r);
-                                stats.push(r);
-                            }
-                            stats
-                        })
-                        .expect("encode a page")
-                    },
-                )
-                .collect();
-            for s in &stats {
-                total.merge(s);
-            }
-            tx.send((dir.join(format!("part-kinetostatic-{k:06}.parquet")), part)).expect("the writer is alive");
-        }
-        drop(tx);
-        writer.join().expect("the writer does not panic");
-    });
-    std::hint::black_box(total);
+    let report = run(job, "bench.toml", &opts).expect("the run succeeds");
+    std::hint::black_box(report);
 }
 
 fn library(c: &mut Criterion) {
     let job = common::grid_job(LIB_SIDE);
-    let source = SampleSource::new(&job);
-    let schema = PoseSchema::new(ColumnSet::Standard, false);
     let mut g = c.benchmark_group("end_to_end/library");
     g.sampling_mode(SamplingMode::Flat);
-    g.throughput(Throughput::Elements(source.len()));
-    for_each_solver(|name, setup| {
-        let model = common::model_for(&job, setup);
+    g.throughput(Throughput::Elements(job.sample_count()));
+    for (name, solver) in [("general", SolverKind::General), ("fast", SolverKind::Fast)] {
         g.bench_function(name, |b| {
             b.iter_batched(
                 || tempfile::tempdir().expect("a temporary directory"),
                 |tmp| {
-                    run_poses(&job, &model, &source, &schema, tmp.path());
+                    run_job(&job, solver, tmp.path());
                     tmp // removed after the timing
                 },
                 BatchSize::PerIteration,
             )
         });
-    });
+    }
     g.finish();
 }
 

@@ -3,40 +3,8 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use clearance_grid::SampleSource;
-use clearance_model::{JobSpec, Mode};
-use clearance_parquet::{Codec, ColumnSet};
-use clearance_solver::{Isa, Model, SolverKind, solve_in_blocks};
-use rayon::prelude::*;
-
-use crate::run::{RunOptions, run};
-
-/// The benchmark job: the paper's prototype at Z = 2.05 over Ψ, Θ ∈ [−0.5, 0.5],
-/// all four clearance kinds, kinetostatics.
-pub fn bench_job(poses: u64) -> JobSpec {
-    let side = ((poses as f64).sqrt().ceil() as u64).max(2);
-    let text = format!(
-        "name = \"bench\"\n[clearance]\ns_radial = 1e-4\nr_radial = 1e-4\nr_axial = 1e-4\nr_angular = 1e-4\n\
-         [grid]\nz = 2.05\npsi = {{ start = -0.5, stop = 0.5, n = {side} }}\ntheta = {{ start = -0.5, stop = 0.5, n = {side} }}\n"
-    );
-    JobSpec::from_toml_str(&text, "bench.toml").expect("the bench job is valid")
-}
-
-/// Kinetostatic pose → reactions → take-up → error, all kinds, no I/O. Returns poses/s.
-pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
-    let mut model = Model::from_job(job);
-    model.solver = solver;
-    let source = SampleSource::new(job);
-    let n = source.len();
-    let start = Instant::now();
-    let checksum: f64 = solve_in_blocks(&model, &source, 0..n, Mode::Kinetostatic, 1024, |_, results| {
-        results.iter().map(|r| r.errors[0].dp.z + r.errors[3].dalpha.x).sum::<f64>()
-    })
-    .sum();
-    let secs = start.elapsed().as_secs_f64();
-    std::hint::black_box(checksum);
-    n as f64 / secs
-}
+use clearance_engine::{Codec, ColumnSet, Isa, JobSpec, RunOptions, SolverKind, bench_job, kernel_rate, run};
+use clearance_model::Mode;
 
 /// Bytes of the files under `dir`, recursively (0 if it is missing).
 fn dir_size(dir: &std::path::Path) -> u64 {
@@ -96,7 +64,8 @@ pub fn bench(
         chunk_size: 65536,
         solver,
         compression,
-        quiet: true,
+        progress: Default::default(),
+        direct_io: crate::buffered_io_not_asked(),
     };
     let mut e2es = Vec::with_capacity(repeat);
     let mut bytes = 0;

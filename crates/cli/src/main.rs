@@ -4,16 +4,15 @@
 mod bench;
 mod check;
 mod progress;
-mod run;
 mod status;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use clearance_model::{JobError, JobSpec};
-use clearance_parquet::{Codec, ColumnSet};
-use clearance_solver::SolverKind;
+use clearance_engine::{
+    Codec, ColumnSet, EngineError, Isa, JobError, JobSpec, Reporter, RunOptions, SolverKind, cap_isa,
+};
 
 #[derive(Parser)]
 #[command(name = "clearance", version, about = "Pose error of a 3-PRS parallel robot due to joint clearances")]
@@ -183,6 +182,22 @@ fn keep_freed_memory() {
     }
 }
 
+/// `CLEARANCE_ISA=portable|avx2|avx512` caps the kernel's vector instructions
+/// (docs/interface.md); a value that names none is ignored with a warning.
+fn cap_isa_from_env() {
+    if let Ok(v) = std::env::var("CLEARANCE_ISA") {
+        match Isa::parse(&v) {
+            Some(isa) => cap_isa(isa),
+            None => eprintln!("clearance: CLEARANCE_ISA={v:?} is not portable, avx2 or avx512; ignored"),
+        }
+    }
+}
+
+/// `CLEARANCE_BUFFERED_IO` set (to anything) writes every file through the page cache.
+fn buffered_io_not_asked() -> bool {
+    std::env::var_os("CLEARANCE_BUFFERED_IO").is_none()
+}
+
 fn main() -> ExitCode {
     // Die quietly like other Unix tools when the reader of stdout goes away
     // (`clearance check JOB | head`), instead of panicking on a broken pipe.
@@ -192,6 +207,7 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     keep_freed_memory();
+    cap_isa_from_env();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run {
@@ -216,9 +232,21 @@ fn main() -> ExitCode {
                 Ok(s) => s,
                 Err(e) => return usage(e),
             };
-            let opts =
-                run::RunOptions { out, columns, shard, resume, overwrite, chunk_size, solver, compression, quiet };
-            init_threads(threads).and_then(|_| run::run(&spec, &job.display().to_string(), &opts)).map(|r| {
+            let direct_io = buffered_io_not_asked();
+            let opts = RunOptions {
+                out,
+                columns,
+                shard,
+                resume,
+                overwrite,
+                chunk_size,
+                solver,
+                compression,
+                progress: Reporter::new(std::sync::Arc::new(progress::Display::new(quiet))),
+                direct_io,
+            };
+            let run = |()| clearance_engine::run(&spec, &job.display().to_string(), &opts).map_err(anyhow::Error::from);
+            init_threads(threads).and_then(run).map(|r| {
                 if !quiet {
                     eprintln!(
                         "computed {} of {} poses in {:.2} s{}; output in {}",
@@ -237,7 +265,7 @@ fn main() -> ExitCode {
         },
         Command::Status { dir } => return status::status(&dir),
         Command::Plot { dir, out } => {
-            let out = out.unwrap_or_else(|| dir.join("plots"));
+            let out = out.unwrap_or_else(|| clearance_engine::Layout::new(&dir).plots());
             clearance_plot::plot_run(&dir, &out).map_err(anyhow::Error::from).map(|files| {
                 for f in &files {
                     println!("{}", f.display());
@@ -255,7 +283,10 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) if e.downcast_ref::<run::UsageError>().is_some() || e.downcast_ref::<JobError>().is_some() => {
+        Err(e)
+            if e.downcast_ref::<EngineError>().is_some_and(EngineError::is_usage)
+                || e.downcast_ref::<JobError>().is_some() =>
+        {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 /// Counts poses done and shows it in whichever way suits stderr.
-pub struct Progress {
+struct Progress {
     bar: Option<ProgressBar>,
     total: u64,
     start: Instant,
@@ -19,7 +19,7 @@ const LOG_EVERY: Duration = Duration::from_secs(10);
 
 impl Progress {
     /// `quiet` shows nothing (benchmarks, tests).
-    pub fn new(total: u64, already_done: u64, quiet: bool) -> Self {
+    fn new(total: u64, already_done: u64, quiet: bool) -> Self {
         let now = Instant::now();
         let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
             let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr_with_hz(4));
@@ -35,15 +35,58 @@ impl Progress {
         });
         Self { bar, total, start: now, log: Mutex::new((now, already_done)), quiet }
     }
+}
 
-    pub fn set_message(&self, msg: String) {
-        if let Some(bar) = &self.bar {
-            bar.set_message(msg);
-        }
+/// The engine's progress, on stderr; nothing when `quiet`.
+pub struct Display {
+    quiet: bool,
+    progress: Mutex<Option<Progress>>,
+}
+
+impl Display {
+    pub fn new(quiet: bool) -> Self {
+        Self { quiet, progress: Mutex::new(None) }
     }
 
+    fn with(&self, f: impl FnOnce(&Progress)) {
+        if let Some(p) = self.progress.lock().expect("progress lock").as_ref() {
+            f(p);
+        }
+    }
+}
+
+impl clearance_engine::Progress for Display {
+    fn start(&self, total: u64, done: u64) {
+        *self.progress.lock().expect("progress lock") = Some(Progress::new(total, done, self.quiet));
+    }
+
+    fn stage(&self, what: &str) {
+        self.with(|p| {
+            if let Some(bar) = &p.bar {
+                bar.set_message(what.to_string());
+            }
+        });
+    }
+
+    fn advance(&self, n: u64, done: u64) {
+        self.with(|p| p.advance(n, done));
+    }
+
+    fn finish(&self) {
+        self.with(|p| p.finish());
+    }
+
+    fn searching(&self) {
+        self.with(|p| p.finish());
+        if !self.quiet {
+            eprintln!("searching for discontinuities and summarising ...");
+        }
+    }
+}
+
+impl Progress {
     /// Adds `n` finished poses; `done` is the new total.
-    pub fn advance(&self, n: u64, done: u64) {
+    fn advance(&self, n: u64, done: u64) {
         if let Some(bar) = &self.bar {
             bar.inc(n);
             return;
@@ -69,7 +112,7 @@ impl Progress {
         }
     }
 
-    pub fn finish(&self) {
+    fn finish(&self) {
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }

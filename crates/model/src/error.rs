@@ -3,7 +3,8 @@
 use std::fmt::{self, Write};
 
 /// A job file that cannot be run. Nothing may be written when one is returned.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}", Message(self))]
 pub struct JobError {
     /// The job file's path as given by the user.
     pub file: String,
@@ -19,10 +20,14 @@ impl JobError {
     }
 }
 
-impl fmt::Display for JobError {
+/// `file: `key`: reason`, or `file: reason` for the whole file.
+struct Message<'a>(&'a JobError);
+
+impl fmt::Display for Message<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let (file, key, reason) = (Escaped(&self.file), Escaped(&self.key), Escaped(&self.reason));
-        if self.key.is_empty() { write!(f, "{file}: {reason}") } else { write!(f, "{file}: `{key}`: {reason}") }
+        let e = self.0;
+        let (file, key, reason) = (Escaped(&e.file), Escaped(&e.key), Escaped(&e.reason));
+        if e.key.is_empty() { write!(f, "{file}: {reason}") } else { write!(f, "{file}: `{key}`: {reason}") }
     }
 }
 
@@ -38,8 +43,6 @@ impl fmt::Display for Escaped<'_> {
         Ok(())
     }
 }
-
-impl std::error::Error for JobError {}
 
 #[cfg(test)]
 mod tests {

@@ -7,9 +7,9 @@
 //! from an aligned staging buffer, so the copy costs a user-space `memcpy` into
 //! that buffer instead. Only local disk file systems get it ([`local_disk`]); one
 //! that refuses the flag at `open` or at a `write` gets the file buffered instead,
-//! so the choice never shows in the bytes written. `CLEARANCE_BUFFERED_IO`
-//! set (to anything) makes every file buffered, for a file system that accepts
-//! direct I/O and then misbehaves with it.
+//! so the choice never shows in the bytes written. `WriteOptions::direct_io`
+//! off (the binary's `CLEARANCE_BUFFERED_IO`) makes every file buffered, for a file
+//! system that accepts direct I/O and then misbehaves with it.
 
 use std::fs::File;
 use std::io::{self, Write};
@@ -88,10 +88,11 @@ pub(crate) struct Output {
 }
 
 impl Output {
-    /// Creates (or truncates) `path`.
-    pub fn create(path: &Path) -> io::Result<Self> {
+    /// Creates (or truncates) `path`; past the page cache when `direct` and the
+    /// file system is a local disk.
+    pub fn create(path: &Path, direct: bool) -> io::Result<Self> {
         #[cfg(target_os = "linux")]
-        if std::env::var_os("CLEARANCE_BUFFERED_IO").is_none() && local_disk(path) {
+        if direct && local_disk(path) {
             use std::os::unix::fs::OpenOptionsExt;
             let direct = std::fs::OpenOptions::new()
                 .write(true)
@@ -229,14 +230,9 @@ mod tests {
             std::fs::create_dir_all(&dir).unwrap();
             let path = dir.join("f.bin");
             let mut expected = Vec::new();
-            let mut out = Output::create(&path).unwrap();
+            let mut out = Output::create(&path, true).unwrap();
             #[cfg(target_os = "linux")]
-            assert_eq!(
-                out.is_direct(),
-                local_disk(&path) && std::env::var_os("CLEARANCE_BUFFERED_IO").is_none(),
-                "{}",
-                dir.display()
-            );
+            assert_eq!(out.is_direct(), local_disk(&path), "{}", dir.display());
             let mut state = 7u64;
             for size in [1usize, 4095, 4097, STAGING - 3, 10, 3 * STAGING + 17, 0, 12345] {
                 let chunk: Vec<u8> = (0..size)

@@ -496,7 +496,7 @@ fn def_levels(out: &mut Vec<u8>, rows: usize, valid: Option<&[u8]>, present: usi
 /// The byte streams of `values` appended to `out`: byte k of value i at
 /// `k·len + i` (`BYTE_STREAM_SPLIT`). Eight values at a time are transposed as an
 /// 8 × 8 byte matrix: by one byte permutation where the CPU has AVX-512 VBMI and the
-/// kernel's choice (`Isa::best`, capped by `CLEARANCE_ISA`) is AVX-512, else in three
+/// kernel's choice (`Isa::best`, capped by `cap_isa`) is AVX-512, else in three
 /// rounds of block swaps (23 instructions a value, callgrind).
 fn split_streams(values: &[f64], out: &mut Vec<u8>) {
     let m = values.len();

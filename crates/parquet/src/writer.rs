@@ -65,11 +65,21 @@ pub struct WriteOptions {
     /// overlaps computing: a run syncs them all before it declares itself complete
     /// (`clearance run`).
     pub durable: bool,
+    /// Write past the page cache (`O_DIRECT`) on local disks: the copy into the
+    /// cache costs a run's CPU (benches/README.md). The binary turns it off when
+    /// `CLEARANCE_BUFFERED_IO` is set.
+    pub direct_io: bool,
 }
 
 impl Default for WriteOptions {
     fn default() -> Self {
-        Self { metadata: Vec::new(), row_group_rows: 128 * 1024, codec: Codec::default(), durable: true }
+        Self {
+            metadata: Vec::new(),
+            row_group_rows: 128 * 1024,
+            codec: Codec::default(),
+            durable: true,
+            direct_io: true,
+        }
     }
 }
 
@@ -369,15 +379,15 @@ pub fn write_part(
 
 /// Writes `bytes` to `path` via a temporary sibling and an atomic rename, past the
 /// page cache where the file system allows it (as Parquet files are), and, when
-/// `durable`, on the disk before this returns. For a run's side files (statistics,
+/// `opts.durable`, on the disk before this returns. For a run's side files (statistics,
 /// traces): through the page cache, their copy cost a run 2 % of its CPU (`perf`).
-pub fn write_bytes(path: &Path, bytes: &[u8], durable: bool) -> Result<(), ParquetError> {
+pub fn write_bytes(path: &Path, bytes: &[u8], opts: &WriteOptions) -> Result<(), ParquetError> {
     atomically(path, |tmp| {
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
-        let mut out = Output::create(tmp).map_err(io)?;
+        let mut out = Output::create(tmp, opts.direct_io).map_err(io)?;
         std::io::Write::write_all(&mut out, bytes).map_err(io)?;
         out.finish().map_err(io)?;
-        finish_file(&out, durable).map_err(io)
+        finish_file(&out, opts.durable).map_err(io)
     })
 }
 
@@ -423,7 +433,7 @@ fn write_file(
     atomically(path, |tmp| {
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
         let enc = |e| ParquetError::from_parquet(path, e);
-        let file = Output::create(tmp).map_err(io)?;
+        let file = Output::create(tmp, opts.direct_io).map_err(io)?;
         let mut props = properties(schema, opts, extra);
         // What `ArrowWriter` does, so that readers get the Arrow types and units back.
         add_encoded_arrow_schema_to_metadata(schema, &mut props);

@@ -2,7 +2,8 @@
 
 use std::path::PathBuf;
 
-/// A run directory that cannot be plotted, or a figure that cannot be written.
+/// A run directory that cannot be plotted, or a figure that cannot be written. The
+/// cause is the `source()`, not part of the message, so that `{:#}` names it once.
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
     /// The directory is not a complete `clearance run` output.
@@ -11,11 +12,11 @@ pub enum PlotError {
     /// `job.toml` does not parse or validate.
     #[error(transparent)]
     Job(#[from] clearance_model::JobError),
-    #[error("cannot access {path}: {source}")]
+    #[error("cannot access {path}")]
     Io { path: PathBuf, source: std::io::Error },
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}")]
     Parquet { path: PathBuf, source: parquet::errors::ParquetError },
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}")]
     Arrow { path: PathBuf, source: arrow::error::ArrowError },
     /// A column is missing or holds something that does not fit the job.
     #[error("{path}: column `{column}`: {why}")]

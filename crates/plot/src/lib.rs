@@ -72,10 +72,10 @@ fn register_font() -> Result<(), PlotError> {
 pub fn plot_run(run_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     register_font()?;
     let run = RunDir::open(run_dir)?;
-    let switches = switches::read_switches(&run_dir.join("discontinuities.parquet"))?;
+    let switches = switches::read_switches(&run.layout.discontinuities())?;
     let mut written = Vec::new();
     for variant in &run.variants {
-        let poses = run_dir.join("poses").join(format!("variant={}", variant.index));
+        let poses = run.layout.variant_dir(variant.index);
         if !poses.is_dir() {
             return Err(PlotError::NotARun {
                 dir: run_dir.to_path_buf(),

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use arrow::array::{Array, ArrayRef, Float64Array, StringArray, UInt64Array};
 use arrow::compute::cast;
 use arrow::datatypes::DataType;
+use clearance_engine::Layout as RunLayout;
 use clearance_grid::SampleSource;
 use clearance_model::{JobSpec, KINDS, Variant};
 use parquet::arrow::ProjectionMask;
@@ -26,7 +27,7 @@ use crate::figure::COMPONENTS;
 
 /// A run directory with its job parsed and its sweeps expanded.
 pub(crate) struct RunDir {
-    pub dir: PathBuf,
+    pub layout: RunLayout,
     pub job: JobSpec,
     pub variants: Vec<Variant>,
 }
@@ -35,23 +36,24 @@ impl RunDir {
     /// Opens `dir`, refusing anything but a complete run (`_SUCCESS` present).
     pub fn open(dir: &Path) -> Result<Self, PlotError> {
         let not_a_run = |why: &str| PlotError::NotARun { dir: dir.to_path_buf(), why: why.to_string() };
-        let job_path = dir.join("job.toml");
+        let layout = RunLayout::new(dir);
+        let job_path = layout.job();
         if !job_path.is_file() {
             return Err(not_a_run("no job.toml"));
         }
-        if !dir.join("_SUCCESS").is_file() {
+        if !layout.success().is_file() {
             return Err(not_a_run("no _SUCCESS (the run, or one of its shards, has not finished)"));
         }
         let text = std::fs::read_to_string(&job_path).map_err(PlotError::io(&job_path))?;
         let file = job_path.display().to_string();
         let job = JobSpec::from_toml_str(&text, &file)?;
         let variants = job.variants(&file)?;
-        Ok(Self { dir: dir.to_path_buf(), job, variants })
+        Ok(Self { layout, job, variants })
     }
 
     /// The part files of variant `k`, sorted by name (hidden temporaries skipped).
     pub fn part_files(&self, k: u64) -> Result<Vec<PathBuf>, PlotError> {
-        let dir = self.dir.join("poses").join(format!("variant={k}"));
+        let dir = self.layout.variant_dir(k);
         let mut files = Vec::new();
         for entry in std::fs::read_dir(&dir).map_err(PlotError::io(&dir))? {
             let path = entry.map_err(PlotError::io(&dir))?.path();
@@ -124,7 +126,7 @@ impl Layout {
                 // Rows past the first z plane have j_psi ≥ len(psi).
                 (kept && j_psi < psi.len() as u64).then(|| (j_psi as usize) * theta.len() + j_theta as usize)
             }
-            Layout::Trajectory { stride, .. } => (sample % stride == 0).then_some((sample / stride) as usize),
+            Layout::Trajectory { stride, .. } => sample.is_multiple_of(*stride).then_some((sample / stride) as usize),
         }
     }
 }

@@ -342,24 +342,30 @@ pub enum Isa {
     Avx512,
 }
 
+/// The widest instruction set [`Isa::best`] may choose, as an index into `Isa::ALL`.
+static ISA_CAP: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(Isa::Avx512 as u8);
+
+/// Caps the instruction set of the batched kernel and of the page encoder for the
+/// whole process (every choice gives the same bits; a cap serves nodes where
+/// AVX-512 lowers the clock). The binary sets it from `CLEARANCE_ISA`; a library
+/// never reads the environment.
+pub fn cap_isa(cap: Isa) {
+    ISA_CAP.store(cap as u8, std::sync::atomic::Ordering::Relaxed);
+}
+
 impl Isa {
     /// Every instruction set, narrowest first.
     const ALL: [Isa; 3] = [Isa::Portable, Isa::Avx2, Isa::Avx512];
 
-    /// The widest this CPU has, capped by the environment variable `CLEARANCE_ISA`
-    /// (`portable`, `avx2` or `avx512`), read once.
+    /// The widest this CPU has, capped by [`cap_isa`].
     pub fn best() -> Self {
-        static BEST: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
-        *BEST.get_or_init(|| {
-            let cap = match std::env::var("CLEARANCE_ISA") {
-                Err(_) => Isa::Avx512,
-                Ok(v) => Isa::ALL.into_iter().find(|i| i.name() == v).unwrap_or_else(|| {
-                    eprintln!("clearance: CLEARANCE_ISA={v:?} is not portable, avx2 or avx512; ignored");
-                    Isa::Avx512
-                }),
-            };
-            Self::detected().min(cap)
-        })
+        let cap = Isa::ALL[ISA_CAP.load(std::sync::atomic::Ordering::Relaxed) as usize];
+        Self::detected().min(cap)
+    }
+
+    /// The instruction set named `portable`, `avx2` or `avx512`.
+    pub fn parse(name: &str) -> Option<Self> {
+        Isa::ALL.into_iter().find(|i| i.name() == name)
     }
 
     pub fn name(self) -> &'static str {

@@ -1,4 +1,4 @@
-//! `clearance run`: a job → a directory of Parquet files.
+//! A run: a job → a directory of Parquet files ([`Layout`]).
 //!
 //! The work is cut into units (variant, mode, chunk of samples), numbered in that
 //! order. A unit is one part file, `poses/variant=K/part-<mode>-<chunk>.parquet`,
@@ -13,7 +13,6 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
 use clearance_discontinuity::{
     Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima, trace_into,
 };
@@ -27,7 +26,11 @@ use clearance_parquet::{
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
 
-use crate::progress::Progress;
+use crate::error::EngineError;
+use crate::layout::Layout;
+use crate::progress::Reporter;
+
+type Result<T, E = EngineError> = std::result::Result<T, E>;
 
 /// How to run a job.
 #[derive(Clone, Debug)]
@@ -42,7 +45,10 @@ pub struct RunOptions {
     pub chunk_size: u64,
     pub solver: SolverKind,
     pub compression: Codec,
-    pub quiet: bool,
+    /// Told how far the run is; nothing by default.
+    pub progress: Reporter,
+    /// Part files past the page cache where the disk allows ([`WriteOptions::direct_io`]).
+    pub direct_io: bool,
 }
 
 /// What a run did.
@@ -55,11 +61,6 @@ pub struct RunReport {
     pub seconds: f64,
     pub complete: bool,
 }
-
-/// A usage problem with the output directory: exit code 2, nothing written.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct UsageError(pub String);
 
 /// One part file's worth of work.
 #[derive(Clone, Debug)]
@@ -108,17 +109,16 @@ fn part_complete(path: &Path) -> bool {
 
 /// The statistics file of a part, parsed.
 fn read_stats(path: &Path) -> Result<SummaryStats> {
-    let text =
-        std::fs::read(path).with_context(|| format!("missing {}: finish the run with --resume", path.display()))?;
-    serde_json::from_slice(&text).with_context(|| format!("corrupt {}", path.display()))
+    let text = std::fs::read(path).map_err(|source| EngineError::MissingStats { path: path.to_path_buf(), source })?;
+    serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
 }
 
 /// Whether `--resume` can keep a unit: its part is whole and its statistics file
 /// (written before it, and like it synced only at the end) parses. A missing trace
 /// is rebuilt at the end instead.
-fn unit_complete(out: &Path, u: &Unit) -> bool {
-    part_complete(&part_path(out, u.variant, u.mode, u.chunk))
-        && read_stats(&stats_path(out, u.variant, u.mode, u.chunk)).is_ok()
+fn unit_complete(layout: &Layout, u: &Unit) -> bool {
+    part_complete(&layout.part(u.variant, u.mode, u.chunk))
+        && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
 }
 
 /// Flushes the files of `units` (those that exist), the `others`, and their
@@ -126,14 +126,14 @@ fn unit_complete(out: &Path, u: &Unit) -> bool {
 /// survives a power cut. The files are flushed from several threads at once: each
 /// `fsync` mostly waits for the disk, and one after another they were a run's last
 /// 2 % (benches/README.md).
-fn sync_units(out: &Path, units: &[Unit], others: &[PathBuf]) -> Result<()> {
+fn sync_units(layout: &Layout, units: &[Unit], others: &[PathBuf]) -> Result<()> {
     let files: Vec<PathBuf> = units
         .iter()
         .flat_map(|u| {
             [
-                part_path(out, u.variant, u.mode, u.chunk),
-                stats_path(out, u.variant, u.mode, u.chunk),
-                trace_path(out, u.variant, u.mode, u.chunk),
+                layout.part(u.variant, u.mode, u.chunk),
+                layout.stats(u.variant, u.mode, u.chunk),
+                layout.trace(u.variant, u.mode, u.chunk),
             ]
         })
         .chain(others.iter().cloned())
@@ -143,9 +143,9 @@ fn sync_units(out: &Path, units: &[Unit], others: &[PathBuf]) -> Result<()> {
         let mut dirs = std::collections::BTreeSet::new();
         while let Some(path) = files.get(next.fetch_add(1, std::sync::atomic::Ordering::Relaxed)) {
             match std::fs::File::open(path) {
-                Ok(f) => f.sync_all().with_context(|| format!("cannot write {}", path.display()))?,
+                Ok(f) => f.sync_all().map_err(EngineError::io("write", path))?,
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
-                Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+                Err(e) => return Err(EngineError::io("read", path)(e)),
             }
             if let Some(dir) = path.parent() {
                 dirs.insert(dir.to_path_buf());
@@ -161,7 +161,7 @@ fn sync_units(out: &Path, units: &[Unit], others: &[PathBuf]) -> Result<()> {
         }
         Ok(())
     })?;
-    dirs.insert(out.to_path_buf());
+    dirs.insert(layout.root().to_path_buf());
     for dir in dirs {
         // Directories sync on Linux; elsewhere opening one may fail, which is harmless.
         if let Ok(d) = std::fs::File::open(&dir) {
@@ -173,24 +173,6 @@ fn sync_units(out: &Path, units: &[Unit], others: &[PathBuf]) -> Result<()> {
 
 /// Threads that flush a run's files at its end.
 const SYNC_THREADS: usize = 8;
-
-pub fn part_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
-    out.join("poses").join(format!("variant={variant}")).join(format!("part-{}-{chunk:06}.parquet", mode.name()))
-}
-
-/// The summary statistics of one part, written just before the part itself, so a
-/// complete part always has them (outside `poses/`, where dataset readers look).
-fn stats_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
-    out.join("_stats").join(format!("variant={variant}")).join(format!("{}-{chunk:06}.json", mode.name()))
-}
-
-/// The discontinuity [`Trace`] of each pose of one part, beside its statistics: the
-/// search at the end of the run reads these instead of solving every pose again.
-/// The extension names the bits' meaning: a `.trace` file of an older engine (whose
-/// bits differ) is not read, but rebuilt under this name.
-fn trace_path(out: &Path, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
-    stats_path(out, variant, mode, chunk).with_extension("trace2")
-}
 
 fn encode_traces(traces: &[Trace]) -> Vec<u8> {
     traces.iter().flat_map(|t| t.to_le_bytes()).collect()
@@ -207,83 +189,66 @@ const _: () = assert!(PAGE_ROWS.is_multiple_of(BLOCK) && TAIL_PAGE_ROWS.is_multi
 /// about 1 KB each, are still in the core's cache when they are written out.
 const SOLVE: usize = 64;
 
-/// The files a run owns besides those of [`finalize`], removed by `--overwrite`.
-const RUN_FILES: [&str; 2] = ["job.toml", "_SUCCESS"];
-/// The files [`finalize`] writes.
-const FINAL_FILES: [&str; 2] = ["discontinuities.parquet", "summary.parquet"];
-
-/// The paths of [`FINAL_FILES`] in `out`.
-fn final_paths(out: &Path) -> [PathBuf; 2] {
-    FINAL_FILES.map(|f| out.join(f))
-}
-const RUN_DIRS: [&str; 2] = ["poses", "_stats"];
-
-fn prepare_dir(out: &Path, job_toml: &str, opts: &RunOptions) -> Result<()> {
+fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) -> Result<()> {
+    let out = layout.root();
     let entries: Vec<_> = match std::fs::read_dir(out) {
         Ok(rd) => rd.filter_map(|e| e.ok()).collect(),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
         Err(e) => {
-            return Err(e).with_context(|| format!("cannot read the output directory {}", out.display()));
+            return Err(EngineError::io("read the output directory", out)(e));
         }
     };
     if !entries.is_empty() {
-        let existing = std::fs::read_to_string(out.join("job.toml")).ok();
+        let existing = std::fs::read_to_string(layout.job()).ok();
         let same_job = existing.as_deref() == Some(job_toml);
         if opts.overwrite {
             if existing.is_none() {
-                bail!(UsageError(format!(
+                return Err(EngineError::OutputDir(format!(
                     "{} is not empty and holds no clearance run (no job.toml); refusing to overwrite it",
                     out.display()
                 )));
             }
-            for name in RUN_FILES.iter().chain(&FINAL_FILES) {
-                let _ = std::fs::remove_file(out.join(name));
+            for path in Layout::RUN_FILES.iter().map(|f| out.join(f)).chain(layout.final_files()) {
+                let _ = std::fs::remove_file(path);
             }
             for e in &entries {
-                let name = e.file_name().to_string_lossy().into_owned();
-                if name.starts_with("_SUCCESS.shard-") {
+                if Layout::parse_shard_marker(&e.file_name().to_string_lossy()).is_some() {
                     let _ = std::fs::remove_file(e.path());
                 }
             }
-            for dir in RUN_DIRS {
+            for dir in Layout::RUN_DIRS {
                 let path = out.join(dir);
                 if path.exists() {
-                    std::fs::remove_dir_all(&path).with_context(|| format!("cannot remove {}", path.display()))?;
+                    std::fs::remove_dir_all(&path).map_err(EngineError::io("remove", &path))?;
                 }
             }
         } else if opts.resume || opts.shard.is_some() {
             if !same_job {
-                bail!(UsageError(format!(
+                return Err(EngineError::OutputDir(format!(
                     "{} holds {}; use --overwrite to replace it, or another --out",
                     out.display(),
                     if existing.is_some() { "a different job" } else { "files that are not a clearance run" }
                 )));
             }
         } else {
-            bail!(UsageError(format!(
+            return Err(EngineError::OutputDir(format!(
                 "{} is not empty; pass --resume to finish it, --overwrite to replace it, or choose another --out",
                 out.display()
             )));
         }
     }
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create the output directory {}", out.display()))?;
-    Ok(write_bytes(&out.join("job.toml"), job_toml.as_bytes(), false)?)
+    std::fs::create_dir_all(out).map_err(EngineError::io("create the output directory", out))?;
+    let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
+    Ok(write_bytes(&layout.job(), job_toml.as_bytes(), &opts)?)
 }
 
 /// An empty completion marker, on the disk before this returns.
 fn write_marker(path: &Path) -> Result<()> {
-    write_bytes(path, b"", true)?;
+    write_bytes(path, b"", &WriteOptions::default())?;
     if let Some(dir) = path.parent() {
         let _ = std::fs::File::open(dir).and_then(|d| d.sync_all());
     }
     Ok(())
-}
-
-fn success_name(shard: Option<(u64, u64)>) -> String {
-    match shard {
-        None => "_SUCCESS".to_string(),
-        Some((i, n)) => format!("_SUCCESS.shard-{i}-of-{n}"),
-    }
 }
 
 /// One part file and its statistics, on their way to the writer thread.
@@ -373,7 +338,9 @@ impl<'a> Kept<'a> {
 /// The discontinuity search and the summary, then `discontinuities.parquet` and
 /// `summary.parquet`. What this invocation computed comes from `kept`, the rest
 /// from the files of the parts, which must then all be written.
+#[allow(clippy::too_many_arguments)]
 fn finalize(
+    layout: &Layout,
     job: &JobSpec,
     variants: &[Variant],
     models: &[(Model, SampleSource)],
@@ -382,9 +349,7 @@ fn finalize(
     write_opts: &WriteOptions,
     mut kept: Kept,
 ) -> Result<()> {
-    if !opts.quiet {
-        eprintln!("searching for discontinuities and summarising ...");
-    }
+    opts.progress.get().searching();
     let mut switches = Vec::new();
     let mut summary = Vec::new();
     for (variant, (model, source)) in variants.iter().zip(models) {
@@ -397,14 +362,14 @@ fn finalize(
                 _ => {
                     let mut stats = SummaryStats::default();
                     for u in &units {
-                        stats.merge(&read_stats(&stats_path(&opts.out, u.variant, u.mode, u.chunk))?);
+                        stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
                     }
                     stats
                 }
             };
             let found = match kept.found.remove(&(variant.index, mode)) {
                 Some(found) => found,
-                None => search_after(model, source, mode, &search, &units, opts)?,
+                None => search_after(layout, model, source, mode, &search, &units, opts)?,
             };
             let mut counts = [0u64; 4];
             for d in &found {
@@ -420,7 +385,7 @@ fn finalize(
             switches.extend(found.into_iter().map(|d| (variant.index, d)));
         }
     }
-    let [discontinuities, summary_file] = final_paths(&opts.out);
+    let [discontinuities, summary_file] = layout.final_files();
     let batch = discontinuity_batch(&switches);
     write_parquet(&discontinuities, batch.schema(), &[batch], write_opts, &[])?;
     let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
@@ -434,6 +399,7 @@ fn finalize(
 /// A part written without its traces (by an engine from before them, or whose
 /// trace file is lost) has its poses solved again and its trace file written.
 fn search_after(
+    layout: &Layout,
     model: &Model,
     source: &SampleSource,
     mode: Mode,
@@ -441,12 +407,13 @@ fn search_after(
     units: &[&Unit],
     opts: &RunOptions,
 ) -> Result<Vec<Discontinuity>> {
-    let paths: Vec<PathBuf> = units.iter().map(|u| trace_path(&opts.out, u.variant, u.mode, u.chunk)).collect();
+    let paths: Vec<PathBuf> = units.iter().map(|u| layout.trace(u.variant, u.mode, u.chunk)).collect();
     for (u, path) in units.iter().zip(&paths) {
         let bytes = 4 * (u.range.end - u.range.start);
         if std::fs::metadata(path).map(|m| m.len()).ok() != Some(bytes) {
             let traces = clearance_discontinuity::traces(model, source, mode, u.range.clone());
-            write_bytes(path, &encode_traces(&traces), false)?;
+            let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
+            write_bytes(path, &encode_traces(&traces), &opts)?;
         }
     }
     let mut files = TraceFiles::new(units.iter().map(|u| u.range.clone()).collect(), paths);
@@ -477,17 +444,17 @@ impl TraceFiles {
             let k = self.ranges.partition_point(|r| r.end <= at);
             let (file_range, path) = (&self.ranges[k], &self.paths[k]);
             let count = (range.end.min(file_range.end) - at).min(self.bytes.len() as u64 / 4) as usize;
-            let cannot = || format!("cannot read {}", path.display());
+            let cannot = || EngineError::io("read", path);
             let (_, file, offset) = match &mut self.open {
                 Some(open) if open.0 == k => open,
-                _ => self.open.insert((k, std::fs::File::open(path).with_context(cannot)?, 0)),
+                _ => self.open.insert((k, std::fs::File::open(path).map_err(cannot())?, 0)),
             };
             let wanted = 4 * (at - file_range.start);
             if *offset != wanted {
-                *offset = file.seek(SeekFrom::Start(wanted)).with_context(cannot)?;
+                *offset = file.seek(SeekFrom::Start(wanted)).map_err(cannot())?;
             }
             let bytes = &mut self.bytes[..4 * count];
-            file.read_exact(bytes).with_context(cannot)?;
+            file.read_exact(bytes).map_err(cannot())?;
             *offset += bytes.len() as u64;
             let (here, rest) = std::mem::take(&mut dst).split_at_mut(count);
             for (t, b) in here.iter_mut().zip(bytes.chunks_exact(4)) {
@@ -506,6 +473,7 @@ struct Ctx<'a> {
     models: &'a [(Model, SampleSource)],
     variants: &'a [Variant],
     opts: &'a RunOptions,
+    layout: &'a Layout,
     /// Buffers of written pages, to encode pages into.
     spare: &'a std::sync::Mutex<Vec<Vec<u8>>>,
     /// A solver's and a page's working buffers for each page being computed, kept
@@ -596,8 +564,11 @@ fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<C
     let mut done: Vec<_> = by_thread.into_iter().flatten().collect();
     done.sort_unstable_by_key(|(p, _)| *p);
     let block_stats: Vec<Vec<SummaryStats>> =
-        done.into_iter().map(|(_, stats)| stats).collect::<Result<_, _>>().with_context(|| {
-            format!("cannot encode {}", part_path(&ctx.opts.out, unit.variant, unit.mode, unit.chunk).display())
+        done.into_iter().map(|(_, stats)| stats).collect::<Result<_, _>>().map_err(|source| {
+            clearance_parquet::ParquetError::Encode {
+                path: ctx.layout.part(unit.variant, unit.mode, unit.chunk),
+                source,
+            }
         })?;
     Ok(Computed { unit, pages, traces, loads, block_stats })
 }
@@ -622,11 +593,11 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
         ("clearance.variant".to_string(), unit.variant.to_string()),
         ("clearance.params".to_string(), params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(",")),
     ];
-    let out = &ctx.opts.out;
+    let layout = ctx.layout;
     let part = Part {
-        path: part_path(out, unit.variant, unit.mode, unit.chunk),
-        stats_path: stats_path(out, unit.variant, unit.mode, unit.chunk),
-        trace_path: trace_path(out, unit.variant, unit.mode, unit.chunk),
+        path: layout.part(unit.variant, unit.mode, unit.chunk),
+        stats_path: layout.stats(unit.variant, unit.mode, unit.chunk),
+        trace_path: layout.trace(unit.variant, unit.mode, unit.chunk),
         traces,
         pages,
         stats,
@@ -635,15 +606,17 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
     (part, loads)
 }
 
-/// Runs `job` into `opts.out`.
+/// Runs `job` (read from `job_file`, named in messages) into `opts.out`, computing
+/// the units of `opts.shard` on the current rayon pool.
 pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
     let variants: Vec<Variant> = job.variants(job_file)?;
     let job_toml = job.to_toml_string();
-    prepare_dir(&opts.out, &job_toml, opts)?;
+    let layout = &Layout::new(&opts.out);
+    prepare_dir(layout, &job_toml, opts)?;
 
     let all = units(job, opts.chunk_size);
     let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
-    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && unit_complete(&opts.out, u))).cloned().collect();
+    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && unit_complete(layout, u))).cloned().collect();
     let mine_poses: u64 = mine.iter().map(|u| u.range.end - u.range.start).sum();
     let todo_poses: u64 = todo.iter().map(|u| u.range.end - u.range.start).sum();
     let total = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
@@ -659,6 +632,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         row_group_rows: opts.chunk_size as usize,
         codec: opts.compression,
         durable: false,
+        direct_io: opts.direct_io,
     };
     let models: Vec<(Model, SampleSource)> = variants
         .iter()
@@ -671,7 +645,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         })
         .collect();
 
-    let progress = Progress::new(mine_poses, mine_poses - todo_poses, opts.quiet);
+    let progress = opts.progress.get();
+    progress.start(mine_poses, mine_poses - todo_poses);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
     // Without shards or resumed parts, and up to `KEEP_TRACES` poses, the search
@@ -695,24 +670,28 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         let writer = scope.spawn(move || -> Result<()> {
             for part in rx {
                 for dir in [part.path.parent(), part.stats_path.parent()].into_iter().flatten() {
-                    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+                    std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
                 }
-                write_bytes(&part.trace_path, &encode_traces(&part.traces), false)?;
-                write_bytes(&part.stats_path, &serde_json::to_vec(&part.stats)?, false)?;
+                write_bytes(&part.trace_path, &encode_traces(&part.traces), write_opts)?;
+                write_bytes(
+                    &part.stats_path,
+                    &serde_json::to_vec(&part.stats).expect("statistics are plain numbers"),
+                    write_opts,
+                )?;
                 write_part(&part.path, schema, &part.pages, write_opts, &part.extra)?;
                 spare.lock().expect("no panic while held").extend(part.pages.into_buffers());
             }
             Ok(())
         });
         let workers = &std::sync::Mutex::new(Vec::new());
-        let ctx = Ctx { schema, models: &models, variants: &variants, opts, spare, workers };
+        let ctx = Ctx { schema, models: &models, variants: &variants, opts, layout, spare, workers };
         // Load magnitudes of units, reused from unit to unit.
         let mut spare_loads: Vec<Vec<Loads>> = Vec::new();
         let mut previous: Option<Computed> = None;
         let mut writer_failed = false;
         for unit in todo.iter().map(Some).chain([None]) {
             if let Some(u) = unit {
-                progress.set_message(format!("variant {} {}", u.variant, u.mode.name()));
+                progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
             }
             let loads = spare_loads.pop().unwrap_or_default();
             // The previous unit is concluded on the pool while this one computes
@@ -753,7 +732,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         drop(tx);
         let finalized = (kept.keep == KeepTraces::Search && !writer_failed).then(|| {
             progress.finish();
-            finalize(job, &variants, &models, &all, opts, write_opts, std::mem::take(&mut kept))
+            finalize(layout, job, &variants, &models, &all, opts, write_opts, std::mem::take(&mut kept))
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
         writer.join().expect("the writer thread does not panic")?;
@@ -761,22 +740,22 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     })?;
     progress.finish();
 
-    let finals: Vec<PathBuf> = if finalized { final_paths(&opts.out).into() } else { Vec::new() };
-    sync_units(&opts.out, &mine, &finals)?;
-    if opts.shard.is_some() {
-        write_marker(&opts.out.join(success_name(opts.shard)))?;
+    let finals: Vec<PathBuf> = if finalized { layout.final_files().into() } else { Vec::new() };
+    sync_units(layout, &mine, &finals)?;
+    if let Some((i, n)) = opts.shard {
+        write_marker(&layout.shard_marker(i, n))?;
     }
     // The process that sees every part done finishes the run; with shards, at least
     // the last one to write its marker does (two doing it write the same files).
     let complete = match opts.shard {
         None => true,
-        Some((_, n)) => (0..n).all(|i| opts.out.join(success_name(Some((i, n)))).exists()),
+        Some((_, n)) => (0..n).all(|i| layout.shard_marker(i, n).exists()),
     };
     if complete {
         if !finalized {
-            finalize(job, &variants, &models, &all, opts, &durable, kept)?;
+            finalize(layout, job, &variants, &models, &all, opts, &durable, kept)?;
         }
-        write_marker(&opts.out.join("_SUCCESS"))?;
+        write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })
 }

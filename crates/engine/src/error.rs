@@ -1,0 +1,47 @@
+//! What can go wrong in a run. Each variant's message names what failed; the
+//! cause is its `source()`, never repeated in the message, so that a report of
+//! the whole chain (`{:#}` of `anyhow`) says each thing once.
+
+use std::path::PathBuf;
+
+use clearance_model::JobError;
+use clearance_parquet::ParquetError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    /// The job file is not valid (the message names the file, the key and the reason).
+    #[error(transparent)]
+    Job(#[from] JobError),
+    /// The output directory cannot take this run (it is not empty, holds another
+    /// job, ...): nothing was written.
+    #[error("{0}")]
+    OutputDir(String),
+    /// The samples given in place of the job's do not fit it.
+    #[error("{0}")]
+    Samples(String),
+    /// The file system refused.
+    #[error("cannot {action} {}", path.display())]
+    Io { action: &'static str, path: PathBuf, source: std::io::Error },
+    /// A part's statistics file is missing: the run did not finish.
+    #[error("missing {}: finish the run with --resume", path.display())]
+    MissingStats { path: PathBuf, source: std::io::Error },
+    /// A statistics file does not parse.
+    #[error("corrupt {}", path.display())]
+    Corrupt { path: PathBuf, source: serde_json::Error },
+    /// A Parquet or side file could not be written or encoded.
+    #[error(transparent)]
+    Write(#[from] ParquetError),
+}
+
+impl EngineError {
+    /// Whether the error is the caller's (a bad job or output directory: exit code
+    /// 2 in the binary) rather than the machine's.
+    pub fn is_usage(&self) -> bool {
+        matches!(self, EngineError::Job(_) | EngineError::OutputDir(_) | EngineError::Samples(_))
+    }
+
+    pub(crate) fn io(action: &'static str, path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> Self {
+        let path = path.into();
+        move |source| EngineError::Io { action, path, source }
+    }
+}

@@ -1,0 +1,47 @@
+//! # clearance-engine
+//!
+//! A clearance run as a library: the job's plan (variants × modes × chunks of
+//! samples), shards, resume, the run directory's [`Layout`], the statistics and
+//! trace files behind the summary and the discontinuity search, and the pipeline
+//! that streams poses to Parquet (docs/interface.md §4). The `clearance` binary
+//! and the Python package are two doors onto it: they parse arguments, show
+//! progress ([`Progress`]) and map [`EngineError`] to exit codes or exceptions.
+//! The engine never prints and never reads the environment.
+//!
+//! - [`run`]: a job into a directory, on the caller's rayon pool;
+//! - [`solve`]: the same rows in memory, as Arrow record batches, optionally for
+//!   explicit [`Poses`] instead of the job's grid or trajectory;
+//! - [`plan`]: what a job will compute; [`status`]: is a run complete?
+//!
+//! ```
+//! use clearance_engine::{JobSpec, SolveOptions, solve};
+//! let job = JobSpec::from_toml_str(
+//!     "[clearance]\nr_radial = 1e-4\n[grid]\nz = 2.05\npsi = 0.1\ntheta = { start = -0.5, stop = 0.5, n = 5 }\n",
+//!     "doc.toml",
+//! ).unwrap();
+//! let batches = solve(&job, "doc.toml", &SolveOptions::default()).unwrap();
+//! assert_eq!(batches[0].num_rows(), 5);
+//! assert!(batches[0].schema().field_with_name("err_z").is_ok());
+//! ```
+
+mod error;
+mod kernel;
+mod layout;
+mod plan;
+mod progress;
+mod run;
+mod solve;
+mod status;
+
+pub use error::EngineError;
+pub use kernel::{bench_job, kernel_rate};
+pub use layout::Layout;
+pub use plan::{ColumnSize, Plan, PlannedVariant, Samples, plan};
+pub use progress::{Progress, Reporter};
+pub use run::{RunOptions, RunReport, run};
+pub use solve::{Poses, SolveOptions, solve};
+pub use status::{RunStatus, status};
+
+pub use clearance_model::{JobError, JobSpec};
+pub use clearance_parquet::{Codec, ColumnSet};
+pub use clearance_solver::{Isa, SolverKind, cap_isa};

@@ -1,0 +1,137 @@
+//! A job computed in memory: the rows of a run's `poses` as Arrow record batches,
+//! no files (the Python package's `solve`).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use arrow::array::{ArrayRef, RecordBatch, UInt64Array};
+use arrow::datatypes::{DataType, Field, Schema};
+use clearance_grid::{Sample, SampleSource};
+use clearance_model::{JobSpec, Mode};
+use clearance_parquet::{ColumnSet, PoseSchema};
+use clearance_solver::{Model, PoseResult, SolverKind, Workspace, solve_poses};
+use rayon::prelude::*;
+
+use crate::error::EngineError;
+use crate::progress::Reporter;
+
+/// Poses given in place of the job's grid or trajectory: sample `i` is
+/// `(z[i], psi[i], theta[i])` (m, rad, rad), with no time and no rates, so only
+/// kinetostatics can solve them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Poses {
+    pub z: Vec<f64>,
+    pub psi: Vec<f64>,
+    pub theta: Vec<f64>,
+}
+
+impl Poses {
+    pub fn len(&self) -> usize {
+        self.z.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.z.is_empty()
+    }
+
+    fn sample(&self, i: u64) -> Sample {
+        let k = i as usize;
+        Sample {
+            index: i,
+            t: None,
+            z: [self.z[k], 0.0, 0.0],
+            psi: [self.psi[k], 0.0, 0.0],
+            theta: [self.theta[k], 0.0, 0.0],
+        }
+    }
+}
+
+/// How to solve a job in memory.
+#[derive(Clone, Debug)]
+pub struct SolveOptions {
+    /// The columns, as `--columns` of a run (default: standard).
+    pub columns: ColumnSet,
+    pub solver: SolverKind,
+    /// Samples in place of the job's (`None`: the job's grid or trajectory).
+    pub poses: Option<Poses>,
+    /// Told how far the computation is; nothing by default.
+    pub progress: Reporter,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        Self { columns: ColumnSet::Standard, solver: SolverKind::Fast, poses: None, progress: Reporter::default() }
+    }
+}
+
+/// Samples solved and put into columns at a time, by one thread.
+const BLOCK: usize = 1024;
+
+/// Every (variant, mode) of `job` solved on the current rayon pool, one record
+/// batch each, in the order of a run's units: a `variant` column (UInt64), then
+/// exactly the columns, values and nulls of the run's part files (tested).
+pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<RecordBatch>, EngineError> {
+    let variants = job.variants(file)?;
+    if let Some(p) = &opts.poses {
+        if p.psi.len() != p.len() || p.theta.len() != p.len() {
+            return Err(EngineError::Samples(format!(
+                "z, psi and theta must have the same length, got {}, {} and {}",
+                p.z.len(),
+                p.psi.len(),
+                p.theta.len()
+            )));
+        }
+        if job.analysis.modes.contains(&Mode::Dynamic) {
+            return Err(EngineError::Samples(
+                "poses given as z, psi, theta have no velocities: set `analysis.modes = [\"kinetostatic\"]` \
+                 or solve the job's trajectory"
+                    .into(),
+            ));
+        }
+    }
+    let n = opts.poses.as_ref().map_or(job.sample_count(), |p| p.len() as u64);
+    let schema = PoseSchema::new(opts.columns, job.analysis.exact);
+    let mut fields = vec![Arc::new(Field::new("variant", DataType::UInt64, false))];
+    fields.extend(schema.schema().fields().iter().cloned());
+    let out_schema = Arc::new(Schema::new_with_metadata(fields, schema.schema().metadata().clone()));
+    let progress = opts.progress.get();
+    progress.start(n * variants.len() as u64 * job.analysis.modes.len() as u64, 0);
+    let done = AtomicU64::new(0);
+    let mut batches = Vec::new();
+    for v in &variants {
+        let mut model = Model::from_job(&v.job);
+        model.solver = opts.solver;
+        // The envelope and the dominant joint are columns of the standard set.
+        model.envelope = opts.columns >= ColumnSet::Standard;
+        let source = SampleSource::new(&v.job);
+        let sample = |i: u64| match &opts.poses {
+            Some(p) => p.sample(i),
+            None => source.sample(i),
+        };
+        for &mode in &job.analysis.modes {
+            progress.stage(&format!("variant {} {}", v.index, mode.name()));
+            let mut cols = schema.columns(n as usize);
+            cols.blocks(&schema, BLOCK).into_par_iter().enumerate().for_each_init(
+                || (Workspace::new(), Vec::<Sample>::new(), Vec::<PoseResult>::new()),
+                |(ws, samples, results), (b, mut sink)| {
+                    let first = (b * BLOCK) as u64;
+                    samples.clear();
+                    samples.extend((first..first + sink.len() as u64).map(sample));
+                    results.resize(samples.len(), PoseResult::default());
+                    solve_poses(&model, samples, mode, ws, results);
+                    for (i, (s, r)) in samples.iter().zip(results.iter()).enumerate() {
+                        sink.put(i, s, r);
+                    }
+                    let len = samples.len() as u64;
+                    progress.advance(len, done.fetch_add(len, Ordering::Relaxed) + len);
+                },
+            );
+            let batch = schema.finish(mode, cols);
+            let mut columns: Vec<ArrayRef> = vec![Arc::new(UInt64Array::from_value(v.index, batch.num_rows()))];
+            columns.extend(batch.columns().iter().cloned());
+            batches.push(RecordBatch::try_new(out_schema.clone(), columns).expect("columns match the schema"));
+        }
+    }
+    progress.finish();
+    Ok(batches)
+}

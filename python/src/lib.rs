@@ -1,0 +1,277 @@
+//! The native half of the Python package `clearance` (python/clearance/__init__.py
+//! is the other): the engine's `solve`, `run`, `plan` and the plots, with the GIL
+//! released while they compute. Record batches reach pyarrow through Arrow's C
+//! data interface: the buffers are handed over, not copied.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use arrow::array::{Array, RecordBatch, StructArray};
+use arrow::ffi::{FFI_ArrowArray, FFI_ArrowSchema, to_ffi};
+use clearance_engine::{
+    Codec, ColumnSet, EngineError, JobSpec, Poses, Progress, Reporter, RunOptions, SolveOptions, SolverKind,
+};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+
+create_exception!(_clearance, JobError, PyValueError, "A job that is not valid; the message is the CLI's.");
+
+/// A job as the engine takes it: the spec and the name its messages use.
+struct Job {
+    spec: JobSpec,
+    file: String,
+}
+
+/// `kind` is `path` (a TOML file), `toml` (its text) or `json` (a dict, as JSON).
+fn load_job(kind: &str, value: &str) -> PyResult<Job> {
+    let job_error = |e: clearance_engine::JobError| JobError::new_err(e.to_string());
+    match kind {
+        "path" => {
+            let spec = JobSpec::from_path(std::path::Path::new(value)).map_err(job_error)?;
+            Ok(Job { spec, file: value.to_string() })
+        }
+        "toml" => Ok(Job { spec: JobSpec::from_toml_str(value, "job").map_err(job_error)?, file: "job".into() }),
+        "json" => {
+            let json: serde_json::Value =
+                serde_json::from_str(value).map_err(|e| JobError::new_err(format!("job: {e}")))?;
+            let toml: toml::Value = serde_json::from_value(json).map_err(|e| JobError::new_err(format!("job: {e}")))?;
+            let text = toml::to_string(&toml).map_err(|e| JobError::new_err(format!("job: {e}")))?;
+            Ok(Job { spec: JobSpec::from_toml_str(&text, "job").map_err(job_error)?, file: "job".into() })
+        }
+        _ => Err(PyValueError::new_err(format!("unknown job kind {kind:?}"))),
+    }
+}
+
+/// An engine error as a Python exception, its causes once each.
+fn to_py(e: EngineError) -> PyErr {
+    let mut msg = e.to_string();
+    let mut source = std::error::Error::source(&e);
+    while let Some(s) = source {
+        msg.push_str(": ");
+        msg.push_str(&s.to_string());
+        source = s.source();
+    }
+    match e {
+        EngineError::Job(_) => JobError::new_err(msg),
+        EngineError::OutputDir(_) | EngineError::Samples(_) => PyValueError::new_err(msg),
+        EngineError::Io { .. } | EngineError::MissingStats { .. } => PyOSError::new_err(msg),
+        _ => PyRuntimeError::new_err(msg),
+    }
+}
+
+fn columns(name: &str) -> PyResult<ColumnSet> {
+    ColumnSet::parse(name)
+        .ok_or_else(|| PyValueError::new_err(format!("unknown column set `{name}`; use minimal, standard or full")))
+}
+
+fn solver(name: &str) -> PyResult<SolverKind> {
+    match name {
+        "fast" => Ok(SolverKind::Fast),
+        "general" => Ok(SolverKind::General),
+        _ => Err(PyValueError::new_err(format!("unknown solver `{name}`; use fast or general"))),
+    }
+}
+
+/// Calls `callback(done, total)` at most every 100 ms and once at the end, from
+/// whichever pool thread has news, taking the GIL only then.
+struct PyProgress {
+    callback: Py<PyAny>,
+    state: Mutex<(Instant, u64)>,
+}
+
+impl PyProgress {
+    fn reporter(callback: Option<Py<PyAny>>) -> Reporter {
+        match callback {
+            None => Reporter::default(),
+            Some(callback) => Reporter::new(Arc::new(PyProgress {
+                callback,
+                state: Mutex::new((Instant::now() - Duration::from_secs(1), 0)),
+            })),
+        }
+    }
+
+    fn call(&self, done: u64, total: u64) {
+        Python::attach(|py| {
+            // A failing callback must not stop the computation.
+            let _ = self.callback.call1(py, (done, total));
+        });
+    }
+}
+
+impl Progress for PyProgress {
+    fn start(&self, total: u64, done: u64) {
+        *self.state.lock().expect("no panic while held") = (Instant::now(), total);
+        self.call(done, total);
+    }
+
+    fn advance(&self, _n: u64, done: u64) {
+        let mut state = self.state.lock().expect("no panic while held");
+        let total = state.1;
+        if state.0.elapsed() >= Duration::from_millis(100) || done == total {
+            state.0 = Instant::now();
+            drop(state);
+            self.call(done, total);
+        }
+    }
+}
+
+/// Runs `f` on a pool of `threads` threads, or on the global pool.
+fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
+    match threads {
+        None => Ok(f()),
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n.max(1))
+                .build()
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+            Ok(pool.install(f))
+        }
+    }
+}
+
+/// A record batch as a `pyarrow.RecordBatch`, its buffers moved, not copied.
+fn to_pyarrow<'py>(py: Python<'py>, batch: RecordBatch) -> PyResult<Bound<'py, PyAny>> {
+    let data = StructArray::from(batch).into_data();
+    let (array, schema): (FFI_ArrowArray, FFI_ArrowSchema) =
+        to_ffi(&data).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    let (array, schema) = (Box::new(array), Box::new(schema));
+    let class = py.import("pyarrow")?.getattr("RecordBatch")?;
+    // pyarrow moves the structures out (their release callbacks go with them);
+    // the emptied boxes are dropped here.
+    class.call_method1(
+        "_import_from_c",
+        (&*array as *const FFI_ArrowArray as usize, &*schema as *const FFI_ArrowSchema as usize),
+    )
+}
+
+#[pyfunction]
+#[pyo3(signature = (kind, value, columns_name, solver_name, z=None, psi=None, theta=None, threads=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn solve<'py>(
+    py: Python<'py>,
+    kind: &str,
+    value: &str,
+    columns_name: &str,
+    solver_name: &str,
+    z: Option<&[u8]>,
+    psi: Option<&[u8]>,
+    theta: Option<&[u8]>,
+    threads: Option<usize>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyList>> {
+    let job = load_job(kind, value)?;
+    let floats = |b: Option<&[u8]>| -> Vec<f64> {
+        b.unwrap_or_default().chunks_exact(8).map(|c| f64::from_ne_bytes(c.try_into().expect("8 bytes"))).collect()
+    };
+    let poses = (z.is_some() || psi.is_some() || theta.is_some()).then(|| Poses {
+        z: floats(z),
+        psi: floats(psi),
+        theta: floats(theta),
+    });
+    let opts = SolveOptions {
+        columns: columns(columns_name)?,
+        solver: solver(solver_name)?,
+        poses,
+        progress: PyProgress::reporter(progress),
+    };
+    let batches =
+        py.detach(|| on_pool(threads, || clearance_engine::solve(&job.spec, &job.file, &opts)))?.map_err(to_py)?;
+    let list = PyList::empty(py);
+    for b in batches {
+        list.append(to_pyarrow(py, b)?)?;
+    }
+    Ok(list)
+}
+
+#[pyfunction]
+#[pyo3(signature = (kind, value, out, threads=None, shard=None, resume=false, overwrite=false, columns_name="standard", compression="zstd", chunk_size=65536, direct_io=true, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn run(
+    py: Python<'_>,
+    kind: &str,
+    value: &str,
+    out: PathBuf,
+    threads: Option<usize>,
+    shard: Option<(u64, u64)>,
+    resume: bool,
+    overwrite: bool,
+    columns_name: &str,
+    compression: &str,
+    chunk_size: u64,
+    direct_io: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(u64, u64, f64, bool)> {
+    let job = load_job(kind, value)?;
+    if let Some((i, n)) = shard
+        && (n == 0 || i >= n)
+    {
+        return Err(PyValueError::new_err(format!("shard {i}/{n}: need 0 <= I < N")));
+    }
+    if chunk_size == 0 {
+        return Err(PyValueError::new_err("chunk_size must be positive"));
+    }
+    let opts = RunOptions {
+        out,
+        columns: columns(columns_name)?,
+        shard,
+        resume,
+        overwrite,
+        chunk_size,
+        solver: SolverKind::Fast,
+        compression: Codec::parse(compression).ok_or_else(|| {
+            PyValueError::new_err(format!("unknown compression `{compression}`; use {}", Codec::NAMES.join(", ")))
+        })?,
+        progress: PyProgress::reporter(progress),
+        direct_io,
+    };
+    let r = py.detach(|| on_pool(threads, || clearance_engine::run(&job.spec, &job.file, &opts)))?.map_err(to_py)?;
+    Ok((r.computed, r.total, r.seconds, r.complete))
+}
+
+/// The plan as JSON text.
+#[pyfunction]
+fn check(kind: &str, value: &str) -> PyResult<String> {
+    let job = load_job(kind, value)?;
+    let plan = clearance_engine::plan(&job.spec, &job.file).map_err(to_py)?;
+    Ok(serde_json::to_string(&plan).expect("a plan is plain data"))
+}
+
+#[pyfunction]
+#[pyo3(signature = (dir, out=None))]
+fn plot(py: Python<'_>, dir: PathBuf, out: Option<PathBuf>) -> PyResult<Vec<PathBuf>> {
+    let out = out.unwrap_or_else(|| clearance_engine::Layout::new(&dir).plots());
+    py.detach(|| clearance_plot::plot_run(&dir, &out)).map_err(|e| {
+        let mut msg = e.to_string();
+        let mut source = std::error::Error::source(&e);
+        while let Some(s) = source {
+            msg.push_str(": ");
+            msg.push_str(&s.to_string());
+            source = s.source();
+        }
+        PyRuntimeError::new_err(msg)
+    })
+}
+
+/// Caps the vector instruction set (`portable`, `avx2`, `avx512`) of the whole process.
+#[pyfunction]
+fn cap_isa(name: &str) -> PyResult<()> {
+    let isa = clearance_engine::Isa::parse(name)
+        .ok_or_else(|| PyValueError::new_err(format!("{name:?} is not portable, avx2 or avx512")))?;
+    clearance_engine::cap_isa(isa);
+    Ok(())
+}
+
+#[pymodule]
+fn _clearance(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("JobError", m.py().get_type::<JobError>())?;
+    m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(check, m)?)?;
+    m.add_function(wrap_pyfunction!(plot, m)?)?;
+    m.add_function(wrap_pyfunction!(cap_isa, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,159 @@
+"""The Python package against the engine's own output and the command line."""
+
+import pathlib
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.dataset as ds
+import pytest
+
+import clearance
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+
+GRID = """
+name = "grid"
+[clearance]
+s_radial = 1e-4
+r_radial = 1e-4
+r_axial = 1e-4
+r_angular = 1e-4
+[grid]
+z = 2.05
+psi = { start = -0.5, stop = 0.5, n = 21 }
+theta = { start = -0.5, stop = 0.5, n = 23 }
+[[sweep]]
+param = "mass.platform"
+values = [9.8, 40.0]
+"""
+
+TRAJECTORY = {
+    "name": "trajectory",
+    "mass": {"points": [{"mass": 30.0, "at": [0.0, 0.0, 1.0]}]},
+    "clearance": {"r_radial": 1e-4},
+    "analysis": {"modes": ["kinetostatic", "dynamic"]},
+    "trajectory": {
+        "time": {"start": 1.25, "stop": 3.75, "n": 401},
+        "z": 2.05,
+        "psi": 0.0,
+        "theta": {"offset": 0.0, "harmonics": [{"amplitude": 0.5, "period": 5.0, "phase": 0.0}]},
+    },
+}
+
+
+def plain(table: pa.Table) -> pa.Table:
+    """Dictionary columns (the Hive `variant`) cast to their values, `variant` as uint64."""
+    cols = []
+    for name in table.column_names:
+        col = table.column(name)
+        if pa.types.is_dictionary(col.type):
+            col = col.cast(col.type.value_type)
+        if name == "variant":
+            col = col.cast(pa.uint64())
+        cols.append(col)
+    return pa.table(cols, names=table.column_names)
+
+
+def read_run(out: pathlib.Path) -> pa.Table:
+    # Part files in the order a run writes them: variant, then mode as in the job, then chunk.
+    t = ds.dataset(out / "poses", format="parquet", partitioning="hive").to_table()
+    return plain(t)
+
+
+@pytest.mark.parametrize("job", [GRID, TRAJECTORY], ids=["grid", "trajectory"])
+def test_solve_equals_run_read_back(job, tmp_path):
+    out = tmp_path / "run"
+    report = clearance.run(job, out, threads=2, chunk_size=100)
+    assert report["complete"]
+    solved = plain(clearance.solve(job))
+    written = read_run(out)
+    assert written.num_rows == solved.num_rows
+    keys = ["variant", "mode", "sample"]
+    order = [(k, "ascending") for k in keys]
+    written = written.sort_by(order)
+    solved = solved.sort_by(order)
+    written_cols = [c for c in written.column_names]
+    assert sorted(written_cols) == sorted(solved.column_names)
+    for name in solved.column_names:
+        a, b = solved.column(name).combine_chunks(), written.column(name).combine_chunks()
+        assert a.equals(b), name
+
+
+def test_explicit_poses_equal_the_grid():
+    job = {
+        "clearance": {"r_radial": 1e-4, "r_axial": 1e-4},
+        "grid": {"z": 2.05, "psi": 0.2, "theta": {"start": -0.5, "stop": 0.5, "n": 9}},
+    }
+    grid = clearance.solve(job)
+    theta = np.linspace(-0.5, 0.5, 9)
+    poses = clearance.solve(job, z=2.05, psi=np.full(9, 0.2), theta=theta)
+    for name in ["status", "err_x", "err_z", "err_r_axial_rx", "margin_r1_axial"]:
+        assert poses.column(name).equals(grid.column(name)), name
+
+
+def test_check_returns_the_plan():
+    plan = clearance.check(GRID)
+    assert plan["rows"] == 21 * 23 * 2
+    assert len(plan["variants"]) == 2
+    assert plan["samples"] == {"kind": "grid", "z": 1, "psi": 21, "theta": 23}
+
+
+def test_bad_job_raises_the_clis_message(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[mechanism]\nkind = "4-PRS"\n[grid]\nz = 2.05\npsi = 0.0\ntheta = 0.0\n')
+    with pytest.raises(clearance.JobError) as e:
+        clearance.check(str(bad))
+    cli = subprocess.run(
+        ["cargo", "run", "-q", "-p", "clearance-cli", "--", "check", str(bad), "--no-timing"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+    )
+    assert cli.returncode == 2
+    assert cli.stderr.strip() == f"error: {e.value}"
+    with pytest.raises(clearance.JobError, match="unknown mechanism kind"):
+        clearance.solve(bad.read_text())
+
+
+def test_two_solves_in_threads_overlap():
+    """The GIL is released while computing: the progress callbacks of two calls,
+    made from inside the engine, interleave. (With the GIL held for a whole call,
+    the other call could not enter the engine until it returned.)"""
+    side = 300
+    job = {
+        "clearance": {"r_radial": 1e-4, "r_axial": 1e-4, "r_angular": 1e-4, "s_radial": 1e-4},
+        "grid": {
+            "z": 2.05,
+            "psi": {"start": -0.5, "stop": 0.5, "n": side},
+            "theta": {"start": -0.5, "stop": 0.5, "n": side},
+        },
+    }
+    events = []
+
+    def one(tag):
+        def progress(done, total):
+            if 0 < done < total:
+                events.append((time.perf_counter(), tag))
+
+        clearance.solve(job, threads=1, columns="minimal", progress=progress)
+
+    start = time.perf_counter()
+    threads = [threading.Thread(target=one, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    concurrent = time.perf_counter() - start
+    tags = [tag for _, tag in sorted(events)]
+    start = time.perf_counter()
+    one(0)
+    one(1)
+    sequential = time.perf_counter() - start
+    print(f"two calls: {concurrent:.2f} s in threads, {sequential:.2f} s one after the other")
+    # Mid-computation callbacks of one call between the first and last of the other.
+    assert 0 in tags and 1 in tags, tags
+    inner = tags[tags.index(0) : len(tags) - tags[::-1].index(0)]
+    assert 1 in inner, f"the calls did not overlap: {tags}"
