@@ -122,7 +122,7 @@ def test_two_solves_in_threads_overlap():
     """The GIL is released while computing: the progress callbacks of two calls,
     made from inside the engine, interleave. (With the GIL held for a whole call,
     the other call could not enter the engine until it returned.)"""
-    side = 300
+    side = 800
     job = {
         "clearance": {"r_radial": 1e-4, "r_axial": 1e-4, "r_angular": 1e-4, "s_radial": 1e-4},
         "grid": {
