@@ -291,5 +291,5 @@ fn bench_json_has_the_interface_keys() {
     assert_eq!(v["compression"], "none");
     assert!(["portable", "avx2", "avx512"].contains(&v["isa"].as_str().unwrap_or("")), "isa: {v}");
     let bytes = v["bytes_per_pose"].as_f64().unwrap();
-    assert!((70.0..=9.0 * 70.0).contains(&bytes), "{bytes} bytes a pose for 70 columns");
+    assert!((111.0..=9.0 * 111.0).contains(&bytes), "{bytes} bytes a pose for 111 columns");
 }
