@@ -109,13 +109,6 @@ impl Geometry {
             }
         }
     }
-
-    /// Whether a reachable 3-PRS leg lies across its rail (`L·(e_j·d_j)` below
-    /// `1e-6·L`), where the two slider positions meet and the pose is singular.
-    #[inline(always)]
-    pub fn across(&self, disc: f64) -> bool {
-        self.kind == MechanismKind::Prs3 && disc.sqrt() < 1e-6 * self.leg_length
-    }
 }
 
 /// Leg `leg` (0-based) cannot be assembled: the slider cannot reach it (3-PRS), its

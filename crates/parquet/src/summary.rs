@@ -234,7 +234,8 @@ impl SummaryStats {
             }
         }
         if matches!(r.status, Status::Ok | Status::IndeterminateContact) {
-            let [env_p, env_alpha] = [6, 7].map(|c| r.envelope.iter().map(|k| k[c]).sum::<f64>());
+            let total = r.envelope_total();
+            let (env_p, env_alpha) = (total[6], total[7]);
             if env_p.is_finite() && env_alpha.is_finite() {
                 self.env_p.push(env_p);
                 self.env_alpha.push(env_alpha);

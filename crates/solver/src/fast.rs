@@ -37,12 +37,6 @@ fn c<L: Lane>(v: f64) -> L {
     L::constant(v)
 }
 
-/// [`c`] where a local `c` shadows it.
-#[inline(always)]
-fn c_<L: Lane>(v: f64) -> L {
-    L::constant(v)
-}
-
 /// A 6 × 6 LU with partial pivoting (`P·A = L·U`) on plain arrays, so that every
 /// loop has fixed bounds and unrolls. Each lane picks its own pivots: rows are
 /// exchanged by masks, not branches.
@@ -424,14 +418,14 @@ impl<L: Lane> Loads<L> {
             MechanismKind::Rps3 => {
                 // The weights' moment about B_j: (ℓ_c/2)·e×(−m_c·g) + (q − ℓ_p/2)·e×(−m_p·g).
                 let (cyl, pis) = (&mass.cylinder, &mass.piston);
-                let c = V3::splat(&((cyl.mass + pis.mass) * -model.gravity));
+                let weight = V3::splat(&((cyl.mass + pis.mass) * -model.gravity));
                 let down = V3::splat(&-model.gravity);
                 let h = each3(|j| {
                     let lever =
-                        c_::<L>(0.5 * cyl.length * cyl.mass) + (pose.q[j] - c_::<L>(0.5 * pis.length)).scale(pis.mass);
+                        c::<L>(0.5 * cyl.length * cyl.mass) + (pose.q[j] - c::<L>(0.5 * pis.length)).scale(pis.mass);
                     pose.e[j].cross(down).times(lever)
                 });
-                Self { c: [c; 3], h, force, moment_c, com, arm: 0.0 }
+                Self { c: [weight; 3], h, force, moment_c, com, arm: 0.0 }
             }
         }
     }
@@ -636,9 +630,8 @@ impl<L: Lane> Reduced<L> {
     #[inline(always)]
     pub fn envelope(&self, model: &Model, pose: &Pose<L>) -> [[L; 8]; 4] {
         let [s, r, a, th] = model.clearance;
-        let mut env = [[c::<L>(f64::NAN); 8]; 4];
-        let Some(ginv) = &self.ginv else { return env };
-        env = [[c::<L>(0.0); 8]; 4];
+        let Some(ginv) = &self.ginv else { return [[c(f64::NAN); 8]; 4] };
+        let mut env = [[c::<L>(0.0); 8]; 4];
         for j in 0..3 {
             let (u, v) = (&ginv[2 * j], &ginv[2 * j + 1]);
             let ell = pose.ell[j];

@@ -2,7 +2,7 @@
 
 use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::inverse_kinematics_motion;
-use clearance_model::Mode;
+use clearance_model::{KINDS, Mode};
 use faer::Mat;
 use rayon::prelude::*;
 
@@ -14,7 +14,7 @@ use crate::exact::exact_error;
 use crate::fast::{Loads, Pose, Reactions, Reduced, euler_inverse, pose_error};
 use crate::lanes::{F8, LANES, Lane, Mask, lane3};
 use crate::linalg::LuSolver;
-use crate::takeup::{Margins, TakeUp, take_up, take_ups};
+use crate::takeup::{Margins, TakeUp, take_ups};
 
 /// What became of a pose (docs/conventions.md gives the precedence and what each
 /// status leaves null).
@@ -79,6 +79,12 @@ pub struct PoseResult {
 }
 
 impl PoseResult {
+    /// Sets the envelope and the joints' contributions, and the dominant joint they give.
+    fn set_envelope(&mut self, clearance: &[f64; 4], envelope: [[f64; 8]; 4], contribution: [[f64; 3]; 4]) {
+        (self.envelope, self.contribution) = (envelope, contribution);
+        self.dominant = self.dominant_of(clearance);
+    }
+
     /// The envelope of all kinds together: each kind's bound summed.
     pub fn envelope_total(&self) -> [f64; 8] {
         std::array::from_fn(|c| self.envelope.iter().map(|k| k[c]).sum())
@@ -106,16 +112,11 @@ impl PoseResult {
     }
 }
 
-/// The name of a joint and clearance kind, as the `dominant` column spells it
-/// (`s1_radial`, `r2_axial`, …).
+/// The name of a joint and clearance kind, as the `dominant` column spells it: the
+/// kind's name with the limb after the joint's letter (`s1_radial`, `r2_axial`, …).
 pub fn joint_name(kind: usize, limb: usize) -> String {
-    let (joint, what) = match kind {
-        0 => ("s", "radial"),
-        1 => ("r", "radial"),
-        2 => ("r", "axial"),
-        _ => ("r", "angular"),
-    };
-    format!("{joint}{}_{what}", limb + 1)
+    let name = KINDS[kind].name();
+    format!("{}{}{}", &name[..1], limb + 1, &name[1..])
 }
 
 impl Default for PoseResult {
@@ -472,9 +473,8 @@ fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mu
             let e = [errors[0].get(i), errors[1].get(i), errors[2].get(i), errors[3].get(i)];
             let mut r = finish(model, pose, i, cond, reactions.get(i), &take.get(i), e);
             if let Some(env) = &envelope {
-                r.envelope = env.map(|k| k.map(|v| v.get(i)));
-                r.contribution = contribution.map(|k| k.map(|v| v.get(i)));
-                r.dominant = r.dominant_of(&model.clearance);
+                let (env, share) = (env.map(|k| k.map(|v| v.get(i))), contribution.map(|k| k.map(|v| v.get(i))));
+                r.set_envelope(&model.clearance, env, share);
             }
             r
         } else {
@@ -516,7 +516,8 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
         return result;
     }
     let reactions = equilibrium::reactions_from(model, &ws.w);
-    let take = take_up(geom, &reactions, &model.clearance, model.indeterminate_floor);
+    let takes = take_ups(geom, &Reactions::from_joint(&reactions), &model.clearance, model.indeterminate_floor);
+    let take = takes.get(0);
     error_system::assemble(&posture, &geom.y, &take, ws.jp.as_mut(), ws.dq.as_mut());
     if !ws.lu_jp.solve(ws.jp.as_ref(), ws.dq.as_mut()) {
         return result;
@@ -525,10 +526,7 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
     let mut r = finish(model, pose, 0, (reduced.cond_g, reduced.cond_m), reactions, &take, errors);
     if model.envelope {
         // Both come from the reduction, which the general path factors for its conditioning.
-        let takes = take_ups(geom, &Reactions::from_joint(&reactions), &model.clearance, model.indeterminate_floor);
-        r.envelope = reduced.envelope(model, pose);
-        r.contribution = reduced.errors(model, pose, &takes).1;
-        r.dominant = r.dominant_of(&model.clearance);
+        r.set_envelope(&model.clearance, reduced.envelope(model, pose), reduced.errors(model, pose, &takes).1);
     }
     r
 }
