@@ -84,7 +84,7 @@ __all__ = [
     "kinematics", "leg_rates", "motion", "equilibrium_matrix", "equilibrium_rhs",
     "unpack_reactions", "take_up", "passive_screws", "loop_matrix", "clearance_twists",
     "loop_system", "pose_error", "reduced_matrix", "exact_errors", "column_names",
-    "compute", "pose_arrays", "pipeline", "throughput",
+    "compute", "pose_arrays", "pipeline", "throughput", "same_branch", "condition_numbers",
 ]
 
 KIND = "6-UPS"
@@ -545,6 +545,20 @@ def exact_errors(P, kin, dB, dth, dA, max_iter=30):
     return out, conv
 
 
+def same_branch(P, exact, linear):
+    """docs/conventions.md's branch test (an exact solution further from the linear error
+    than the linear error's own size is another assembly branch), with a round-off floor:
+    the u_angular error is zero, so a job with only that clearance has a linear error of
+    round-off size (~1e-20) and an exact error of round-off size, which the bare test would
+    call another branch at random.  The floor, 1e3 eps times the largest displacement the
+    clearances can cause (s + u + theta * legs' length), is far below any real branch jump."""
+    c = P["clear"]
+    floor = 1e3 * EPS * (c["s_radial"] + c["u_radial"] + c["u_angular"] * P["qmax"])
+    size = np.maximum(np.abs(linear).max(-1, keepdims=True), floor)
+    with np.errstate(invalid="ignore"):
+        return np.all(np.abs(exact - linear) <= size, axis=-1)
+
+
 # --------------------------------------------------------------------------
 # Full pipeline
 # --------------------------------------------------------------------------
@@ -662,7 +676,7 @@ def _compute_chunk(P, inp, sl, modes):
                                         disp["s_radial"][ok])
                 ex[ok] = ex_ok
                 lin = tot[:, [3, 4, 5, 0, 1, 2]]                       # [d_alpha; d_p]
-                ex[~rm.same_branch(ex, lin)] = np.nan
+                ex[~same_branch(P, ex, lin)] = np.nan
             for ci, c in enumerate(("rx", "ry", "rz", "x", "y", "z")):
                 cols[f"exact_err_{c}"] = ex[:, ci]
         out[mode] = cols
