@@ -7,7 +7,20 @@ Kinds of random job (--kinds, default all):
   3-PRS      any rail angle beta (rails d_j = cos(beta) z + sin(beta) x_j, incl. the
              horizontal -90 and +90), rotated or uneven limb angles alpha_j, platform
              angles gamma_j (default alpha_j);
-  3-RPS      a revolute joint at the base, an actuated leg length (cylinder + piston).
+  3-RPS      a revolute joint at the base, an actuated leg length (cylinder + piston);
+  6-UPS      (only when --kinds names it; "all" is the three above) the Gough-Stewart
+             platform of docs/model.md section 10.3: per limb a universal joint at B_i
+             (a revolute about the fixed axis a1_i, then one about the cross's second
+             axis a2_i, carrying the cylinder), a prismatic joint along the leg (the
+             piston), the platform on piston 1 through a spherical joint at A_1 and five
+             3-D point constraints at A_2..A_6 (nv = 21 = 6 actuators + 15 multipliers).
+             f_Ui, m_Ui = the wrench transmitted by joint u<i>a (the cross is massless),
+             mu_i = m_Ui . n_i; f_S1 from the spherical joint, f_Si = -lambda_i.  The
+             platform twist [p'; E (phi', psi', theta')] fixes the velocities (all six
+             inputs, no parasitic motions); the self-test checks closure, the RNEA
+             residual, the U couple along n_i and mu_i = 0, each leg's and the platform's
+             balance by hand, virtual work (complex step over six platform twists) and
+             pin.constraintDynamics; compare mode reads q1..q6, f_u<i>_*, m_u<i>, f_s<i>_*.
 
 Each job's mechanism is rebuilt in Pinocchio from its geometry, independently of the
 engine.  Per limb j, with x_j = (cos alpha_j, sin alpha_j, 0), y_j = z x x_j:
@@ -98,6 +111,9 @@ import pinocchio as pin
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 KINDS = ("prototype", "3-PRS", "3-RPS")
+# Opt-in kinds (--kinds names them): not in the default set, so that the default run keeps
+# drawing the same random jobs for the kinds above (job i is of kind i mod k).
+EXTRA_KINDS = ("6-UPS",)
 SYM_DEG = [0.0, 120.0, 240.0]
 SYM_RAD = np.array([0.0, 2 * math.pi / 3, 4 * math.pi / 3])
 EZ = np.array([0.0, 0.0, 1.0])
@@ -1033,6 +1049,14 @@ def selftest(n_jobs, seed, kinds):
     jm = []
     no_stencil = {}
     for ij, kind, traj, n in job_plan(n_jobs, kinds):
+        if kind == "6-UPS":
+            job = tomllib.loads(to_toml(random_ups_job(seed, ij, traj, n)))
+
+            def begin(mode, job=job):
+                cur[0], cur[1] = f"{job['name']} {mode}", "6-UPS"
+                jm.append(cur[0])
+            ups_selftest_job(job, note, begin)
+            continue
         job = tomllib.loads(to_toml(random_job(seed, ij, kind, traj, n)))   # round-trip the TOML
         assert job_kind(job) == kind
         P = params_from_job(job)
@@ -1184,6 +1208,562 @@ def forward_check(M, q, v, a, r):
 
 
 # --------------------------------------------------------------------------- #
+# 6-UPS (docs/model.md section 10.3): six U-P-S limbs, all six pose inputs
+# --------------------------------------------------------------------------- #
+UPS_INPUTS = ("x", "y", "z", "phi", "psi", "theta")
+
+
+@dataclass
+class UpsParams:
+    B: np.ndarray                        # (6,3) base points (world)
+    AP: np.ndarray                       # (6,3) platform points (platform frame)
+    a1: np.ndarray                       # (6,3) fixed U axes, unit
+    lc: float = 0.5
+    lp: float = 0.5
+    qmin: float = 0.5
+    qmax: float = 1.0
+    rp: float = 0.3
+    g: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    m_plat: float = 10.0
+    m_cyl: float = 1.5
+    m_pis: float = 0.75
+    I_plat: np.ndarray | None = None
+    points: list = field(default_factory=list)
+    f_ext: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    m_ext: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    at_ext: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @property
+    def m_limb(self):
+        return self.m_cyl + self.m_pis
+
+    @property
+    def W(self):
+        return (self.m_plat + sum(m for m, _ in self.points) + 6 * self.m_limb) * float(np.linalg.norm(self.g))
+
+    @property
+    def Lc(self):
+        return self.lc + self.lp
+
+    composite = Params.composite
+
+
+def _circle6(radius, deg):
+    ang = [float(a) * math.pi / 180.0 for a in deg]
+    if len(ang) != 6:
+        raise ValueError(f"six angles expected, got {deg}")
+    return np.array([[radius * math.cos(a), radius * math.sin(a), 0.0] for a in ang])
+
+
+def ups_params_from_job(job: dict) -> UpsParams:
+    """docs/model.md 10.3's keys and defaults (base 0.5 m at -15/15/105/135/225/255 deg,
+    platform 0.3 m at -45/45/75/165/195/285 deg, legs 0.5 + 0.5 m, masses 10/1.5/0.75 kg)."""
+    mech, mass, load = job.get("mechanism", {}), job.get("mass", {}), job.get("load", {})
+    rb, rp = float(mech.get("base_radius", 0.5)), float(mech.get("platform_radius", 0.3))
+    B = np.array(mech["base_points"], float) if "base_points" in mech else \
+        _circle6(rb, mech.get("base_angles_deg", [-15, 15, 105, 135, 225, 255]))
+    AP = np.array(mech["platform_points"], float) if "platform_points" in mech else \
+        _circle6(rp, mech.get("platform_angles_deg", [-45, 45, 75, 165, 195, 285]))
+    if "u_axes" in mech:
+        a1 = np.array(mech["u_axes"], float)
+    else:
+        a1 = np.array([[-b[1], b[0], 0.0] for b in B])     # tangent: (-sin, cos, 0) |B_xy|
+    a1 = a1 / np.linalg.norm(a1, axis=1)[:, None]
+    lc, lp = float(mech.get("cylinder_length", 0.5)), float(mech.get("piston_length", 0.5))
+    U = UpsParams(B=B, AP=AP, a1=a1, lc=lc, lp=lp, rp=rp,
+                  qmin=float(mech.get("min_length", max(lc, lp))),
+                  qmax=float(mech.get("max_length", lc + lp)))
+    U.g = _vec(mech.get("gravity"), [0.0, 0.0, -9.81])
+    U.m_plat = float(mass.get("platform", 10.0))
+    U.m_cyl = float(mass.get("cylinder", 1.5))
+    U.m_pis = float(mass.get("piston", 0.75))
+    if "platform_inertia" in mass:
+        U.I_plat = _vec(mass["platform_inertia"], None)
+    U.points = [(float(pm["mass"]), _vec(pm["at"], None)) for pm in mass.get("points", [])]
+    U.f_ext = _vec(load.get("force"), [0, 0, 0])
+    U.m_ext = _vec(load.get("moment"), [0, 0, 0])
+    U.at_ext = _vec(load.get("at"), [0, 0, 0])
+    return U
+
+
+def ups_samples(job):
+    """[(sample, t or None, inputs (6), d/dt (6), d2/dt2 (6))], row-major x, y, z, phi, psi, theta."""
+    out = []
+    if "grid" in job:
+        axes = [lin_range(job["grid"].get(k, 0.0)) for k in UPS_INPUTS]
+        for s, x0 in enumerate(np.array(np.meshgrid(*axes, indexing="ij")).reshape(6, -1).T):
+            out.append((s, None, tuple(float(v) for v in x0), (0.0,) * 6, (0.0,) * 6))
+    else:
+        tr = job["trajectory"]
+        for s, t in enumerate(lin_range(tr["time"])):
+            vals = [harmonic(tr.get(k, 0.0), t) for k in UPS_INPUTS]
+            out.append((s, t, tuple(v[0] for v in vals), tuple(v[1] for v in vals),
+                        tuple(v[2] for v in vals)))
+    return out
+
+
+def ups_pose(U: UpsParams, x, y, z, phi, psi, theta):
+    """Platform pose, joint points, leg lengths and directions, U axes, leg bodies."""
+    R = euler_R(phi, psi, theta)
+    p = np.array([x, y, z])
+    A = p + U.AP @ R.T
+    D = A - U.B
+    q = np.linalg.norm(D, axis=1)
+    e = D / q[:, None]
+    c = np.cross(U.a1, e)
+    s = np.linalg.norm(c, axis=1)
+    a2 = c / s[:, None]
+    n = np.cross(U.a1, a2)
+    status = "ok"
+    if np.any((q < U.qmin) | (q > U.qmax)):
+        status = "unreachable"
+    elif np.any(s < 1e-6):
+        status = "near_singular"
+    bodies = [[(U.m_cyl, U.B[i] + U.lc / 2 * e[i], U.lc), (U.m_pis, A[i] - U.lp / 2 * e[i], U.lp)]
+              for i in range(6)]
+    return dict(status=status, R=R, p=p, A=A, B=U.B, q=q, e=e, a2=a2, n=n, s=s, bodies=bodies)
+
+
+def _frame_with_x(a):
+    """Rotation whose first column is the unit vector a."""
+    t = EZ if abs(a[2]) < 0.9 else EX
+    b = np.cross(t, a)
+    b /= np.linalg.norm(b)
+    return np.column_stack([a, b, np.cross(a, b)])
+
+
+class PinUPS:
+    """The 6-UPS as a Pinocchio tree plus five 3-D loop closures.
+
+    Limb i: a revolute joint about a1_i at B_i (the U joint's cross, massless), a revolute
+    about the cross's second axis (a2_i, perpendicular to a1_i and to the leg) carrying the
+    cylinder, a prismatic joint along the leg carrying the piston; the platform hangs on
+    piston 1 through a spherical joint at A_1; pistons 2..6 close on it at A_2..A_6.
+    nv = 6 * 3 + 3 = 21 = 6 actuators + 15 constraints."""
+
+    def __init__(self, U: UpsParams):
+        self.P = U
+        m = pin.Model()
+        m.gravity = pin.Motion(np.asarray(U.g, float), np.zeros(3))
+        self.j1, self.j2, self.jp, self.Rpre = [], [], [], []
+        for i in range(6):
+            Rpre = _frame_with_x(U.a1[i])                 # local x = a1_i
+            j1 = m.addJoint(0, pin.JointModelRX(), pin.SE3(Rpre, U.B[i]), f"u{i+1}a")
+            j2 = m.addJoint(j1, pin.JointModelRY(), pin.SE3.Identity(), f"u{i+1}b")
+            m.appendBodyToJoint(j2, _rod(U.m_cyl, U.lc, U.lc / 2), pin.SE3.Identity())
+            jp = m.addJoint(j2, pin.JointModelPZ(), pin.SE3.Identity(), f"piston{i+1}")
+            m.appendBodyToJoint(jp, _rod(U.m_pis, U.lp, -U.lp / 2), pin.SE3.Identity())
+            self.j1.append(j1)
+            self.j2.append(j2)
+            self.jp.append(jp)
+            self.Rpre.append(Rpre)
+            if i == 0:
+                self.jS = m.addJoint(jp, pin.JointModelSpherical(), pin.SE3.Identity(), "sph1")
+                mt, c, I_C = U.composite()
+                m.appendBodyToJoint(self.jS, pin.Inertia(mt, c - U.AP[0], I_C), pin.SE3.Identity())
+        self.tip = [m.addFrame(pin.Frame(f"tip{i+1}", self.jp[i], pin.SE3.Identity(),
+                                         pin.FrameType.OP_FRAME), False) for i in range(6)]
+        self.fA = [m.addFrame(pin.Frame(f"A{i+1}", self.jS, pin.SE3(np.eye(3), U.AP[i] - U.AP[0]),
+                                        pin.FrameType.OP_FRAME), False) for i in range(6)]
+        self.fP = m.addFrame(pin.Frame("P", self.jS, pin.SE3(np.eye(3), -U.AP[0]),
+                                       pin.FrameType.OP_FRAME), False)
+        self.model, self.data = m, m.createData()
+        self.iv_act = [m.joints[j].idx_v for j in self.jp]
+        assert m.nv == 21 and m.nq == 22
+
+    def config(self, inputs):
+        U, m = self.P, self.model
+        k = ups_pose(U, *inputs)
+        q = np.zeros(m.nq)
+        for i in range(6):
+            # leg direction in the U's base frame: R_x(a) R_y(b) z = (sin b, -sin a cos b, cos a cos b)
+            v = self.Rpre[i].T @ k["e"][i]
+            b = math.asin(max(-1.0, min(1.0, v[0])))
+            a = math.atan2(-v[1], v[2])
+            q[m.joints[self.j1[i]].idx_q] = a
+            q[m.joints[self.j2[i]].idx_q] = b
+            q[m.joints[self.jp[i]].idx_q] = k["q"][i]
+            if i == 0:
+                Rleg1 = self.Rpre[0] @ rx(a) @ ry(b)
+        iq = m.joints[self.jS].idx_q
+        q[iq:iq + 4] = pin.Quaternion(Rleg1.T @ k["R"]).normalized().coeffs()
+        return q, k
+
+    def closure_residual(self, q, k):
+        m, d = self.model, self.data
+        pin.framesForwardKinematics(m, d, q)
+        r = max(np.max(np.abs(d.oMf[self.tip[i]].translation - d.oMf[self.fA[i]].translation))
+                for i in range(6))
+        r = max(r, np.max(np.abs(d.oMf[self.fP].translation - k["p"])),
+                np.max(np.abs(d.oMf[self.fP].rotation - k["R"])))
+        return r
+
+    def _jacobians(self, q):
+        m, d = self.model, self.data
+        pin.computeJointJacobians(m, d, q)
+        pin.updateFramePlacements(m, d)
+        W = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        Jc = np.vstack([pin.getFrameJacobian(m, d, self.tip[i], W)[:3]
+                        - pin.getFrameJacobian(m, d, self.fA[i], W)[:3] for i in range(1, 6)])
+        return Jc, pin.getFrameJacobian(m, d, self.fP, W)
+
+    def motion(self, q, k, inputs, d1, d2):
+        """Generalized velocity and acceleration: [J_c; J_P] v = [0; p'; omega], omega =
+        E (phi', psi', theta'), and the same differentiated with Pinocchio's drift."""
+        m, d = self.model, self.data
+        Jc, JP = self._jacobians(q)
+        phi, psi, theta = inputs[3], inputs[4], inputs[5]
+        E, a1, a2, a3 = PinMech.euler_E(phi, psi, theta)
+        eta1, eta2 = np.array(d1[3:6]), np.array(d2[3:6])
+        K = np.vstack([Jc, JP])
+        v = np.linalg.solve(K, np.r_[np.zeros(15), d1[0:3], E @ eta1])
+        pin.forwardKinematics(m, d, q, v, np.zeros(m.nv))
+        W = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        acc = lambda f: pin.getFrameClassicalAcceleration(m, d, f, W)
+        drift_c = np.concatenate([acc(self.tip[i]).linear - acc(self.fA[i]).linear for i in range(1, 6)])
+        aP = acc(self.fP)
+        dphi, dpsi, dth = eta1
+        Edot_eta = dpsi * np.cross(dth * a1, a2) + dphi * np.cross(dth * a1 + dpsi * a2, a3)
+        rhs = np.r_[-drift_c, np.array(d2[0:3]) - aP.linear, E @ eta2 + Edot_eta - aP.angular]
+        return v, np.linalg.solve(K, rhs)
+
+    def _ext_forces(self, q, lam=None):
+        m, d, U = self.model, self.data, self.P
+        pin.forwardKinematics(m, d, q)
+        fext = [pin.Force.Zero() for _ in range(m.njoints)]
+        Rp = d.oMi[self.jS].rotation
+        fl = Rp.T @ U.f_ext
+        fext[self.jS] = pin.Force(fl, np.cross(U.at_ext - U.AP[0], fl) + Rp.T @ U.m_ext)
+        if lam is not None:
+            for n, i in enumerate(range(1, 6)):
+                li = lam[3 * n:3 * n + 3]
+                jt = self.jp[i]
+                fext[jt] = fext[jt] + pin.Force(d.oMi[jt].rotation.T @ li, np.zeros(3))
+                fp = Rp.T @ (-li)                      # -lambda_i on the platform at A_i
+                fext[self.jS] = fext[self.jS] + pin.Force(fp, np.cross(U.AP[i] - U.AP[0], fp))
+        return fext
+
+    def reactions(self, q, k, v=None, a=None):
+        """Actuator forces, multipliers and the joint reactions of docs/model.md 10.3:
+        f_U, m_U = the base's force and couple on leg i at B_i (joint u<i>a's transmitted
+        wrench: the cross is massless), mu = m_U . n_i, f_S (leg on platform)."""
+        m, d = self.model, self.data
+        v = np.zeros(m.nv) if v is None else v
+        a = np.zeros(m.nv) if a is None else a
+        Jc, _ = self._jacobians(q)
+        rhs = pin.rnea(m, d, q, v, a, self._ext_forces(q)).copy()
+        S = np.zeros((m.nv, 6))
+        for i, iv in enumerate(self.iv_act):
+            S[iv, i] = 1.0
+        sol = np.linalg.solve(np.hstack([S, Jc.T]), rhs)
+        tau, lam = sol[:6], sol[6:]
+        res = pin.rnea(m, d, q, v, a, self._ext_forces(q, lam)).copy()
+        res[self.iv_act] -= tau
+        fU, mU = [], []
+        for i in range(6):
+            Rl = d.oMi[self.j1[i]].rotation
+            fU.append(Rl @ d.f[self.j1[i]].linear)
+            mU.append(Rl @ d.f[self.j1[i]].angular)
+        mu = np.array([mU[i] @ k["n"][i] for i in range(6)])
+        fS = [d.oMi[self.jS].rotation @ d.f[self.jS].linear] + [-lam[3 * n:3 * n + 3] for n in range(5)]
+        return dict(tau=tau, lam=lam, rnea_res=float(np.max(np.abs(res))), fU=np.array(fU),
+                    mU=np.array(mU), mu=mu, fS=np.array(fS),
+                    sph_moment=float(np.max(np.abs(d.f[self.jS].angular))))
+
+    def leg_velocities(self, q, v):
+        """World angular velocity of each leg (the cylinder), from Pinocchio."""
+        m, d = self.model, self.data
+        pin.forwardKinematics(m, d, q, v)
+        return np.array([d.oMi[j].rotation @ d.v[j].angular for j in self.j2])
+
+
+def ups_reference(job, mode, model=None):
+    """{sample: dict(t, inputs, k, r, q, v, a)} for the samples with status ok."""
+    U = ups_params_from_job(job)
+    M = model or PinUPS(U)
+    out = {}
+    for s, t, x0, x1, x2 in ups_samples(job):
+        if ups_pose(U, *x0)["status"] != "ok":
+            continue
+        q, k = M.config(x0)
+        v = a = None
+        if mode == "dynamic":
+            v, a = M.motion(q, k, x0, x1, x2)
+        r = M.reactions(q, k, v, a)
+        r["closure"] = M.closure_residual(q, k)
+        out[s] = dict(t=t, inputs=x0, k=k, r=r, q=q, v=v, a=a, d1=x1, d2=x2)
+    return out
+
+
+def ups_equilibrium_residual(U, k, r, kin=None):
+    """docs/model.md 10.3 by hand, per leg (cylinder + piston, moments about B_i, the couple
+    mu_i n_i) and for the platform; relative to W and W L.  kin: Pinocchio's exact
+    motion (omega, domega, aC, w<i>, dw<i>, a<i>_<b>) or None (statics)."""
+    mt, c, I_Cp = U.composite()
+    R = k["R"]
+    C = k["p"] + R @ c
+    E = k["p"] + R @ U.at_ext
+    I_C = R @ I_Cp @ R.T
+    rf, rm_ = [], []
+    for i in range(6):
+        A, B, e = k["A"][i], k["B"][i], k["e"][i]
+        wi = dwi = np.zeros(3)
+        if kin is not None:
+            wi, dwi = kin[f"w{i}"], kin[f"dw{i}"]
+        f = r["fU"][i] - r["fS"][i]
+        mo = r["mu"][i] * k["n"][i] - np.cross(A - B, r["fS"][i])
+        for b, (mb, G, lb) in enumerate(k["bodies"][i]):
+            ab = np.zeros(3) if kin is None else kin[f"a{i}_{b}"]
+            Ib = mb * lb ** 2 / 12 * (np.eye(3) - np.outer(e, e))
+            f = f + mb * U.g - mb * ab
+            mo = mo - Ib @ dwi - np.cross(wi, Ib @ wi) - np.cross(G - B, mb * (ab - U.g))
+        rf.append(f)
+        rm_.append(mo)
+        rm_.append(r["mU"][i] - r["mu"][i] * k["n"][i])      # the U joint's couple is along n_i
+    aC = w = dw = np.zeros(3)
+    if kin is not None:
+        aC, w, dw = kin["aC"], kin["omega"], kin["domega"]
+    rf.append(r["fS"].sum(0) + mt * U.g + U.f_ext - mt * aC)
+    rm_.append(sum(np.cross(k["A"][i] - C, r["fS"][i]) for i in range(6))
+               + np.cross(E - C, U.f_ext) + U.m_ext - I_C @ dw - np.cross(w, I_C @ w))
+    return max(np.max(np.abs(np.concatenate(rf))) / U.W,
+               np.max(np.abs(np.concatenate(rm_))) / (U.W * U.Lc))
+
+
+def ups_exact_motion(M, q, v, a, k):
+    """Platform and leg motion from Pinocchio's forward kinematics (exact)."""
+    m, d = M.model, M.data
+    U = M.P
+    pin.forwardKinematics(m, d, q, v, a)
+    pin.updateFramePlacements(m, d)
+    Wf = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    vP = pin.getFrameVelocity(m, d, M.fP, Wf)
+    aP = pin.getFrameClassicalAcceleration(m, d, M.fP, Wf)
+    mt, c, _ = U.composite()
+    rc = k["R"] @ c
+    out = dict(omega=vP.angular, domega=aP.angular,
+               aC=aP.linear + np.cross(aP.angular, rc) + np.cross(vP.angular, np.cross(vP.angular, rc)))
+    for i in range(6):
+        for b, (jb, off) in enumerate(((M.j2[i], np.array([0.0, 0.0, U.lc / 2])),
+                                       (M.jp[i], np.array([0.0, 0.0, -U.lp / 2])))):
+            out[f"a{i}_{b}"] = pin.getFrameClassicalAcceleration(m, d, jb, pin.SE3(np.eye(3), off), Wf).linear
+        out[f"w{i}"] = d.oMi[M.j2[i]].rotation @ d.v[M.j2[i]].angular
+        out[f"dw{i}"] = d.oMi[M.j2[i]].rotation @ d.a[M.j2[i]].angular
+    return out
+
+
+def ups_virtual_work_residual(U, inputs, tau):
+    """sum tau_i dq_i + dW_gravity + dW_ext over six virtual platform motions (complex
+    step), relative to W L; tau_i is the actuator force along leg i (on the piston)."""
+    mt, c, _ = U.composite()
+    h = 1e-30
+    k0 = ups_pose(U, *inputs)
+    worst = 0.0
+    for n in range(6):
+        dp, dal = np.zeros(3), np.zeros(3)
+        (dp if n < 3 else dal)[n % 3] = 1.0
+        p = k0["p"] + 1j * h * dp
+        R = k0["R"] + 1j * h * skew(dal) @ k0["R"]
+        A = p + U.AP @ R.T
+        D = A - U.B
+        q = np.sqrt((D * D).sum(1))
+        e = D / q[:, None]
+        dq = np.imag(q) / h
+        dW = 0.0
+        for i in range(6):
+            dW += U.m_cyl * U.g @ (np.imag(U.B[i] + U.lc / 2 * e[i]) / h)
+            dW += U.m_pis * U.g @ (np.imag(A[i] - U.lp / 2 * e[i]) / h)
+        dW += mt * U.g @ (np.imag(p + R @ c) / h)
+        dW += U.f_ext @ (np.imag(p + R @ U.at_ext) / h) + U.m_ext @ dal
+        worst = max(worst, abs(tau @ dq + dW) / (U.W * U.Lc))
+    return worst
+
+
+def ups_forward_check(M, q, v, a, r):
+    """Pinocchio's constrained forward dynamics fed with our tau gives our a and lambda."""
+    m = M.model
+    d = m.createData()
+    cms = [pin.RigidConstraintModel(pin.ContactType.CONTACT_3D, m, M.jp[i], pin.SE3.Identity(),
+                                    M.jS, pin.SE3(np.eye(3), M.P.AP[i] - M.P.AP[0]),
+                                    pin.ReferenceFrame.LOCAL_WORLD_ALIGNED) for i in range(1, 6)]
+    cds = [cm.createData() for cm in cms]
+    pin.initConstraintDynamics(m, d, cms, cds)
+    tau = np.zeros(m.nv)
+    tau[M.iv_act] = r["tau"]
+    d2 = m.createData()
+    load = pin.rnea(m, d2, q, np.zeros(m.nv), np.zeros(m.nv), M._ext_forces(q)) \
+        - pin.rnea(m, d2, q, np.zeros(m.nv), np.zeros(m.nv))
+    acc = pin.constraintDynamics(m, d, q, v, tau - load, cms, cds, pin.ProximalSettings(1e-14, 0.0, 1))
+    return (np.max(np.abs(acc - a)) / max(1.0, np.max(np.abs(a))),
+            np.max(np.abs(d.lambda_c - r["lam"])) / M.P.W)
+
+
+def _ups_masses_loads(rng, job):
+    """_masses_loads for the 6-UPS: inertia, point masses, load, clearances (in place)."""
+    if rng.random() < 0.5:
+        job["mass"]["platform_inertia"] = [u(rng, 0.1, 0.5), u(rng, 0.1, 0.5), u(rng, 0.2, 1.0)]
+    job["mass"]["points"] = [{"mass": u(rng, 1.0, 20.0),
+                              "at": [u(rng, -0.2, 0.2), u(rng, -0.2, 0.2), u(rng, -0.5, 0.5)]}
+                             for _ in range(int(rng.integers(0, 3)))]
+    W = ups_params_from_job(job).W
+    job["load"] = {"force": list(rng.normal(0, 0.2 * W, 3)), "moment": list(rng.normal(0, 0.05 * W, 3)),
+                   "at": [u(rng, -0.2, 0.2), u(rng, -0.2, 0.2), u(rng, -0.3, 0.3)]}
+    job["clearance"] = {k: (1e-4 if rng.random() < 0.5 else 0.0) for k in ("s_radial", "u_radial", "u_angular")}
+
+
+def random_ups(rng, idx, trajectory, n):
+    """6-UPS.  Variant n % 3: the default geometry (keys omitted); perturbed circle angles
+    and radii with tilted U axes; explicit base/platform points off the planes."""
+    v = n % 3
+    mech = {"kind": "6-UPS", "gravity": _gravity(rng)}
+    if v >= 1:
+        mech["base_radius"] = u(rng, 0.4, 0.6)
+        mech["platform_radius"] = u(rng, 0.2, 0.35)
+        mech["base_angles_deg"] = [a + u(rng, -5, 5) for a in (-15, 15, 105, 135, 225, 255)]
+        mech["platform_angles_deg"] = [a + u(rng, -5, 5) for a in (-45, 45, 75, 165, 195, 285)]
+    if v == 1:
+        mech["u_axes"] = [[-math.sin(t) + u(rng, -0.2, 0.2), math.cos(t), u(rng, -0.3, 0.3)]
+                          for t in np.radians(mech["base_angles_deg"])]
+    if v == 2:
+        Up = ups_params_from_job({"mechanism": mech})
+        mech["base_points"] = [[b[0], b[1], u(rng, -0.05, 0.05)] for b in Up.B]
+        mech["platform_points"] = [[a[0], a[1], u(rng, -0.05, 0.05)] for a in Up.AP]
+        for kk in ("base_radius", "base_angles_deg", "platform_angles_deg"):
+            del mech[kk]
+    job = {"name": f"pincheck_{idx:03d}_ups_{'traj' if trajectory else 'grid'}", "mechanism": mech,
+           "mass": {"platform": u(rng, 5.0, 15.0), "cylinder": u(rng, 0.5, 3.0), "piston": u(rng, 0.3, 2.0)}}
+    if v == 0:
+        job["mass"] = {}
+    _ups_masses_loads(rng, job)
+    Up = ups_params_from_job(job)
+    dxy = Up.AP[:, :2] - Up.B[:, :2]
+    z0 = math.sqrt(((Up.qmin + Up.qmax) / 2) ** 2 - float((dxy * dxy).sum(1).mean()))
+    if not trajectory:
+        job["grid"] = {"x": {"start": -0.04, "stop": 0.04, "n": 2}, "y": u(rng, -0.03, 0.03),
+                       "z": {"start": z0 - 0.05, "stop": z0 + 0.05, "n": 3},
+                       "phi": {"start": -0.15, "stop": 0.1, "n": 2}, "psi": u(rng, -0.1, 0.1),
+                       "theta": {"start": -0.1, "stop": 0.12, "n": 3}}
+    else:
+        job["analysis"] = {"modes": ["kinetostatic", "dynamic"]}
+
+        def harm(off, amp):
+            return {"offset": off, "harmonics": [
+                {"amplitude": amp * u(rng, 0.3, 1.0), "period": u(rng, 1.0, 4.0),
+                 "phase": u(rng, -math.pi, math.pi)} for _ in range(int(rng.integers(1, 3)))]}
+        t0 = u(rng, 0.0, 2.0)
+        job["trajectory"] = {"time": {"start": t0, "stop": t0 + u(rng, 2.0, 4.0), "n": 21},
+                             "x": harm(0.0, 0.04), "y": harm(0.0, 0.04), "z": harm(z0, 0.05),
+                             "phi": harm(0.0, 0.15), "psi": harm(0.0, 0.12), "theta": harm(0.0, 0.12)}
+    return job
+
+
+def random_ups_job(seed, idx, trajectory, n):
+    """Like random_job, for the 6-UPS (at least 80 % of the samples ok)."""
+    rng = np.random.default_rng([seed, idx])
+    for _ in range(50):
+        job = random_ups(rng, idx, trajectory, n)
+        U = ups_params_from_job(job)
+        smp = ups_samples(job)
+        if sum(ups_pose(U, *x0)["status"] == "ok" for _, _, x0, _, _ in smp) >= 0.8 * len(smp):
+            return job
+    raise RuntimeError(f"no reachable random 6-UPS job #{idx}")
+
+
+def ups_selftest_job(job, note, begin):
+    """The self-test checks of one 6-UPS job: begin(mode) opens each mode, note(key,
+    value, tol) records a check."""
+    U = ups_params_from_job(job)
+    M = PinUPS(U)
+    WL = U.W * U.Lc
+    for mode in job_modes(job):
+        begin(mode)
+        ref = ups_reference(job, mode, M)
+        if not ref:
+            note("no ok sample", float("inf"), 0.0)
+        for s, e in ref.items():
+            r, k = e["r"], e["k"]
+            note("closure residual (FK, m / rad)", r["closure"], 1e-12)
+            note("RNEA residual on passive dofs / W", r["rnea_res"] / U.W, 1e-12)
+            note("spherical joint moment / (W L)", r["sph_moment"] / WL, 1e-12)
+            note("U couple along n_i, |mu_i| / (W L) (round-off)", np.max(np.abs(r["mu"])) / WL, 1e-12)
+            if mode == "kinetostatic":
+                note("statics: body equilibrium (model 10.3) / W", ups_equilibrium_residual(U, k, r), 1e-12)
+                note("statics: virtual work / (W L)", ups_virtual_work_residual(U, e["inputs"], r["tau"]), 1e-12)
+                act = max(abs(r["tau"][i] - k["e"][i] @ (r["fS"][i] - U.m_pis * U.g)) for i in range(6))
+                note("tau_i - e_i.(f_Si - m_pis g) / W", act / U.W, 1e-12)
+            else:
+                kin = ups_exact_motion(M, e["q"], e["v"], e["a"], k)
+                # the solved motion reproduces the inputs' analytic derivatives
+                m_, d_ = M.model, M.data
+                Wf = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+                vP = pin.getFrameVelocity(m_, d_, M.fP, Wf)
+                aP = pin.getFrameClassicalAcceleration(m_, d_, M.fP, Wf)
+                Em, a1_, a2_, a3_ = PinMech.euler_E(*e["inputs"][3:6])
+                eta1, eta2 = np.array(e["d1"][3:6]), np.array(e["d2"][3:6])
+                dphi, dpsi, dth = eta1
+                Ed = dpsi * np.cross(dth * a1_, a2_) + dphi * np.cross(dth * a1_ + dpsi * a2_, a3_)
+                dv = max(np.max(np.abs(vP.linear - e["d1"][0:3])), np.max(np.abs(vP.angular - Em @ eta1)))
+                da = max(np.max(np.abs(aP.linear - e["d2"][0:3])),
+                         np.max(np.abs(aP.angular - Em @ eta2 - Ed)))
+                note("dynamics: platform twist and its rate vs the inputs'", max(dv, da), 1e-12)
+                note("dynamics: body equilibrium, exact inertia / W", ups_equilibrium_residual(U, k, r, kin), 1e-11)
+                wl = np.array([kin[f"w{i}"] for i in range(6)])
+                note("leg omega_i . n_i (rad/s)", np.max(np.abs((wl * k["n"]).sum(1))), 1e-12)
+                ea, el = ups_forward_check(M, e["q"], e["v"], e["a"], r)
+                note("dynamics: pin.constraintDynamics(tau): accel, relative", ea, 1e-9)
+                note("dynamics: pin.constraintDynamics(tau): lambda / W", el, 1e-9)
+
+
+def compare_ups_job(job, rows, stats, label):
+    """Engine rows of a 6-UPS job against Pinocchio. Returns {mode: (ok, message)}."""
+    U = ups_params_from_job(job)
+    M = PinUPS(U)
+    results = {}
+    for mode in job_modes(job):
+        ref = ups_reference(job, mode, M)
+        samples = {s: (t, x0) for s, t, x0, _, _ in ups_samples(job)}
+        mrows = [r for r in rows if r.get("mode") == mode]
+        msgs, over, bad, n_ok = [], {}, False, 0
+        if len(mrows) != len(samples):
+            msgs.append(f"{len(mrows)} rows for {len(samples)} samples")
+        tol_r = TOL_STATIC if mode == "kinetostatic" else TOL_DYNAMIC
+        for row in mrows:
+            s = int(row["sample"])
+            if row["status"] != "ok":
+                continue
+            if s not in ref:
+                msgs.append(f"sample {s}: status ok but not ok here")
+                bad = True
+                continue
+            n_ok += 1
+            k, r = ref[s]["k"], ref[s]["r"]
+            t_ref, x0 = samples[s]
+            diffs = {"input": max(abs(row[c] - v) for c, v in zip(UPS_INPUTS, x0)),
+                     "kin": max(abs(row[f"q{i+1}"] - k["q"][i]) for i in range(6)),
+                     "f_u": 0.0, "m_u": 0.0, "f_s": 0.0}
+            for i in range(6):
+                diffs["m_u"] = max(diffs["m_u"], abs(row[f"m_u{i+1}"] - r["mu"][i]) / (U.W * U.Lc))
+                for c, comp in enumerate("xyz"):
+                    diffs["f_u"] = max(diffs["f_u"], abs(row[f"f_u{i+1}_{comp}"] - r["fU"][i][c]) / U.W)
+                    diffs["f_s"] = max(diffs["f_s"], abs(row[f"f_s{i+1}_{comp}"] - r["fS"][i][c]) / U.W)
+            for qn, dv in diffs.items():
+                dv = float(dv) if dv == dv else float("inf")
+                key = ("6-UPS", mode, qn)
+                if key not in stats or dv > stats[key][0]:
+                    stats[key] = (dv, f"{label} sample {s}")
+                tol = {"input": TOL_INPUT, "kin": TOL_KIN}.get(qn, tol_r)
+                if dv > tol:
+                    over.setdefault(qn, f"{qn} off by {dv:.2e} (> {tol:.0e}) at sample {s}")
+                    bad = True
+        msgs.extend(over.values())
+        if n_ok == 0:
+            msgs.append("no ok rows to compare")
+            bad = True
+        results[mode] = (not bad and len(mrows) == len(samples), "; ".join(msgs))
+    return results
+
+
+# --------------------------------------------------------------------------- #
 # Comparison with the engine
 # --------------------------------------------------------------------------- #
 def read_engine(out_dir):
@@ -1197,6 +1777,7 @@ def read_engine(out_dir):
 
 
 QUANTS = ["input", "kin", "f_r", "m_r", "f_s"]
+QUANTS_UPS = ["f_u", "m_u"]          # 6-UPS: f_u<i>_*, m_u<i> (the scalar mu_i); f_s as above
 
 
 def compare_job(job, rows, stats, label):
@@ -1281,6 +1862,8 @@ PROBES = {
               "mechanism": {"kind": "3-RPS", "cylinder_length": 0.8, "piston_length": 0.8},
               "mass": {"cylinder": 2.0, "piston": 1.0},
               "grid": {"z": 1.2, "psi": 0.0, "theta": 0.0}},
+    "6-UPS": {"name": "pincheck_probe_ups", "mechanism": {"kind": "6-UPS"},
+              "grid": {"x": 0.0, "y": 0.0, "z": 0.7, "phi": 0.0, "psi": 0.0, "theta": 0.0}},
 }
 
 
@@ -1313,7 +1896,8 @@ def run_compare(args, kinds, explicit):
             print(f"{'FAIL' if explicit else 'SKIP'} kind {kd}: the engine rejects it as a bad job: {why}")
     stats, passed, failed, skipped = {}, 0, 0, 0
     for ij, kind, traj, n in job_plan(args.jobs, kinds):
-        job = random_job(args.seed, ij, kind, traj, n)
+        job = random_ups_job(args.seed, ij, traj, n) if kind == "6-UPS" else \
+            random_job(args.seed, ij, kind, traj, n)
         modes = job_modes(job)
         if not support[kind][0]:
             if explicit:
@@ -1340,7 +1924,7 @@ def run_compare(args, kinds, explicit):
             continue
         try:
             rows = read_engine(out)
-            res = compare_job(job, rows, stats, job["name"])
+            res = (compare_ups_job if kind == "6-UPS" else compare_job)(job, rows, stats, job["name"])
         except Exception as exc:     # missing column, etc.: a failure, reported
             for mode in modes:
                 print(f"FAIL {job['name']} {mode}: {type(exc).__name__}: {exc}")
@@ -1352,9 +1936,11 @@ def run_compare(args, kinds, explicit):
             failed += not ok
     print()
     print(f"{'kind':9s} {'mode':13s} {'quantity':8s} {'worst diff':>11s} {'tol':>8s}  where")
-    scale = {"input": "abs", "kin": "abs", "f_r": "/W", "m_r": "/(W L)", "f_s": "/W"}
+    scale = {"input": "abs", "kin": "abs", "f_r": "/W", "m_r": "/(W L)", "f_s": "/W",
+             "f_u": "/W", "m_u": "/(W L)"}
     for (kind, mode, qn), (dv, where) in sorted(
-            stats.items(), key=lambda kv: (KINDS.index(kv[0][0]), kv[0][1], QUANTS.index(kv[0][2]))):
+            stats.items(), key=lambda kv: ((KINDS + EXTRA_KINDS).index(kv[0][0]), kv[0][1],
+                                           (QUANTS + QUANTS_UPS).index(kv[0][2]))):
         tol = {"input": TOL_INPUT, "kin": TOL_KIN}.get(qn, TOL_STATIC if mode == "kinetostatic" else TOL_DYNAMIC)
         print(f"{kind:9s} {mode:13s} {qn:8s} {dv:11.2e} {tol:8.0e}  {scale[qn]:7s} {where}")
     if args.keep or failed:
@@ -1372,9 +1958,10 @@ def parse_kinds(spec):
     kinds = []
     for k in spec.split(","):
         k = k.strip()
-        match = [kk for kk in KINDS if kk.lower() == k.lower()]
+        match = [kk for kk in KINDS + EXTRA_KINDS if kk.lower() == k.lower()]
         if not match:
-            raise SystemExit(f"--kinds: unknown kind {k!r} (choose from {', '.join(KINDS)}, or all)")
+            raise SystemExit(f"--kinds: unknown kind {k!r} (choose from "
+                             f"{', '.join(KINDS + EXTRA_KINDS)}, or all = {', '.join(KINDS)})")
         if match[0] not in kinds:
             kinds.append(match[0])
     return kinds
@@ -1386,7 +1973,8 @@ def main():
                     help="random job files, cycling over the kinds (default 6; --selftest 12)")
     ap.add_argument("--seed", type=int, default=12345)
     ap.add_argument("--kinds", default=None,
-                    help=f"comma-separated among {', '.join(KINDS)} (default: all)")
+                    help=f"comma-separated among {', '.join(KINDS + EXTRA_KINDS)} "
+                         f"(default: all = {', '.join(KINDS)})")
     ap.add_argument("--bin", default=None, help="engine binary (default target/release/clearance)")
     ap.add_argument("--keep", default=None, help="directory for the job files and outputs")
     ap.add_argument("--selftest", action="store_true", help="validate the Pinocchio side alone")
