@@ -67,7 +67,6 @@ Importing this module has no side effects.
 
 from __future__ import annotations
 
-import copy
 import math
 import os
 import sys
@@ -77,7 +76,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import reference_model as rm  # noqa: E402
-from reference_model import Jet, jcross, jsqrt  # noqa: E402
+from reference_model import Jet, jsqrt  # noqa: E402
 
 __all__ = [
     "KIND", "KINDS", "COMPONENTS", "INPUTS", "DEFAULTS", "normalize_job", "sample_inputs",
@@ -619,12 +618,14 @@ def _compute_chunk(P, inp, sl, modes):
     if "dynamic" in modes:
         kj = kinematics(P, *[inp[k + "j"][sl] for k in INPUTS])
         kin = {k: (v.v if isinstance(v, Jet) else v) for k, v in kj.items()}
-        mot = motion(kj, P)
+        with np.errstate(all="ignore"):          # legs along their U axis: flagged below
+            mot = motion(kj, P)
     else:
         kin = kinematics(P, *[vals[k] for k in INPUTS])
     reach = kin["reach"]
+    # G needs no U axis: a leg along its axis still has its own condition numbers
+    cond_a, cond_jp = condition_numbers(_substitute(P, kin, reach))
     kin_s = _substitute(P, kin, reach & ~kin["axis_singular"])
-    cond_a, cond_jp = condition_numbers(kin_s)
     singular = ~((cond_a <= P["singular_cond"]) & (cond_jp <= P["singular_cond"])) | \
         kin["axis_singular"]
     bs = np.stack([equilibrium_rhs(P, kin_s, mot if m == "dynamic" else None) for m in modes], -1)
@@ -724,8 +725,8 @@ def pipeline(P, x, y, z, phi, psi, theta):
     singular, 3 unreachable)."""
     kin = kinematics(P, x, y, z, phi, psi, theta)
     reach = kin["reach"]
+    cond_a, cond_jp = condition_numbers(_substitute(P, kin, reach))
     kin_s = _substitute(P, kin, reach & ~kin["axis_singular"])
-    cond_a, cond_jp = condition_numbers(kin_s)
     singular = ~((cond_a <= P["singular_cond"]) & (cond_jp <= P["singular_cond"])) | \
         kin["axis_singular"]
     with np.errstate(all="ignore"):
