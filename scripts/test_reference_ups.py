@@ -595,3 +595,35 @@ def test_throughput_pipeline_agrees_with_compute():
     for ki, k in enumerate(ru.KINDS):
         for ci, comp in enumerate(ru.COMPONENTS):
             np.testing.assert_array_equal(per[:, ci, ki], c[f"err_{k}_{comp}"][sl])
+
+
+def _rows(cols):
+    names = list(cols)
+    out = []
+    for r in range(cols["sample"].size):
+        row = {}
+        for n in names:
+            v = cols[n][r]
+            row[n] = None if (isinstance(v, float) and v != v) else v
+        out.append(row)
+    return out
+
+
+@pytest.mark.parametrize("idx,traj", [(0, False), (1, True), (2, False)])
+def test_pinocchio_check_ups_jobs_and_compare_path(idx, traj):
+    """scripts/pinocchio_check.py's random 6-UPS jobs are valid for this reference (they
+    survive TOML), and its engine comparison, fed with this reference's rows as if they
+    were the engine's, passes every mode (reactions within 1e-9 W); a row with one force
+    off by 1e-6 W fails it."""
+    import tomllib
+    pc = _pc()
+    job = tomllib.loads(pc.to_toml(pc.random_ups_job(7, idx, traj, idx)))
+    cols = ru.compute(job)
+    rows = _rows(cols)
+    res = pc.compare_ups_job(job, rows, {}, "t")
+    assert res and all(ok for ok, _ in res.values()), res
+    P = ru.normalize_job(job)
+    k = next(i for i, r in enumerate(rows) if r["status"] == "ok")
+    rows[k]["f_u3_y"] += 1e-6 * P["W"]
+    res = pc.compare_ups_job(job, rows, {}, "t")
+    assert not res[rows[k]["mode"]][0]
