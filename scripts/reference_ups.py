@@ -46,6 +46,11 @@ cond_jp above ``analysis.singular_cond``), ``indeterminate_contact`` (u_radial o
 s_radial with a non-zero clearance and a deciding load at most
 ``indeterminate_load_fraction * W``), ``ok``.
 
+The standard column set also carries the worst-case envelope and the dominant joint
+(docs/model.md section 11, by analogy: the admissible sets are the balls of s_radial and
+u_radial and the segment of u_angular about n_i; joints are named s<i>_radial,
+u<i>_radial, u<i>_angular).
+
 Condition numbers (the rule of docs/conventions.md, for this kind): the equilibrium
 with the legs eliminated leaves the six axial components of f_S, so ``cond_a`` is the
 1-norm condition number of ``G`` with columns ``[e_i; r_i x e_i]`` (``r_i = A_i - P``);
@@ -84,6 +89,8 @@ __all__ = [
     "unpack_reactions", "take_up", "passive_screws", "loop_matrix", "clearance_twists",
     "loop_system", "pose_error", "reduced_matrix", "exact_errors", "column_names",
     "compute", "pose_arrays", "pipeline", "throughput", "same_branch", "condition_numbers",
+    "ENV_COMPONENTS", "JOINTS", "JOINT_NAMES", "joint_name", "env_column_names", "joint_maps",
+    "joint_envelopes", "joint_contributions", "dominant_joint",
 ]
 
 KIND = "6-UPS"
@@ -472,6 +479,93 @@ def condition_numbers(kin):
 
 
 # --------------------------------------------------------------------------
+# Worst-case envelope and dominant joint (docs/model.md section 11, for this kind)
+#
+# As in reference_model.py, derived from the assembled loop system: each joint's
+# linear map is the pose error of unit take-ups of that joint alone (three world
+# translations of limb i's clearance, three world rotation vectors of its leg about
+# B_i), and the maximum over the joint's admissible set {U w : |w| <= c} is
+# c |U^T g| for a component g and c sigma_max(H U) for |Delta p| or |Delta alpha|.
+# The sets: s_radial the ball at A_i (U = I3), u_radial the ball at B_i (U = I3),
+# u_angular the segment of rotations about n_i (U = n_i, which moves with the leg),
+# whose envelope is zero like its error.
+# --------------------------------------------------------------------------
+ENV_COMPONENTS = rm.ENV_COMPONENTS                 # x, y, z, rx, ry, rz, p, alpha
+_ENV_ROWS = (3, 4, 5, 0, 1, 2)                     # rows of [d_alpha; d_p]
+
+
+def joint_name(kind, i):
+    """`s<i>_radial`, `u<i>_radial`, `u<i>_angular` (i = 1..6)."""
+    return f"{kind[0]}{i}_{kind.split('_', 1)[1]}"
+
+
+JOINTS = tuple((k, i) for k in KINDS for i in range(1, NL + 1))      # the tie order
+JOINT_NAMES = tuple(joint_name(k, i) for k, i in JOINTS)
+
+
+def env_column_names():
+    return [f"env_{c}" for c in ENV_COMPONENTS] + \
+        [f"env_{k}_{c}" for k in KINDS for c in ENV_COMPONENTS] + ["dominant"]
+
+
+def joint_maps(S, JP, p, B):
+    """(Gt, Gr), each (N, 6 limbs, 6, 3): Delta Gamma = [d_alpha; d_p] per unit world
+    translation of limb i's clearance (the U and S translations have the same twist)
+    and per unit world rotation vector of leg i about B_i, all other joints rigid."""
+    N = p.shape[0]
+    Tcl = np.zeros((N, NL, 6, 6 * NL))
+    rB = B - p[:, None, :]
+    for i in range(NL):
+        for k in range(3):
+            Tcl[:, i, 3:6, 6 * i + k] = I3[k]
+            Tcl[:, i, 0:3, 6 * i + 3 + k] = I3[k]
+            Tcl[:, i, 3:6, 6 * i + 3 + k] = np.cross(rB[:, i], I3[k])
+    _, rhs = loop_system(S, Tcl)
+    G = pose_error(S, Tcl, rm._solve_stack(JP, rhs)).reshape(N, 6, NL, 2, 3)
+    return G[:, :, :, 0, :].transpose(0, 2, 1, 3), G[:, :, :, 1, :].transpose(0, 2, 1, 3)
+
+
+def joint_envelopes(P, Gt, Gr, n):
+    """kind -> (N, 6 limbs, 8): per joint the maximum over its admissible set of
+    |Delta Gamma_c| (x, y, z, rx, ry, rz) and of |Delta p|, |Delta alpha|."""
+    out = {}
+    N = Gt.shape[0]
+    for kind in KINDS:
+        c = P["clear"][kind]
+        if c == 0.0:
+            out[kind] = np.zeros((N, NL, 8))
+            continue
+        H = Gr @ n[..., None] if kind == "u_angular" else Gt                 # (N,6,6,m)
+        comp = np.linalg.norm(H, axis=-1)
+        with np.errstate(all="ignore"):
+            out[kind] = c * np.concatenate([comp[..., list(_ENV_ROWS)],
+                                            rm._spectral(H[..., 3:6, :])[..., None],
+                                            rm._spectral(H[..., 0:3, :])[..., None]], -1)
+    return out
+
+
+def joint_contributions(Gt, Gr, disp):
+    """(N, 18, 6): each joint's own Delta Gamma for the take-up `disp`, JOINTS order."""
+    return np.stack([np.einsum("nrk,nk->nr", (Gr if kind == "u_angular" else Gt)[:, i],
+                               disp[kind][:, i]) for kind in KINDS for i in range(NL)], 1)
+
+
+def dominant_joint(P, contrib, rows):
+    """Object array of joint names (None outside `rows` or with no clearance): the joint of
+    non-zero clearance whose own contribution has the largest |Delta p|, the first in
+    JOINTS order on ties.  (u_angular's contribution is round-off: a job whose only
+    clearance is u_angular names a joint by its round-off.)"""
+    out = np.full(contrib.shape[0], None, dtype=object)
+    cand = np.array([P["clear"][k] != 0.0 for k, _ in JOINTS])
+    if not cand.any():
+        return out
+    dp = np.where(cand, np.linalg.norm(contrib[..., 3:6], axis=-1), -np.inf)
+    idx = np.argmax(np.nan_to_num(dp, nan=-np.inf), axis=-1)
+    out[rows] = np.array(JOINT_NAMES, dtype=object)[idx[rows]]
+    return out
+
+
+# --------------------------------------------------------------------------
 # Exact error (docs/model.md section 7)
 # --------------------------------------------------------------------------
 def exact_errors(P, kin, dB, dth, dA, max_iter=30):
@@ -571,6 +665,7 @@ def column_names(job_or_P, columns="full") -> list:
         names += [f"q{i}" for i in range(1, NL + 1)]
         for i in range(1, NL + 1):
             names += [f"margin_u{i}_radial", f"margin_u{i}_angular", f"margin_s{i}"]
+        names += env_column_names()
     if columns == "full":
         for i in range(1, NL + 1):
             names += [f"f_u{i}_{a}" for a in "xyz"] + [f"m_u{i}"] + [f"f_s{i}_{a}" for a in "xyz"]
@@ -639,6 +734,10 @@ def _compute_chunk(P, inp, sl, modes):
             G = _errors(P, kin_s, S, JP, disp)
         eul = rm.euler_errors(vals["psi"], vals["theta"], G[:, 0:3])
         per = np.concatenate([G[:, 3:6], G[:, 0:3], eul], axis=1)      # (N,9,3), COMPONENTS
+        if mi == 0:                  # geometry only: the same maps for every mode
+            with np.errstate(all="ignore"):
+                Gt, Gr = joint_maps(S, JP, kin_s["p"], kin_s["B"])
+                jenv = joint_envelopes(P, Gt, Gr, kin_s["n"])
         any_indet = np.zeros(N, bool)
         for k in KINDS:
             any_indet |= indet[k]
@@ -661,6 +760,13 @@ def _compute_chunk(P, inp, sl, modes):
             cols[f"err_{c}"] = np.where(ok, tot[:, ci], np.nan)
             for ki, k in enumerate(KINDS):
                 cols[f"err_{k}_{c}"] = np.where(full_rows & ~indet[k], per[:, ci, ki], np.nan)
+        for ki, k in enumerate(KINDS):
+            ek = jenv[k].sum(1)
+            for ci, c in enumerate(ENV_COMPONENTS):
+                cols[f"env_{k}_{c}"] = np.where(full_rows, ek[:, ci], np.nan)
+        for c in ENV_COMPONENTS:
+            cols[f"env_{c}"] = sum(cols[f"env_{k}_{c}"] for k in KINDS)
+        cols["dominant"] = dominant_joint(P, joint_contributions(Gt, Gr, disp), ok)
         for i in range(NL):
             for a_i, a in enumerate("xyz"):
                 cols[f"f_u{i + 1}_{a}"] = np.where(full_rows, fU[:, i, a_i], np.nan)

@@ -627,3 +627,47 @@ def test_pinocchio_check_ups_jobs_and_compare_path(idx, traj):
     rows[k]["f_u3_y"] += 1e-6 * P["W"]
     res = pc.compare_ups_job(job, rows, {}, "t")
     assert not res[rows[k]["mode"]][0]
+
+
+def test_envelope_and_dominant_against_reciprocal_screws():
+    """The envelope from the 30 x 30 system against the closed form of the 6 x 6
+    reciprocal-screw form (n_i = column i of M^-1; a translation u of limb i's U or S
+    clearance gives Delta Gamma = n_i (e_i . u)): env_<kind>_c = c sum_i |n_ic| and
+    env_<kind>_p = c sum_i |n_i,p| for s_radial and u_radial, 1e-10 relative; u_angular's
+    envelope < 1e-15; the actual error lies inside the envelope (1e-12 relative); the
+    dominant joint is the argmax of |n_i,p (e_i . d_i)| (where the top two differ by 1e-9)."""
+    job = with_job(LOADED, clearance={"s_radial": 2e-4, "u_radial": 1e-4, "u_angular": 1e-3})
+    P = ru.normalize_job(job)
+    c = ru.pose_arrays(job, *random_poses(40))
+    assert (c["status"] == "ok").all()
+    x = [c[k] for k in INPUTS]
+    _, _, A, q, e = ik(job, *x)
+    p = np.stack(x[0:3], -1)
+    Ninv = np.linalg.inv(np.concatenate([np.cross(A - p[:, None], e), e], -1))   # (N,6 rows,6 limbs)
+    rows = {"x": 3, "y": 4, "z": 5, "rx": 0, "ry": 1, "rz": 2}
+    for kind in ("s_radial", "u_radial"):
+        cl = P["clear"][kind]
+        for comp, r in rows.items():
+            np.testing.assert_allclose(c[f"env_{kind}_{comp}"], cl * np.abs(Ninv[:, r]).sum(-1), rtol=1e-10)
+        np.testing.assert_allclose(c[f"env_{kind}_p"], cl * np.linalg.norm(Ninv[:, 3:6], axis=1).sum(-1), rtol=1e-10)
+        np.testing.assert_allclose(c[f"env_{kind}_alpha"], cl * np.linalg.norm(Ninv[:, 0:3], axis=1).sum(-1),
+                                   rtol=1e-10)
+    for comp in list(rows) + ["p", "alpha"]:
+        assert np.abs(c[f"env_u_angular_{comp}"]).max() < 1e-15
+    for comp in rows:
+        assert np.all(np.abs(c[f"err_{comp}"]) <= c[f"env_{comp}"] * (1 + 1e-12))
+    dp = np.linalg.norm(np.stack([c[f"err_{a}"] for a in "xyz"], -1), axis=-1)
+    assert np.all(dp <= c["env_p"] * (1 + 1e-12))
+    fU = np.stack([np.stack([c[f"f_u{i}_{a}"] for a in "xyz"], -1) for i in range(1, 7)], 1)
+    fS = np.stack([np.stack([c[f"f_s{i}_{a}"] for a in "xyz"], -1) for i in range(1, 7)], 1)
+    contrib = []
+    for f, cl in ((fS, 2e-4), (fU, 1e-4)):
+        d = (e * (-cl * f / np.linalg.norm(f, axis=-1)[..., None])).sum(-1)        # (N,6)
+        contrib.append(np.linalg.norm(Ninv[:, 3:6] * d[:, None, :], axis=1))       # |Delta p| per limb
+    contrib = np.concatenate(contrib, -1)                                           # s1..s6, u1..u6
+    names = [f"s{i}_radial" for i in range(1, 7)] + [f"u{i}_radial" for i in range(1, 7)]
+    top2 = np.sort(contrib, -1)[:, -2:]
+    clear = top2[:, 1] - top2[:, 0] > 1e-9 * top2[:, 1]
+    assert clear.sum() >= 30
+    expect = np.array(names, dtype=object)[np.argmax(contrib, -1)]
+    np.testing.assert_array_equal(c["dominant"][clear], expect[clear])
