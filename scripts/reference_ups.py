@@ -58,6 +58,22 @@ each limb's passive freedoms have one reciprocal screw, the force along the leg,
 ``cond_jp`` is that of ``M`` with rows ``[(r_i x e_i)^T, e_i^T]`` (``= G^T`` with its
 halves swapped: kappa_1(M) = kappa_inf(G)).
 
+Choices where docs/model.md leaves room (each a line to revisit if the engine differs):
+
+* W = (m_platform + point masses + 6 (m_cyl + m_pis)) |g|, the conventions' weight of
+  all moving bodies with six legs; it scales the indeterminate floor.
+* Default U axes with ``base_points`` given and no ``u_axes``: tangent to the circle
+  through B_i about z, ``(-sin t_i, cos t_i, 0)`` with ``t_i = atan2(B_iy, B_ix)``.
+* The platform disc has radius ``platform_radius`` (default 0.3) even when
+  ``platform_points`` place the joints elsewhere.
+* sigma_i does not reach the reactions: with slender rods (no axial inertia)
+  ``I w' + w x I w`` equals ``I (e x e'')`` for any spin sigma about the leg; it is
+  computed, tested (omega . n = 0, the U angles' rates) and used all the same.
+* Exact mode: the u_angular rotation comes first from the base (it also turns a1_i);
+  the branch test of docs/conventions.md gets a round-off floor (see same_branch).
+* Dominant joint: the rule of docs/model.md section 11 with the order s_radial,
+  u_radial, u_angular, then limbs 1..6.
+
 Usage::
 
     import tomllib, reference_ups as ru
@@ -67,7 +83,8 @@ Usage::
 
     python3 scripts/reference_ups.py --throughput 20000   # poses/s of the NumPy pipeline
 
-Importing this module has no side effects.
+Importing this module puts scripts/ on sys.path (for reference_model) and does
+nothing else.
 """
 
 from __future__ import annotations
