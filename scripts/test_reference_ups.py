@@ -671,3 +671,20 @@ def test_envelope_and_dominant_against_reciprocal_screws():
     assert clear.sum() >= 30
     expect = np.array(names, dtype=object)[np.argmax(contrib, -1)]
     np.testing.assert_array_equal(c["dominant"][clear], expect[clear])
+
+
+def test_leg_spin_does_not_reach_the_reactions():
+    """Slender legs have no axial inertia, so the spin sigma_i e_i of omega_i leaves
+    I w' + w x I w unchanged: the dynamic right-hand side with sigma = 0 (omega = e x e',
+    omega' = e x e'') equals the reference's to 1e-12 of W (l_c + l_p)."""
+    job = traj_job(LOADED, n=21, modes=("dynamic",))
+    P = ru.normalize_job(job)
+    smp = ru.sample_inputs(P)
+    kj = ru.kinematics(P, *[smp[k + "j"] for k in INPUTS])
+    kin = {k: (v.v if isinstance(v, ru.Jet) else v) for k, v in kj.items()}
+    mot = ru.motion(kj, P)
+    e, ed, edd = kj["e"].v, kj["e"].d, kj["e"].dd
+    mot0 = dict(mot, w_leg=np.cross(e, ed), dw_leg=np.cross(e, edd))
+    assert np.abs(mot["w_leg"] - mot0["w_leg"]).max() > 1e-3
+    b, b0 = ru.equilibrium_rhs(P, kin, mot), ru.equilibrium_rhs(P, kin, mot0)
+    assert np.abs(b - b0).max() < 1e-12 * P["W"] * (P["lc"] + P["lp"])
