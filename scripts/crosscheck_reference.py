@@ -67,7 +67,7 @@ strings, a null exactly where the reference has NaN (and nowhere else), no NaN
 stored in the engine's files, every expected column present.  A job fails on
 any violation or on a non-zero exit code of the engine.
 
-Worst-case envelope (/work/notes/envelope_spec.md): ``env_<c>``,
+Worst-case envelope (docs/model.md section 11): ``env_<c>``,
 ``env_<kind>_<c>`` (c = x, y, z, rx, ry, rz, p, alpha) and ``dominant``.  If the
 engine's output has none of them (an engine from before issue 22), they are
 skipped with a note, not failed; if it has some, all are required.  The env_*

@@ -44,7 +44,7 @@ Usage::
 NaN marks the cells the engine writes as null (string columns use None).
 Importing this module has no side effects.
 
-Worst-case envelope and dominant joint (/work/notes/envelope_spec.md): the
+Worst-case envelope and dominant joint (docs/model.md section 11): the
 ``standard`` and ``full`` sets carry ``env_<c>`` and ``env_<kind>_<c>`` (c = x, y,
 z, rx, ry, rz, p, alpha) and ``dominant``.  They are derived from this module's
 own 12x12 loop system, not from the spec's 6x6 N-columns: :func:`joint_maps`
@@ -905,7 +905,7 @@ def euler_errors(psi, theta, dalpha):
 
 
 # --------------------------------------------------------------------------
-# Worst-case envelope and dominant joint (/work/notes/envelope_spec.md, issue 22)
+# Worst-case envelope and dominant joint (docs/model.md section 11)
 #
 # Derived here from the 12x12 loop system itself, not from the spec's 6x6
 # N = M^-1 columns: each joint's linear map is the pose error of unit take-up

@@ -1144,7 +1144,7 @@ def test_rps_stroke_limits_make_unreachable():
 
 
 # --------------------------------------------------------------------------
-# worst-case envelope and dominant joint (/work/notes/envelope_spec.md)
+# worst-case envelope and dominant joint (docs/model.md section 11)
 # --------------------------------------------------------------------------
 ENV_KINDS_OF_JOBS = ["prototype", "3-PRS", "3-RPS"]
 # relative round-off allowed between two linear solves of the same system
