@@ -38,3 +38,11 @@ impl ClearanceKind {
         KINDS.into_iter().find(|k| k.name() == name)
     }
 }
+
+/// The name of a joint and clearance kind, as the `dominant` column spells it: the
+/// kind's name with the limb (`limb` from 0) after the joint's letter (`s1_radial`,
+/// `r2_axial`, …). `kind` indexes [`KINDS`].
+pub fn joint_name(kind: usize, limb: usize) -> String {
+    let name = KINDS[kind].name();
+    format!("{}{}{}", &name[..1], limb + 1, &name[1..])
+}

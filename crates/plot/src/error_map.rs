@@ -97,6 +97,53 @@ fn extent(axis: &[f64]) -> (f64, f64) {
     }
 }
 
+/// A map over Ψ (across) and Θ (up) with its axes: each pixel takes `colour` of the
+/// slot `i_ψ·len(θ) + i_θ` of the nearest sample (no interpolation: a discontinuity
+/// stays a sharp edge), and the switch locations are drawn over it as black dots.
+pub(crate) fn draw_map(
+    area: &Area<'_>,
+    caption: &str,
+    (psi, theta): (&[f64], &[f64]),
+    switches: &[(f64, f64)],
+    colour: impl Fn(usize) -> RGBColor,
+) -> DrawResult {
+    let (x0, x1) = extent(psi);
+    let (y0, y1) = extent(theta);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, font(20.0))
+        .margin(8)
+        .x_label_area_size(46)
+        .y_label_area_size(66)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(5)
+        .y_labels(5)
+        .x_label_formatter(&|v| tick_label(*v, x1 - x0))
+        .y_label_formatter(&|v| tick_label(*v, y1 - y0))
+        .label_style(font(14.0))
+        .axis_desc_style(font(16.0))
+        .x_desc("Ψ (rad)")
+        .y_desc("Θ (rad)")
+        .draw()?;
+    let plot = chart.plotting_area().strip_coord_spec();
+    let (pw, ph) = plot.dim_in_pixel();
+    let n_theta = theta.len();
+    let columns: Vec<usize> = (0..pw).map(|px| nearest(psi, x0 + (px as f64 + 0.5) / pw as f64 * (x1 - x0))).collect();
+    for py in 0..ph {
+        let it = nearest(theta, y1 - (py as f64 + 0.5) / ph as f64 * (y1 - y0));
+        for (px, &ip) in columns.iter().enumerate() {
+            plot.draw_pixel((px as i32, py as i32), &colour(ip * n_theta + it))?;
+        }
+    }
+    chart.draw_series(
+        switches.iter().map(|&p| EmptyElement::at(p) + Rectangle::new([(-1, -1), (1, 1)], BLACK.filled())),
+    )?;
+    chart.plotting_area().draw(&Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1)))?;
+    Ok(())
+}
+
 impl ErrorMap<'_> {
     pub fn write(&self, path: &Path) -> Result<(), PlotError> {
         // A component that is zero up to round-off shows as one flat colour: the
@@ -132,47 +179,13 @@ impl ErrorMap<'_> {
     fn draw_panel(&self, area: &Area<'_>, panel: &MapPanel, (lo, hi, clipped): (f64, f64, bool)) -> DrawResult {
         let (w, _) = area.dim_in_pixel();
         let (map_area, bar_area) = area.split_horizontally(w - BAR_WIDTH);
-        let (x0, x1) = extent(self.psi);
-        let (y0, y1) = extent(self.theta);
         let c = panel.component;
         let caption = format!("Δ{} ({}){}", c.symbol, c.error_unit(), if clipped { " *" } else { "" });
-        let mut chart = ChartBuilder::on(&map_area)
-            .caption(caption, font(20.0))
-            .margin(8)
-            .x_label_area_size(46)
-            .y_label_area_size(66)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_labels(5)
-            .y_labels(5)
-            .x_label_formatter(&|v| tick_label(*v, x1 - x0))
-            .y_label_formatter(&|v| tick_label(*v, y1 - y0))
-            .label_style(font(14.0))
-            .axis_desc_style(font(16.0))
-            .x_desc("Ψ (rad)")
-            .y_desc("Θ (rad)")
-            .draw()?;
-
-        // The map, pixel by pixel from the nearest sample.
-        let plot = chart.plotting_area().strip_coord_spec();
-        let (pw, ph) = plot.dim_in_pixel();
-        let n_theta = self.theta.len();
-        let columns: Vec<usize> =
-            (0..pw).map(|px| nearest(self.psi, x0 + (px as f64 + 0.5) / pw as f64 * (x1 - x0))).collect();
-        for py in 0..ph {
-            let it = nearest(self.theta, y1 - (py as f64 + 0.5) / ph as f64 * (y1 - y0));
-            for (px, &ip) in columns.iter().enumerate() {
-                let v = panel.values[ip * n_theta + it];
-                let colour = if v.is_finite() { turbo((v - lo) / (hi - lo)) } else { NULL_GREY };
-                plot.draw_pixel((px as i32, py as i32), &colour)?;
-            }
-        }
-        chart.draw_series(
-            self.switches.iter().map(|&p| EmptyElement::at(p) + Rectangle::new([(-1, -1), (1, 1)], BLACK.filled())),
-        )?;
-        chart.plotting_area().draw(&Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1)))?;
+        let colour = |slot: usize| {
+            let v = panel.values[slot];
+            if v.is_finite() { turbo((v - lo) / (hi - lo)) } else { NULL_GREY }
+        };
+        draw_map(&map_area, &caption, (self.psi, self.theta), &self.switches, colour)?;
 
         // The colour bar, aligned with the map: same caption height and margins.
         let mut bar = ChartBuilder::on(&bar_area)

@@ -6,6 +6,8 @@
 //! | run | file under `OUT/variant=K/` | pixels | paper |
 //! |---|---|---|---|
 //! | grid | `total_<mode>.png`, `<kind>_<mode>.png` for each enabled kind: six colour maps over Ψ–Θ at the first `z` (ΔX, ΔY, ΔZ in µm; ΔΨ, ΔΘ, ΔΦ in µrad), each with its colour bar, nulls grey, the switch locus as black dots | [`MAP_SIZE`] 1680 × 1040 | Figs. 6–12 |
+//! | grid | `envelope_<mode>.png`: the same six maps of the worst case over every take-up (`env_*`) | [`MAP_SIZE`] | beyond the paper |
+//! | grid | `dominant_<mode>.png`: the joint whose own take-up moves P most (`dominant`), one colour per joint ([`dominant_colour`]), each joint's share of the poses in the legend, the switch locus as black dots | [`MAP_SIZE`] | beyond the paper |
 //! | trajectory | `inputs_motion.png`: the moving inputs (Θ) with velocity and acceleration against t | 1680 × (100 + 300 per input) | Fig. 13 |
 //! | trajectory | `parasitic_motion.png`: X, Y, Φ with velocities and accelerations against t | 1680 × 1000 | Fig. 14 |
 //! | trajectory | `total_trajectory.png`, `<kind>_trajectory.png`: the six errors against Θ (else the input that moves), kinetostatics black, dynamics blue, switches dashed | [`ERROR_SIZE`] 1680 × 1000 | Figs. 15–17 |
@@ -35,6 +37,7 @@
 //! # Ok::<(), clearance_plot::PlotError>(())
 //! ```
 
+mod dominant_map;
 mod error;
 mod error_map;
 mod figure;
@@ -47,6 +50,7 @@ use std::path::{Path, PathBuf};
 use clearance_grid::SampleSource;
 use clearance_model::{KINDS, Variant};
 
+pub use dominant_map::dominant_colour;
 pub use error::PlotError;
 pub use error_map::MAP_SIZE;
 pub use trajectory::ERROR_SIZE;
@@ -159,6 +163,20 @@ impl Context<'_> {
         (chosen, format!("{n} switch{}", if n == 1 { "" } else { "es" }))
     }
 
+    /// The switches of `mode` a map of `source` at `z0` marks, as `(ψ, θ)`, and the
+    /// subtitle's note on them.
+    fn switches_at(&self, source: Source, mode: &str, z0: f64) -> (Vec<(f64, f64)>, String) {
+        let z_tol = 1e-9 * z0.abs().max(1.0);
+        let (switches, note) = self.switches_for(source, Some(mode));
+        let at_z0: Vec<(f64, f64)> =
+            switches.iter().filter(|s| (s.z - z0).abs() <= z_tol).map(|s| (s.psi, s.theta)).collect();
+        let note = match self.switches {
+            Some(_) => format!("black dots: switch locus ({} at this Z)", at_z0.len()),
+            None => note,
+        };
+        (at_z0, note)
+    }
+
     fn grid_figures(
         &self,
         data: &[ModeData],
@@ -167,21 +185,13 @@ impl Context<'_> {
         theta: &[f64],
         written: &mut Vec<PathBuf>,
     ) -> Result<(), PlotError> {
-        let z_tol = 1e-9 * z0.abs().max(1.0);
         for source in self.sources(data) {
             for mode in data {
                 let columns = trajectory::error_columns(mode, source);
                 if columns.iter().all(Option::is_none) {
                     continue;
                 }
-                let (switches, note) = self.switches_for(source, Some(&mode.mode));
-                let at_z0: Vec<(f64, f64)> =
-                    switches.iter().filter(|s| (s.z - z0).abs() <= z_tol).map(|s| (s.psi, s.theta)).collect();
-                let note = if self.switches.is_some() {
-                    format!("black dots: switch locus ({} at this Z)", at_z0.len())
-                } else {
-                    note
-                };
+                let (at_z0, note) = self.switches_at(source, &mode.mode, z0);
                 let map = error_map::ErrorMap {
                     title: format!("{} — {}, {}", self.title(), source.describe(), mode.mode),
                     subtitle: format!(
@@ -220,6 +230,32 @@ impl Context<'_> {
                 switches: Vec::new(),
             };
             let path = self.dir.join(format!("envelope_{}.png", mode.mode));
+            map.write(&path)?;
+            written.push(path);
+        }
+        // The joint to tighten, with every switch of the mode at this Z.
+        let joints = run_dir::joints();
+        for mode in data {
+            let Some(values) = mode.column(run_dir::DOMINANT) else { continue };
+            if values.iter().all(|v| !v.is_finite()) {
+                continue;
+            }
+            let (at_z0, note) = self.switches_at(Source::Total, &mode.mode, z0);
+            let map = dominant_map::DominantMap {
+                title: format!("{} — the joint to tighten, {}", self.title(), mode.mode),
+                subtitle: format!(
+                    "{}largest contribution to |Δp| at Z = {} m · {} · grey: none (status ≠ ok) · {note}",
+                    self.variant_note(),
+                    short(z0),
+                    self.clearances(Source::Total),
+                ),
+                psi,
+                theta,
+                values,
+                names: &joints,
+                switches: at_z0,
+            };
+            let path = self.dir.join(format!("dominant_{}.png", mode.mode));
             map.write(&path)?;
             written.push(path);
         }

@@ -1,7 +1,7 @@
 //! A finished run directory: its job, its variants and their pose errors.
 //!
 //! Only what the figures need is read: the `sample` and `mode` identity and the
-//! error columns (`err_<c>`, `err_<kind>_<c>`) that the files hold, projected at
+//! error columns (`err_<c>`, `err_<kind>_<c>`, `env_<c>`, `dominant`) that the files hold, projected at
 //! the Parquet level so a `full` run costs no more than a `minimal` one. Rows are
 //! placed by their `sample` number, so part files can come in any order; on a grid
 //! only the first `z` value is kept (the figures are maps over Ψ–Θ at one `z`).
@@ -18,7 +18,7 @@ use arrow::compute::cast;
 use arrow::datatypes::DataType;
 use clearance_engine::Layout as RunLayout;
 use clearance_grid::SampleSource;
-use clearance_model::{JobSpec, KINDS, Variant};
+use clearance_model::{JobSpec, KINDS, Variant, joint_name};
 use parquet::arrow::ProjectionMask;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -155,7 +155,32 @@ fn wanted_columns() -> Vec<String> {
         }
     }
     names.extend(crate::figure::ENVELOPE_COMPONENTS.iter().map(|c| format!("env_{}", c.suffix)));
+    names.push(DOMINANT.to_string());
     names
+}
+
+/// The string column of the joint that moves P most; read as its place in
+/// [`joints`] (a category number stored as `f64`, NaN for a null or a name the
+/// engine does not write).
+pub(crate) const DOMINANT: &str = "dominant";
+
+/// Every joint the `dominant` column can name, kind by kind, limb by limb: a
+/// category keeps its place (and its colour) whichever joints a run holds.
+pub(crate) fn joints() -> Vec<String> {
+    (0..KINDS.len()).flat_map(|k| (0..3).map(move |j| joint_name(k, j))).collect()
+}
+
+/// A column of `batch` as `f64` values: numbers cast, the `dominant` names as
+/// their place in [`joints`].
+fn values_of(path: &Path, name: &str, a: &ArrayRef, joints: &[String]) -> Result<Float64Array, PlotError> {
+    if name != DOMINANT {
+        return to_f64(path, name, a);
+    }
+    let names = to_utf8(path, name, a)?;
+    Ok(names
+        .iter()
+        .map(|n| Some(n.and_then(|n| joints.iter().position(|j| j == n)).map_or(f64::NAN, |i| i as f64)))
+        .collect())
 }
 
 /// Reads the poses of variant `k`, one [`ModeData`] per mode, in the job's mode order.
@@ -201,6 +226,7 @@ fn read_part(
         .unwrap_or("kinetostatic")
         .to_string();
     let slots = layout.slots();
+    let joints = joints();
     for batch in reader {
         let batch = batch.map_err(|source| PlotError::Arrow { path: path.to_path_buf(), source })?;
         let sample = batch.column_by_name("sample").ok_or_else(|| column_error(path, "sample", "missing"))?;
@@ -215,7 +241,7 @@ fn read_part(
             .iter()
             .zip(batch.columns())
             .filter(|(f, _)| wanted.iter().any(|w| w == f.name()))
-            .map(|(f, a)| Ok((f.name().as_str(), to_f64(path, f.name(), a)?)))
+            .map(|(f, a)| Ok((f.name().as_str(), values_of(path, f.name(), a, &joints)?)))
             .collect::<Result<_, PlotError>>()?;
         let mode_of = |row: usize| match &mode {
             Some(m) if m.is_valid(row) => m.value(row),

@@ -4,6 +4,7 @@
 
 mod common;
 
+use clearance_model::Mode;
 use clearance_parquet::ColumnSet;
 use clearance_plot::{ERROR_SIZE, MAP_SIZE, PlotError, plot_run};
 use common::{Png, SwitchRow, files_under, make_run, write_switches};
@@ -36,13 +37,14 @@ fn grid_maps_for_the_total_and_each_enabled_kind() {
     let out = tmp.path().join("plots");
     let written = plot_run(&run, &out).unwrap();
     let expected = [
+        "variant=0/dominant_kinetostatic.png",
         "variant=0/envelope_kinetostatic.png",
         "variant=0/r_axial_kinetostatic.png",
         "variant=0/r_radial_kinetostatic.png",
         "variant=0/total_kinetostatic.png",
     ];
     assert_eq!(files_under(&out), expected);
-    assert_eq!(written.len(), 4);
+    assert_eq!(written.len(), 5);
     // The envelope exists wherever the pose is solvable, on the symmetry plane too:
     // a full map, unlike the total error's.
     let envelope = Png::open(&out.join("variant=0/envelope_kinetostatic.png"));
@@ -180,4 +182,66 @@ fn an_unfinished_run_is_refused_and_nothing_is_written() {
     assert!(matches!(err, PlotError::NotARun { .. }), "{err}");
     assert!(err.to_string().contains("_SUCCESS"), "{err}");
     assert!(!out.exists());
+}
+
+/// The share of a uniform axis's extent nearest to each of its `n` samples: the
+/// end samples own half a spacing, the others a whole one.
+fn cell_shares(n: usize) -> Vec<f64> {
+    (0..n).map(|i| if i == 0 || i == n - 1 { 0.5 } else { 1.0 } / (n - 1) as f64).collect()
+}
+
+#[test]
+fn dominant_map_colours_each_pose_by_its_joint() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    let job = make_run(&run, GRID_JOB, ColumnSet::Standard);
+    let out = tmp.path().join("plots");
+    plot_run(&run, &out).unwrap();
+    let png = Png::open(&out.join("variant=0/dominant_kinetostatic.png"));
+    assert_eq!((png.width, png.height), MAP_SIZE);
+
+    // The joint of each pose of the first Z plane (9 Ψ × 7 Θ), solved here, and the
+    // share of the map each should cover: the area nearest to its sample.
+    let model = clearance_solver::Model::from_job(&job);
+    let model = clearance_solver::Model { envelope: true, ..model };
+    let source = clearance_grid::SampleSource::new(&job);
+    let (n_psi, n_theta) = (9, 7);
+    let (w_psi, w_theta) = (cell_shares(n_psi), cell_shares(n_theta));
+    let mut expected: std::collections::BTreeMap<[u8; 3], f64> = Default::default();
+    let mut ws = clearance_solver::Workspace::new();
+    for i in 0..n_psi * n_theta {
+        let r = clearance_solver::solve_pose(&model, &source.sample(i as u64), Mode::Kinetostatic, &mut ws);
+        let colour = match r.dominant {
+            Some((k, j)) => clearance_plot::dominant_colour(&clearance_solver::joint_name(k, j)).unwrap(),
+            None => [185, 185, 185],
+        };
+        *expected.entry(colour).or_default() += w_psi[i / n_theta] * w_theta[i % n_theta];
+    }
+    assert!(expected.len() >= 3, "a map of one colour tests little: {expected:?}");
+
+    // The map is the figure's left part, below the header, left of the 420-pixel legend.
+    let map_pixels: Vec<[u8; 3]> = (HEADER..png.height)
+        .flat_map(|y| (0..png.width - 420).map(move |x| (x, y)))
+        .map(|(x, y)| png.pixels[(y * png.width + x) as usize])
+        .collect();
+    let counted: Vec<(&[u8; 3], usize)> =
+        expected.keys().map(|c| (c, map_pixels.iter().filter(|p| *p == c).count())).collect();
+    let total: usize = counted.iter().map(|(_, n)| n).sum();
+    for (colour, n) in counted {
+        let share = n as f64 / total as f64;
+        assert!(
+            (share - expected[colour]).abs() < 0.01,
+            "{colour:?}: {share} of the map, expected {}",
+            expected[colour]
+        );
+    }
+    // No joint colour that no pose has, except in the legend.
+    for k in 0..4 {
+        for j in 0..3 {
+            let c = clearance_plot::dominant_colour(&clearance_solver::joint_name(k, j)).unwrap();
+            if !expected.contains_key(&c) {
+                assert_eq!(map_pixels.iter().filter(|p| **p == c).count(), 0, "{c:?}");
+            }
+        }
+    }
 }

@@ -50,11 +50,13 @@ mod pose;
 pub mod takeup;
 
 pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
+/// The `dominant` column's joint names (defined beside the clearance kinds).
+pub use clearance_model::joint_name;
 pub use equilibrium::JointReactions;
 pub use error_system::PoseError;
 pub use linalg::LuSolver;
 pub use pose::{
-    Blocks, Isa, PoseResult, Status, Workspace, cap_isa, joint_name, solve_batches, solve_in_blocks, solve_pose,
-    solve_poses, solve_reactions, solve_reactions_if_solvable,
+    Blocks, Isa, PoseResult, Status, Workspace, cap_isa, solve_batches, solve_in_blocks, solve_pose, solve_poses,
+    solve_reactions, solve_reactions_if_solvable,
 };
 pub use takeup::{Margins, TakeUp};

@@ -2,7 +2,7 @@
 
 use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::inverse_kinematics_motion;
-use clearance_model::{KINDS, Mode};
+use clearance_model::Mode;
 use faer::Mat;
 use rayon::prelude::*;
 
@@ -110,13 +110,6 @@ impl PoseResult {
         }
         best.map(|(at, _)| at)
     }
-}
-
-/// The name of a joint and clearance kind, as the `dominant` column spells it: the
-/// kind's name with the limb after the joint's letter (`s1_radial`, `r2_axial`, …).
-pub fn joint_name(kind: usize, limb: usize) -> String {
-    let name = KINDS[kind].name();
-    format!("{}{}{}", &name[..1], limb + 1, &name[1..])
 }
 
 impl Default for PoseResult {
