@@ -45,6 +45,7 @@ pub mod error_system;
 pub mod exact;
 pub mod fast;
 pub mod lanes;
+pub mod limbs;
 mod linalg;
 mod pose;
 pub mod takeup;
