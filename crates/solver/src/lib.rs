@@ -14,6 +14,11 @@
 //!    (docs/model.md §7).
 //!
 //! [`solve_pose`] runs them in order; a bad pose becomes a [`Status`], never a panic.
+//!
+//! [`limbs`] assembles the same two systems from a description of the mechanism as
+//! limbs (base joint, leg bodies, spherical joint, clearance sites), for any number of
+//! limbs: the 3-PRS and 3-RPS described that way agree with the paths above, and
+//! [`ups`] describes the 6-UPS Gough–Stewart platform (docs/model.md §10.3) with it.
 //! [`fast`] solves the same two systems in their 6 × 6 reduced forms (the default,
 //! [`SolverKind::Fast`]); the assembled faer path ([`SolverKind::General`]) is the
 //! reference, and the two agree to round-off.
@@ -49,6 +54,7 @@ pub mod limbs;
 mod linalg;
 mod pose;
 pub mod takeup;
+pub mod ups;
 
 pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
 pub use equilibrium::JointReactions;
