@@ -15,9 +15,9 @@
 //!
 //! [`solve_pose`] runs them in order; a bad pose becomes a [`Status`], never a panic.
 //!
-//! [`limbs`] assembles the same two systems from a description of the mechanism as
-//! limbs (base joint, leg bodies, spherical joint, clearance sites), for any number of
-//! limbs: the 3-PRS and 3-RPS described that way agree with the paths above, and
+//! [`assembly`] builds the same two systems from a description of the mechanism as
+//! [`limbs`] (base joint, leg bodies, spherical joint, clearance sites), for any number
+//! of limbs: the 3-PRS and 3-RPS described that way agree with the paths above, and
 //! [`ups`] describes the 6-UPS Gough–Stewart platform (docs/model.md §10.3) with it.
 //! [`fast`] solves the same two systems in their 6 × 6 reduced forms (the default,
 //! [`SolverKind::Fast`]); the assembled faer path ([`SolverKind::General`]) is the
@@ -44,6 +44,7 @@
 // Limb loops index several per-limb arrays at once, as the equations do.
 #![allow(clippy::needless_range_loop)]
 
+pub mod assembly;
 pub mod bodies;
 pub mod equilibrium;
 pub mod error_system;
@@ -56,6 +57,7 @@ mod pose;
 pub mod takeup;
 pub mod ups;
 
+pub use assembly::{Assembly, AssemblyData, LimbsSolution};
 pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
 pub use equilibrium::JointReactions;
 pub use error_system::PoseError;

@@ -30,13 +30,11 @@ use clearance_model::Mode;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use rayon::prelude::*;
 
+use crate::assembly::{Assembly, AssemblyData, LimbsSolution};
 use crate::bodies::{Load, Rod};
 use crate::error_system::PoseError;
 use crate::exact::{exp_minus_identity, left_jacobian};
-use crate::limbs::{
-    Actuated, Assembly, AssemblyData, BaseJoint, Body, ClearanceSite, LimbModel, LimbPose, LimbsSolution, Posed, Rule,
-    Site,
-};
+use crate::limbs::{Actuated, BaseJoint, Body, ClearanceSite, LimbModel, LimbPose, Posed, Rule, Site};
 use crate::pose::Status;
 
 /// The clearance kinds of the 6-UPS, in the order of every per-kind array here.

@@ -8,7 +8,8 @@ mod common;
 use clearance_grid::Sample;
 use clearance_kinematics::{inverse_kinematics, inverse_kinematics_motion};
 use clearance_model::{JobSpec, Mode};
-use clearance_solver::limbs::{AssemblyData, three_limb_assembly, three_limb_posed};
+use clearance_solver::assembly::AssemblyData;
+use clearance_solver::limbs::{three_limb_assembly, three_limb_posed};
 use clearance_solver::{
     Inertial, LuSolver, Model, SolverKind, Status, Workspace, equilibrium, error_system, solve_pose, takeup,
 };
