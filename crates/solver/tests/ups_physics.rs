@@ -179,6 +179,54 @@ fn reactions_satisfy_each_bodys_newton_euler_balance() {
     assert!(checked > 80, "{checked}");
 }
 
+/// The 30 × 30 loop system against the platform's 6 × 6 leg-length Jacobian: with
+/// every leg's length locked and its ends free to turn, a take-up moves the platform
+/// only through the leg's axis, `e_i·(Δp + Δα×r_i) = e_i·(ΔA_i + ΔB_i + θ_i×(A_i − B_i))`
+/// with `r_i = A_i − P`. Solved here with nalgebra, to 1e-10 of the clearance scale.
+#[test]
+fn error_system_matches_the_leg_jacobian() {
+    use nalgebra::{Matrix6, Vector6};
+    let mut rng = ChaCha8Rng::seed_from_u64(66);
+    let mut checked = 0;
+    for _ in 0..80 {
+        let c = [rng.random_range(1e-5..1e-3), rng.random_range(1e-5..1e-3), rng.random_range(1e-4..1e-2)];
+        let model = random_model(&mut rng, c);
+        let mut ws = UpsWorkspace::new(&model);
+        let moving = rng.random_bool(0.5);
+        let s = random_sample(&mut rng, moving);
+        let r = solve_ups_pose(&model, &s, Mode::Dynamic, &mut ws);
+        if r.status != Status::Ok {
+            continue;
+        }
+        let (pose, posed) = ups_posture(&model, &s, Mode::Dynamic).unwrap();
+        let sol = model.assembly.solve(&posed, &mut ws.data);
+        let mut jac = Matrix6::zeros();
+        for i in 0..6 {
+            let (e, ri) = (pose.e[i], pose.a[i] - pose.p);
+            let row = ri.cross(&e);
+            for k in 0..3 {
+                jac[(i, k)] = row[k];
+                jac[(i, 3 + k)] = e[k];
+            }
+        }
+        let lu = jac.lu();
+        for k in 0..3 {
+            let d = Vector6::from_fn(|i, _| {
+                let t = sol.take[k][i];
+                let moved = if k == 2 { t.cross(&(pose.a[i] - pose.b[i])) } else { t };
+                pose.e[i].dot(&moved)
+            });
+            let want = lu.solve(&d).expect("regular Jacobian");
+            let got = &r.errors[k];
+            let tol = 1e-10 * c[0].max(c[1]);
+            let (da, dp) = (want.fixed_rows::<3>(0), want.fixed_rows::<3>(3));
+            assert!((got.dalpha - da).amax() <= tol && (got.dp - dp).amax() <= tol, "kind {k}: {got:?} vs {want}");
+        }
+        checked += 1;
+    }
+    assert!(checked > 50, "{checked}");
+}
+
 /// `|exact − linear|` (max over the six components) of one sample.
 fn gap(r: &UpsResult) -> f64 {
     let e = r.exact.expect("exact error");
