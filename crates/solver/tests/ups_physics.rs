@@ -294,6 +294,21 @@ fn u_joint_tilt_play_is_harmless() {
         assert!(sol.take[2][..6].iter().all(|t| (t.norm() - theta).abs() < 1e-15));
         let exact = ups_exact_error(&model, &pose, &sol).expect("converges");
         assert!(exact.iter().all(|v| v.abs() <= 1e-14 * theta), "{exact:?}");
+        // Beside the other kinds, in either direction, it changes neither error.
+        let mut with = |tilt: f64| {
+            let mut m = model.clone();
+            m.set_clearance([2e-4, 1e-4, tilt]);
+            m.exact = true;
+            solve_ups_pose(&m, &s, Mode::Dynamic, &mut ws)
+        };
+        let (none, plus, minus) = (with(0.0), with(theta), with(-theta));
+        for other in [&plus, &minus] {
+            assert_eq!(other.status, none.status);
+            assert!((other.total.dp - none.total.dp).amax() <= 1e-18, "{:?}", other.total.dp);
+            if let (Some(a), Some(b)) = (other.exact, none.exact) {
+                assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-12 * 2e-4), "{a:?} vs {b:?}");
+            }
+        }
         checked += 1;
     }
     assert!(checked > 40, "{checked}");
