@@ -44,8 +44,9 @@ use crate::pose::Status;
 /// A mechanism's limbs and clearances: built once, shared by every worker.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Assembly {
-    pub limbs: Vec<LimbModel>,
-    pub kinds: Vec<ClearanceSite>,
+    /// Fixed at construction: the scratch and the column offsets are sized for them.
+    limbs: Vec<LimbModel>,
+    kinds: Vec<ClearanceSite>,
     pub gravity: Vector3<f64>,
     /// Loads at or below this leave a take-up indeterminate (N or N·m).
     pub floor: f64,
@@ -184,6 +185,24 @@ impl Assembly {
     /// `κ₁` within the limit (NaN is not).
     fn conditioned(&self, cond: f64) -> bool {
         matches!(cond.partial_cmp(&self.singular_cond), Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal))
+    }
+
+    pub fn limbs(&self) -> &[LimbModel] {
+        &self.limbs
+    }
+
+    /// The clearance kinds, in the order of every per-kind array of a solution.
+    pub fn kinds(&self) -> &[ClearanceSite] {
+        &self.kinds
+    }
+
+    /// Sets each kind's magnitude (m or rad), in the order of [`Assembly::kinds`].
+    #[track_caller]
+    pub fn set_magnitudes(&mut self, magnitudes: &[f64]) {
+        assert_eq!(magnitudes.len(), self.kinds.len(), "one magnitude per kind");
+        for (kind, &c) in self.kinds.iter_mut().zip(magnitudes) {
+            kind.magnitude = c;
+        }
     }
 
     /// Rows (and unknowns) of `A`: `6n + 6`.

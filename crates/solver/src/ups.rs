@@ -141,13 +141,11 @@ impl UpsModel {
 
     /// Clearance magnitudes in the order of [`UPS_KINDS`].
     pub fn clearance(&self) -> [f64; 3] {
-        std::array::from_fn(|k| self.assembly.kinds[k].magnitude)
+        std::array::from_fn(|k| self.assembly.kinds()[k].magnitude)
     }
 
     pub fn set_clearance(&mut self, clearance: [f64; 3]) {
-        for (kind, c) in self.assembly.kinds.iter_mut().zip(clearance) {
-            kind.magnitude = c;
-        }
+        self.assembly.set_magnitudes(&clearance);
     }
 }
 
@@ -358,7 +356,7 @@ fn same_branch(exact: &[f64; 6], linear: &PoseError, clearance: &[f64; 3]) -> bo
 /// in perturbation form (the nominal closure subtracted), so the error keeps full
 /// relative precision. `None` when Newton does not converge.
 pub fn ups_exact_error(model: &UpsModel, pose: &UpsPosture, sol: &LimbsSolution) -> Option<[f64; 6]> {
-    let kinds = &model.assembly.kinds;
+    let kinds = model.assembly.kinds();
     let mut offset = [Vector3::zeros(); 6];
     let mut tilt = [Vector3::zeros(); 6];
     for (k, kind) in kinds.iter().enumerate() {
