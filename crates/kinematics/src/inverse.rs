@@ -417,7 +417,7 @@ pub fn inverse_kinematics(geom: &Geometry, z: f64, psi: f64, theta: f64) -> Resu
     Ok(posture_of(z, psi, theta, &g))
 }
 
-fn vee_skew(m: &Matrix3<f64>) -> Vector3<f64> {
+pub(crate) fn vee_skew(m: &Matrix3<f64>) -> Vector3<f64> {
     0.5 * Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)])
 }
 

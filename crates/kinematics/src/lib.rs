@@ -1,6 +1,7 @@
 //! # clearance-kinematics
 //!
-//! Nominal inverse kinematics of the 3-PRS robot (docs/model.md §1–2).
+//! Nominal inverse kinematics of the 3-PRS robot (docs/model.md §1–2) and its family
+//! (§10.1–10.2); [`ups`] holds the 6-UPS Gough–Stewart platform's (§10.3).
 //!
 //! Inputs are `(Z, Ψ, Θ)`; the constraints `A_j·y_j = 0` give the parasitic
 //! motions in closed form (paper Eqs. 3–5, corrected):
@@ -29,9 +30,11 @@
 
 mod inverse;
 mod jet;
+pub mod ups;
 
 pub use inverse::{
     Geometry, Motion, Posture, Unreachable, euler_rates_matrix, inverse_kinematics, inverse_kinematics_motion, limb,
     parasitic, parasitic_of, parasitic_sc, rotation, rotation_sc, slider,
 };
 pub use jet::{Elementary, Jet, Real};
+pub use ups::{UpsGeometry, UpsMotion, UpsParams, UpsPosture, ups_inverse_kinematics, ups_inverse_kinematics_motion};

@@ -33,7 +33,8 @@ pub struct Rod {
 }
 
 impl Rod {
-    fn new(mass: f64, length: f64) -> Self {
+    /// A slender rod of `mass` and `length`.
+    pub fn new(mass: f64, length: f64) -> Self {
         Self { mass, length, inertia: mass * length * length / 12.0 }
     }
 

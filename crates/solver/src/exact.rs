@@ -16,7 +16,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use crate::takeup::TakeUp;
 
 /// `Exp(w) − I`, with no cancellation for small `w`.
-fn exp_minus_identity(w: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn exp_minus_identity(w: &Vector3<f64>) -> Matrix3<f64> {
     let t2 = w.norm_squared();
     let t = t2.sqrt();
     // sin θ/θ and (1 − cos θ)/θ², by their series where the closed forms cancel.
@@ -32,7 +32,7 @@ fn exp_minus_identity(w: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// The left Jacobian of SO(3): `d/dw Exp(w)·v = −[Exp(w)·v]×·J_l(w)`.
-fn left_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn left_jacobian(w: &Vector3<f64>) -> Matrix3<f64> {
     let t2 = w.norm_squared();
     let t = t2.sqrt();
     let (b, c) = if t < 1e-4 {

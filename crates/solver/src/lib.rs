@@ -14,6 +14,11 @@
 //!    (docs/model.md §7).
 //!
 //! [`solve_pose`] runs them in order; a bad pose becomes a [`Status`], never a panic.
+//!
+//! [`assembly`] builds the same two systems from a description of the mechanism as
+//! [`limbs`] (base joint, leg bodies, spherical joint, clearance sites), for any number
+//! of limbs: the 3-PRS and 3-RPS described that way agree with the paths above, and
+//! [`ups`] describes the 6-UPS Gough–Stewart platform (docs/model.md §10.3) with it.
 //! [`fast`] solves the same two systems in their 6 × 6 reduced forms (the default,
 //! [`SolverKind::Fast`]); the assembled faer path ([`SolverKind::General`]) is the
 //! reference, and the two agree to round-off.
@@ -39,16 +44,20 @@
 // Limb loops index several per-limb arrays at once, as the equations do.
 #![allow(clippy::needless_range_loop)]
 
+pub mod assembly;
 pub mod bodies;
 pub mod equilibrium;
 pub mod error_system;
 pub mod exact;
 pub mod fast;
 pub mod lanes;
+pub mod limbs;
 mod linalg;
 mod pose;
 pub mod takeup;
+pub mod ups;
 
+pub use assembly::{Assembly, AssemblyData, LimbsSolution};
 pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
 /// The `dominant` column's joint names (defined beside the clearance kinds).
 pub use clearance_model::joint_name;

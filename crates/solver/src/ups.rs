@@ -1,0 +1,422 @@
+//! The 6-UPS Gough–Stewart platform (docs/model.md §10.3) as a description for
+//! [`limbs`](crate::limbs): six limbs with a universal joint at the base, an actuated
+//! leg of two slender bodies (cylinder and piston, §10.2) and a spherical joint.
+//!
+//! Reactions: 7 unknowns per limb, `f_Ui` (base on leg at `B_i`), `m_Ui = μ_i·n_i` and
+//! `f_Si` (leg on platform at `A_i`): the 42 × 42 `A·w = b`. Clearances, in the order of
+//! [`UPS_KINDS`]: `s_radial` (platform relative to leg, `−s·f_Si/|f_Si|`), `u_radial`
+//! (leg relative to base, `−u·f_Ui/|f_Ui|`) and `u_angular` (a rotation `+θ·n_i` of the
+//! leg about `B_i`, which no load decides). Error system: five passive rotations per
+//! limb (about `a1_i`, `a2_i` through `B_i`, about x, y, z through `A_i`), the 30 × 30
+//! `J_P`. `u_angular` moves `A_i` across the leg only, which the universal joint's own
+//! freedoms absorb: its error comes out zero (computed, not written in), and the
+//! slender legs carry no couple along their axis, so `μ_i` is round-off.
+//!
+//! ```
+//! use clearance_model::Mode;
+//! use clearance_solver::Status;
+//! use clearance_solver::ups::{UpsModel, UpsWorkspace, solve_ups_poses, statics_sample};
+//! let mut model = UpsModel::default();
+//! model.set_clearance([1e-4, 1e-4, 1e-3]);
+//! let samples = [statics_sample([0.0, 0.0, 0.7, 0.0, 0.05, -0.05]), statics_sample([0.02, 0.0, 0.75, 0.1, 0.0, 0.0])];
+//! let mut out = [Default::default(); 2];
+//! solve_ups_poses(&model, &samples, Mode::Kinetostatic, &mut UpsWorkspace::new(&model), &mut out);
+//! assert!(out.iter().all(|r| r.status == Status::Ok));
+//! assert!(out[0].errors[2].dp.norm() < 1e-18); // U-joint tilt play is harmless
+//! ```
+
+use clearance_kinematics::{UpsGeometry, UpsMotion, UpsPosture, ups_inverse_kinematics, ups_inverse_kinematics_motion};
+use clearance_model::Mode;
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use rayon::prelude::*;
+
+use crate::assembly::{Assembly, AssemblyData, LimbsSolution};
+use crate::bodies::{Load, Rod};
+use crate::error_system::PoseError;
+use crate::exact::{exp_minus_identity, left_jacobian};
+use crate::limbs::{Actuated, BaseJoint, Body, ClearanceSite, LimbModel, LimbPose, Posed, Rule, Site};
+use crate::pose::Status;
+
+/// The clearance kinds of the 6-UPS, in the order of every per-kind array here.
+pub const UPS_KINDS: [&str; 3] = ["s_radial", "u_radial", "u_angular"];
+
+/// The moving bodies of a 6-UPS: the platform as one composite body, and each leg's
+/// cylinder (centre `B_i + (ℓ_c/2)·e_i`) and piston (centre `A_i − (ℓ_p/2)·e_i`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct UpsMass {
+    /// Total platform mass (kg), composite centre of mass (platform coordinates, from
+    /// P) and inertia about it (platform axes).
+    pub platform: f64,
+    pub com_local: Vector3<f64>,
+    pub inertia_local: Matrix3<f64>,
+    pub cylinder: Rod,
+    pub piston: Rod,
+}
+
+impl UpsMass {
+    /// A platform of `platform` kg, a thin uniform disc of the geometry's platform
+    /// radius centred at P, and legs of the given masses and the geometry's lengths.
+    pub fn new(geom: &UpsGeometry, platform: f64, cylinder: f64, piston: f64) -> Self {
+        let r2 = geom.platform_radius * geom.platform_radius;
+        Self {
+            platform,
+            com_local: Vector3::zeros(),
+            inertia_local: Matrix3::from_diagonal(&Vector3::new(
+                platform * r2 / 4.0,
+                platform * r2 / 4.0,
+                platform * r2 / 2.0,
+            )),
+            cylinder: Rod::new(cylinder, geom.cylinder_length),
+            piston: Rod::new(piston, geom.piston_length),
+        }
+    }
+
+    /// The defaults of docs/model.md §10.3: platform 10 kg, cylinder 1.5 kg, piston 0.75 kg.
+    pub fn defaults(geom: &UpsGeometry) -> Self {
+        Self::new(geom, 10.0, 1.5, 0.75)
+    }
+
+    /// Attaches a point mass at `at` (platform coordinates): the composite centre of mass
+    /// moves, the inertia follows by the parallel-axis theorem.
+    pub fn add_point(&mut self, mass: f64, at: Vector3<f64>) {
+        let point = |m: f64, d: &Vector3<f64>| m * (Matrix3::identity() * d.norm_squared() - d * d.transpose());
+        let total = self.platform + mass;
+        if total <= 0.0 {
+            return;
+        }
+        let com = (self.platform * self.com_local + mass * at) / total;
+        self.inertia_local += point(self.platform, &(self.com_local - com)) + point(mass, &(at - com));
+        (self.platform, self.com_local) = (total, com);
+    }
+
+    /// Mass of every moving body (kg).
+    pub fn total(&self) -> f64 {
+        self.platform + 6.0 * (self.cylinder.mass + self.piston.mass)
+    }
+}
+
+/// A 6-UPS job's model: built once, shared by every worker.
+#[derive(Clone, Debug)]
+pub struct UpsModel {
+    pub geometry: UpsGeometry,
+    pub mass: UpsMass,
+    pub load: Load,
+    /// Also solve the exact error (docs/model.md §7) of `ok` poses.
+    pub exact: bool,
+    /// The limbs, the clearance kinds with their magnitudes, gravity, the
+    /// indeterminate-load floor and the conditioning limit.
+    pub assembly: Assembly,
+}
+
+impl Default for UpsModel {
+    /// The defaults of §10.3 under `g = (0, 0, −9.81)`, no load, no clearance.
+    fn default() -> Self {
+        let geometry = UpsGeometry::default();
+        let mass = UpsMass::defaults(&geometry);
+        Self::new(geometry, mass, Vector3::new(0.0, 0.0, -9.81), [0.0; 3])
+    }
+}
+
+impl UpsModel {
+    /// A model with no external load, the indeterminate floor `1e-9·W` and `κ₁` limit 1e8
+    /// (the job file's defaults); `clearance` in the order of [`UPS_KINDS`].
+    pub fn new(geometry: UpsGeometry, mass: UpsMass, gravity: Vector3<f64>, clearance: [f64; 3]) -> Self {
+        let limbs = vec![LimbModel { base: BaseJoint::Universal, actuated: Actuated::Leg }; 6];
+        let site = |name, site, rule, magnitude| ClearanceSite { name, site, rule, magnitude };
+        let kinds = vec![
+            site(UPS_KINDS[0], Site::Platform, Rule::AgainstForce, clearance[0]),
+            site(UPS_KINDS[1], Site::Base, Rule::AgainstForce, clearance[1]),
+            site(UPS_KINDS[2], Site::Base, Rule::AboutForbidden, clearance[2]),
+        ];
+        let weight = mass.total() * gravity.norm();
+        let load = Load { force: Vector3::zeros(), moment: Vector3::zeros(), at_local: Vector3::zeros() };
+        let assembly = Assembly::new(limbs, kinds, gravity, 1e-9 * weight, 1e8);
+        Self { geometry, mass, load, exact: false, assembly }
+    }
+
+    /// `W`, the weight of all moving bodies (N).
+    pub fn weight(&self) -> f64 {
+        self.mass.total() * self.assembly.gravity.norm()
+    }
+
+    /// Clearance magnitudes in the order of [`UPS_KINDS`].
+    pub fn clearance(&self) -> [f64; 3] {
+        std::array::from_fn(|k| self.assembly.kinds()[k].magnitude)
+    }
+
+    pub fn set_clearance(&mut self, clearance: [f64; 3]) {
+        self.assembly.set_magnitudes(&clearance);
+    }
+}
+
+/// Each input `x, y, z, Φ, Ψ, Θ` as `[value, rate, acceleration]`.
+pub type UpsSample = [[f64; 3]; 6];
+
+/// A sample at rest at `inputs`.
+pub fn statics_sample(inputs: [f64; 6]) -> UpsSample {
+    inputs.map(|v| [v, 0.0, 0.0])
+}
+
+/// Everything computed for one 6-UPS sample. Arrays are by limb, or by kind (order of
+/// [`UPS_KINDS`]) then limb.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpsResult {
+    pub status: Status,
+    /// Actuator lengths (NaN for `unreachable`).
+    pub q: [f64; 6],
+    /// `f_Ui`, `μ_i` (`m_Ui = μ_i·n_i`), `f_Si`.
+    pub f_u: [Vector3<f64>; 6],
+    pub mu: [f64; 6],
+    pub f_s: [Vector3<f64>; 6],
+    /// `|f_Si|`, `|f_Ui|`, `|μ_i|`.
+    pub margins: [[f64; 6]; 3],
+    pub errors: [PoseError; 3],
+    pub kind_ok: [bool; 3],
+    pub total: PoseError,
+    pub cond_a: f64,
+    pub cond_jp: f64,
+    /// Exact error `[Δα; Δp]` (with `UpsModel::exact`, on `ok` poses that converge).
+    pub exact: Option<[f64; 6]>,
+}
+
+impl Default for UpsResult {
+    fn default() -> Self {
+        Self {
+            status: Status::Unreachable,
+            q: [f64::NAN; 6],
+            f_u: [Vector3::zeros(); 6],
+            mu: [0.0; 6],
+            f_s: [Vector3::zeros(); 6],
+            margins: [[0.0; 6]; 3],
+            errors: [PoseError::default(); 3],
+            kind_ok: [false; 3],
+            total: PoseError::default(),
+            cond_a: f64::NAN,
+            cond_jp: f64::NAN,
+            exact: None,
+        }
+    }
+}
+
+/// Scratch for one worker thread.
+pub struct UpsWorkspace {
+    pub data: AssemblyData,
+}
+
+impl UpsWorkspace {
+    pub fn new(model: &UpsModel) -> Self {
+        Self { data: AssemblyData::new(&model.assembly) }
+    }
+}
+
+/// The posture and, in dynamics, its motion as the limbs' [`Posed`].
+pub fn ups_posed(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion>) -> Posed {
+    let mass = &model.mass;
+    let (cyl, pis) = (&mass.cylinder, &mass.piston);
+    let mut posed = Posed::default();
+    for i in 0..6 {
+        let e = pose.e[i];
+        let (w, w_dot, e_ddot, a_ddot) = match motion {
+            Some(m) => (m.leg_omega[i], m.leg_omega_dot[i], m.e_ddot[i], m.a_ddot[i]),
+            None => Default::default(),
+        };
+        let rod = |r: &Rod, centre, acc| Body {
+            mass: r.mass,
+            centre,
+            inertia: r.inertia_world(&e),
+            acc,
+            omega: w,
+            omega_dot: w_dot,
+        };
+        posed.limbs[i] = LimbPose {
+            b: pose.b[i],
+            a: pose.a[i],
+            axes: [pose.a1[i], pose.a2[i]],
+            bodies: [
+                rod(cyl, pose.b[i] + 0.5 * cyl.length * e, 0.5 * cyl.length * e_ddot),
+                rod(pis, pose.a[i] - 0.5 * pis.length * e, a_ddot - 0.5 * pis.length * e_ddot),
+            ],
+        };
+    }
+    let c = pose.rot * mass.com_local;
+    let (omega, omega_dot, com_acc) = match motion {
+        Some(m) => (m.omega, m.omega_dot, m.p_ddot + m.omega_dot.cross(&c) + m.omega.cross(&m.omega.cross(&c))),
+        None => Default::default(),
+    };
+    posed.platform = Body {
+        mass: mass.platform,
+        centre: pose.p + c,
+        inertia: pose.rot * mass.inertia_local * pose.rot.transpose(),
+        acc: com_acc,
+        omega,
+        omega_dot,
+    };
+    posed.p = pose.p;
+    posed.psi_theta = (pose.inputs[4], pose.inputs[5]);
+    posed.force = model.load.force;
+    posed.force_at = pose.p + pose.rot * model.load.at_local;
+    posed.moment = model.load.moment;
+    posed
+}
+
+/// The nominal posture of a sample and its bodies, or `None` where a leg is outside
+/// its stroke.
+pub fn ups_posture(model: &UpsModel, sample: &UpsSample, mode: Mode) -> Option<(UpsPosture, Posed)> {
+    match mode {
+        Mode::Kinetostatic => {
+            let pose = ups_inverse_kinematics(&model.geometry, sample.map(|v| v[0])).ok()?;
+            let posed = ups_posed(model, &pose, None);
+            Some((pose, posed))
+        }
+        Mode::Dynamic => {
+            let (pose, motion) = ups_inverse_kinematics_motion(&model.geometry, *sample).ok()?;
+            let posed = ups_posed(model, &pose, Some(&motion));
+            Some((pose, posed))
+        }
+    }
+}
+
+/// One sample in one mode. Never panics on a bad pose: it becomes a status.
+pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace) -> UpsResult {
+    let mut out = UpsResult::default();
+    let Some((pose, posed)) = ups_posture(model, sample, mode) else { return out };
+    out.q = pose.q;
+    out.status = Status::NearSingular;
+    if pose.near_singular {
+        return out;
+    }
+    let sol = model.assembly.solve(&posed, &mut ws.data);
+    (out.cond_a, out.cond_jp) = (sol.cond_a, sol.cond_jp);
+    if sol.status == Status::NearSingular {
+        return out;
+    }
+    out.status = sol.status;
+    for i in 0..6 {
+        (out.f_u[i], out.mu[i], out.f_s[i]) = (sol.f_b[i], sol.mu[i][0], sol.f_s[i]);
+    }
+    for k in 0..3 {
+        out.margins[k] = std::array::from_fn(|i| sol.margins[k][i]);
+        out.errors[k] = sol.errors[k];
+        out.kind_ok[k] = sol.kind_ok[k];
+    }
+    out.total = sol.total;
+    if model.exact && out.status == Status::Ok {
+        out.exact = ups_exact_error(model, &pose, &sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
+    }
+    out
+}
+
+/// [`solve_ups_pose`] for each sample of a batch, into `out` (same length).
+#[track_caller]
+pub fn solve_ups_poses(
+    model: &UpsModel,
+    samples: &[UpsSample],
+    mode: Mode,
+    ws: &mut UpsWorkspace,
+    out: &mut [UpsResult],
+) {
+    assert_eq!(samples.len(), out.len(), "one result per sample");
+    for (s, o) in samples.iter().zip(out) {
+        *o = solve_ups_pose(model, s, mode, ws);
+    }
+}
+
+/// [`solve_ups_poses`] over the rayon pool, in runs of `block` samples, one
+/// [`UpsWorkspace`] per worker: the same results as one thread, in order.
+#[track_caller]
+pub fn solve_ups_par(model: &UpsModel, samples: &[UpsSample], mode: Mode, block: usize, out: &mut [UpsResult]) {
+    assert_eq!(samples.len(), out.len(), "one result per sample");
+    assert!(block > 0, "block must be positive");
+    samples
+        .par_chunks(block)
+        .zip(out.par_chunks_mut(block))
+        .for_each_init(|| UpsWorkspace::new(model), |ws, (s, o)| solve_ups_poses(model, s, mode, ws, o));
+}
+
+/// The exact error is the linear one to second order; further from it than the linear
+/// error's size (or, where that is round-off, a millionth of the clearance) is another
+/// assembly of the mechanism, reported as null.
+fn same_branch(exact: &[f64; 6], linear: &PoseError, clearance: &[f64; 3]) -> bool {
+    let lin = [linear.dalpha.x, linear.dalpha.y, linear.dalpha.z, linear.dp.x, linear.dp.y, linear.dp.z];
+    let floor = 1e-6 * clearance.iter().fold(0.0f64, |m, &c| m.max(c));
+    let size = lin.iter().fold(floor, |m, v| m.max(v.abs()));
+    exact.iter().zip(lin).all(|(e, l)| (e - l).abs() <= size)
+}
+
+/// The exact error of a 6-UPS (docs/model.md §7 with two joint angles per leg): the
+/// take-ups of `sol` applied as finite offsets, the nonlinear closure solved by Newton
+/// from the nominal pose. Unknowns: the platform's `(Δp, w)`, `R' = Exp(w)·R`, and the
+/// universal joint's angles `φ1_i` (about `a1_i`) and `φ2_i` (about `a2_i`, carried by the
+/// first), 18 in all:
+///
+/// ```text
+/// p' + R'·a'_i = B_i + ΔB_i + q_i·Rot(Δθ_i)·Rot(a1_i, φ1_i)·Rot(a2_i, φ2_i)·e_i + ΔA_i
+/// ```
+///
+/// in perturbation form (the nominal closure subtracted), so the error keeps full
+/// relative precision. `None` when Newton does not converge.
+pub fn ups_exact_error(model: &UpsModel, pose: &UpsPosture, sol: &LimbsSolution) -> Option<[f64; 6]> {
+    let kinds = model.assembly.kinds();
+    let mut offset = [Vector3::zeros(); 6];
+    let mut tilt = [Vector3::zeros(); 6];
+    for (k, kind) in kinds.iter().enumerate() {
+        for i in 0..6 {
+            match (kind.rule, kind.site) {
+                (Rule::AgainstMoment | Rule::AboutForbidden, Site::Base) => tilt[i] += sol.take[k][i],
+                (Rule::AgainstMoment | Rule::AboutForbidden, Site::Platform) => return None,
+                _ => offset[i] += sol.take[k][i],
+            }
+        }
+    }
+    let tilt = tilt.map(|t| exp_minus_identity(&t));
+    let ra0: [Vector3<f64>; 6] = std::array::from_fn(|i| pose.rot * model.geometry.a_local[i]);
+    let l = pose.q.iter().fold(0.0f64, |m, &v| m.max(v));
+    let eye = Matrix3::identity();
+    let (mut dp, mut w) = (Vector3::zeros(), Vector3::zeros());
+    let mut phi = [[0.0f64; 2]; 6];
+    let mut last_step = f64::INFINITY;
+    for _ in 0..30 {
+        let mut res = SVector::<f64, 18>::zeros();
+        let mut jac = SMatrix::<f64, 18, 18>::zeros();
+        let e_w = exp_minus_identity(&w);
+        let jl = left_jacobian(&w);
+        for i in 0..6 {
+            let (a1, a2, e, q) = (pose.a1[i], pose.a2[i], pose.e[i], pose.q[i]);
+            let m1 = exp_minus_identity(&(phi[i][0] * a1));
+            let m2 = exp_minus_identity(&(phi[i][1] * a2));
+            // Rot1·Rot2 − I and T − I = Rot(Δθ)·Rot1·Rot2 − I, with no cancellation.
+            let m12 = m1 + m2 + m1 * m2;
+            let turn = tilt[i] + m12 + tilt[i] * m12;
+            let r = dp + e_w * ra0[i] - offset[i] - q * (turn * e);
+            let front = eye + tilt[i];
+            let d_phi1 = -q * (front * a1.cross(&(e + m12 * e)));
+            let d_phi2 = -q * (front * (eye + m1) * a2.cross(&(e + m2 * e)));
+            let d_w = -(ra0[i] + e_w * ra0[i]).cross_matrix() * jl;
+            for k in 0..3 {
+                let row = 3 * i + k;
+                res[row] = r[k];
+                jac[(row, k)] = 1.0;
+                for c in 0..3 {
+                    jac[(row, 3 + c)] = d_w[(k, c)];
+                }
+                jac[(row, 6 + 2 * i)] = d_phi1[k];
+                jac[(row, 7 + 2 * i)] = d_phi2[k];
+            }
+        }
+        let step = jac.lu().solve(&(-res))?;
+        dp += Vector3::new(step[0], step[1], step[2]);
+        w += Vector3::new(step[3], step[4], step[5]);
+        for i in 0..6 {
+            phi[i][0] += step[6 + 2 * i];
+            phi[i][1] += step[7 + 2 * i];
+        }
+        let angles = phi.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        let size = dp.amax().max(w.amax() * l).max(angles * l);
+        last_step = step.amax() / size.max(f64::MIN_POSITIVE);
+        if last_step <= 4.0 * f64::EPSILON {
+            break;
+        }
+    }
+    let out = [w.x, w.y, w.z, dp.x, dp.y, dp.z];
+    (last_step <= 1e-10 && out.iter().all(|v| v.is_finite())).then_some(out)
+}
