@@ -1010,19 +1010,30 @@ def joint_contributions(P, Gt, Gr, disp):
 def dominant_joint(P, contrib, rows):
     """Object array of joint names (None where not `rows` or every clearance is 0):
     the joint of non-zero clearance whose own contribution has the largest |Delta p|,
-    the first in JOINTS order on ties."""
+    the first in JOINTS order among those within DOMINANT_TIE of it."""
     N = contrib.shape[0]
     out = np.full(N, None, dtype=object)
     cand = np.array([P["clear"][k] != 0.0 for k, _ in JOINTS])
     if not cand.any():
         return out
     dp = np.linalg.norm(contrib[..., 3:6], axis=-1)                            # (N,12)
-    dp = np.where(cand, dp, -np.inf)
-    with np.errstate(invalid="ignore"):
-        idx = np.argmax(np.nan_to_num(dp, nan=-np.inf), axis=-1)              # first maximum
+    idx = first_within_tie(np.where(cand, dp, -np.inf))
     names = np.array(JOINT_NAMES, dtype=object)
     out[rows] = names[idx[rows]]
     return out
+
+
+DOMINANT_TIE = 1e-9
+
+
+def first_within_tie(values):
+    """Index along the last axis of the first value within DOMINANT_TIE (relative) of
+    the row's largest: contributions equal up to round-off (symmetric poses, or
+    r_axial and r_angular when a = theta * l) go to the first in order."""
+    v = np.nan_to_num(values, nan=-np.inf)
+    best = v.max(axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore"):
+        return np.argmax(v >= best - DOMINANT_TIE * np.abs(best), axis=-1)
 
 
 def hist_quantile(values, q):

@@ -44,6 +44,9 @@ impl Status {
     }
 }
 
+/// Contributions to `|Δp|` within this fraction of the largest tie for the dominant joint.
+pub const DOMINANT_TIE: f64 = 1e-9;
+
 /// Everything the engine computes for one (sample, mode).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PoseResult {
@@ -91,24 +94,22 @@ impl PoseResult {
     }
 
     /// The joint whose take-up moves P most, as `(kind index, limb index)`: among the
-    /// kinds with a clearance, the largest contribution (ties: the first in kind, then
-    /// limb order). `None` unless the pose is `ok` and some clearance is non-zero.
+    /// kinds with a clearance, the largest contribution. Contributions within
+    /// [`DOMINANT_TIE`] (relative) of the largest are ties, and ties go to the first in
+    /// kind, then limb order: equal contributions (a symmetric pose, or `r_axial` and
+    /// `r_angular` when `a = θ·ℓ`) differ by round-off, which must not decide.
+    /// `None` unless the pose is `ok` and some clearance is non-zero.
     pub fn dominant_of(&self, clearance: &[f64; 4]) -> Option<(usize, usize)> {
         if self.status != Status::Ok {
             return None;
         }
-        let mut best: Option<((usize, usize), f64)> = None;
-        for (k, limbs) in self.contribution.iter().enumerate() {
-            if clearance[k] == 0.0 {
-                continue;
-            }
-            for (j, &v) in limbs.iter().enumerate() {
-                if v.is_finite() && best.is_none_or(|(_, b)| v > b) {
-                    best = Some(((k, j), v));
-                }
-            }
-        }
-        best.map(|(at, _)| at)
+        let candidates = || {
+            self.contribution.iter().enumerate().filter(|(k, _)| clearance[*k] != 0.0).flat_map(|(k, limbs)| {
+                limbs.iter().enumerate().filter(|(_, v)| v.is_finite()).map(move |(j, &v)| ((k, j), v))
+            })
+        };
+        let best = candidates().map(|(_, v)| v).fold(f64::NEG_INFINITY, f64::max);
+        candidates().find(|(_, v)| *v >= best - DOMINANT_TIE * best.abs()).map(|(at, _)| at)
     }
 }
 
