@@ -28,7 +28,6 @@
 //! ([`SerializedRowGroupWriter::append_column`](parquet::file::writer::SerializedRowGroupWriter::append_column)).
 //! No page index is written for these columns (the row group's statistics remain).
 
-
 mod labels;
 mod levels;
 mod segments;
