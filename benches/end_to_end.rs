@@ -17,7 +17,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use clearance_engine::{Codec, ColumnSet, JobSpec, Reporter, RunOptions, SolverKind, run};
+use clearance_engine::{Codec, ColumnSet, JobSpec, Reporter, RunOptions, SolverKind, Writer, run};
 use criterion::{BatchSize, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 
 /// Poses per iteration: 362² = 131 044, two part files of `CHUNK`.
@@ -37,6 +37,7 @@ fn run_job(job: &JobSpec, solver: SolverKind, out: &Path) {
         chunk_size: CHUNK,
         solver,
         compression: Codec::Zstd,
+        writer: Writer::Engine,
         progress: Reporter::default(),
         direct_io: true,
     };

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use arrow::array::{Array, RecordBatch, StructArray};
 use arrow::ffi::{FFI_ArrowArray, FFI_ArrowSchema, to_ffi};
 use clearance_engine::{
-    Codec, ColumnSet, EngineError, JobSpec, Poses, Progress, Reporter, RunOptions, SolveOptions, SolverKind,
+    Codec, ColumnSet, EngineError, JobSpec, Poses, Progress, Reporter, RunOptions, SolveOptions, SolverKind, Writer,
 };
 use pyo3::create_exception;
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
@@ -224,6 +224,7 @@ fn run(
         compression: Codec::parse(compression).ok_or_else(|| {
             PyValueError::new_err(format!("unknown compression `{compression}`; use {}", Codec::NAMES.join(", ")))
         })?,
+        writer: Writer::Engine,
         progress: PyProgress::reporter(progress),
         direct_io,
     };

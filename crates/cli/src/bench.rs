@@ -1,10 +1,14 @@
-//! `clearance bench`: solver and end-to-end throughput on this machine.
+//! `clearance bench`: solver and end-to-end throughput on this machine, on the
+//! prototype's grid or (`--suite`) on each kind of job users run.
 
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Result;
-use clearance_engine::{Codec, ColumnSet, Isa, JobSpec, RunOptions, SolverKind, bench_job, kernel_rate, run};
-use clearance_model::Mode;
+use clearance_engine::{
+    Codec, ColumnSet, Isa, JobSpec, RunOptions, RunReport, SolverKind, Writer, bench_job, kernel_rate, run,
+};
+use clearance_model::{Mode, RangeSpec};
 
 /// Bytes of the files under `dir`, recursively (0 if it is missing).
 fn dir_size(dir: &std::path::Path) -> u64 {
@@ -31,11 +35,13 @@ fn best(rates: &[f64]) -> (f64, String) {
 ///
 /// `job` replaces the prototype's grid: its first variant, as written, kinetostatic
 /// (a robot of the family, say).
+#[allow(clippy::too_many_arguments)]
 pub fn bench(
     poses: u64,
     json: bool,
     solver: SolverKind,
     compression: Codec,
+    writer: Writer,
     repeat: usize,
     job: Option<JobSpec>,
 ) -> Result<()> {
@@ -64,6 +70,7 @@ pub fn bench(
         chunk_size: 65536,
         solver,
         compression,
+        writer,
         progress: Default::default(),
         direct_io: crate::buffered_io_not_asked(),
     };
@@ -97,8 +104,310 @@ pub fn bench(
         println!("poses per measurement: {n}, threads: {threads}, vector instructions: {isa}, best of {repeat}");
         println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
         println!("kernel, general faer path:              {kernel_general:>12.0} poses/s");
-        println!("end to end (grid -> Parquet, standard):  {e2e:>12.0} poses/s");
+        println!("end to end (grid -> Parquet, standard):  {e2e:>12.0} poses/s (writer: {})", writer.name());
         println!("Parquet written ({}):                {bytes_per_pose:>12.1} bytes/pose", compression.name());
     }
     Ok(())
+}
+
+/// One job of the suite: a job file of `benches/suite/`, run with a column set.
+pub struct SuiteJob {
+    /// The job's name in the suite's report.
+    pub name: &'static str,
+    /// The job file, from the repository's root.
+    pub file: &'static str,
+    /// Its text, compiled in: an installed binary runs the suite without the repository.
+    pub text: &'static str,
+    pub columns: ColumnSet,
+}
+
+macro_rules! suite_job {
+    ($name:literal, $file:literal, $columns:ident) => {
+        SuiteJob {
+            name: $name,
+            file: concat!("benches/suite/", $file),
+            text: include_str!(concat!("../../../benches/suite/", $file)),
+            columns: ColumnSet::$columns,
+        }
+    };
+}
+
+/// The jobs of `clearance bench --suite`, in the order they run. Each file is a
+/// plain job: `clearance run benches/suite/<file> --out DIR --columns <set>` runs
+/// exactly what the suite measures (at `--scale 1`).
+pub const SUITE: &[SuiteJob] = &[
+    suite_job!("grid_2d", "grid_2d.toml", Standard),
+    suite_job!("grid_2d_minimal", "grid_2d.toml", Minimal),
+    suite_job!("grid_2d_full", "grid_2d.toml", Full),
+    suite_job!("grid_3d", "grid_3d.toml", Standard),
+    suite_job!("sweep_16", "sweep_16.toml", Standard),
+    suite_job!("trajectory_dynamic", "trajectory_dynamic.toml", Standard),
+    suite_job!("prs_inclined", "prs_inclined.toml", Standard),
+    suite_job!("rps_grid", "rps_grid.toml", Standard),
+];
+
+impl SuiteJob {
+    /// The job, its samples scaled by `scale` ([`scaled`]).
+    pub fn job(&self, scale: f64) -> Result<JobSpec> {
+        Ok(scaled(JobSpec::from_toml_str(self.text, self.file)?, scale))
+    }
+}
+
+/// `job` with about `scale` times its samples: each range of a grid gets
+/// `scale^(1/d)` times its values (d the ranges), a trajectory `scale` times its
+/// times; at least 2 values a range, the shortest ranges first so that what one
+/// cannot lose the others do. Variants and modes are kept.
+pub fn scaled(mut job: JobSpec, scale: f64) -> JobSpec {
+    let resize = |n: &mut u64, f: f64| *n = ((*n as f64 * f).round() as u64).max(2);
+    if let Some(g) = &mut job.grid {
+        let mut ranges: Vec<&mut u64> = [&mut g.z, &mut g.psi, &mut g.theta]
+            .into_iter()
+            .filter_map(|r| match r {
+                RangeSpec::Range { n, .. } => Some(n),
+                RangeSpec::Value(_) => None,
+            })
+            .collect();
+        ranges.sort_by_key(|n| **n);
+        let (mut left, d) = (scale, ranges.len());
+        for (i, n) in ranges.into_iter().enumerate() {
+            let before = *n as f64;
+            resize(n, left.powf(1.0 / (d - i) as f64));
+            left /= *n as f64 / before;
+        }
+    }
+    if let Some(t) = &mut job.trajectory
+        && let RangeSpec::Range { n, .. } = &mut t.time
+    {
+        resize(n, scale);
+    }
+    job
+}
+
+/// A directory removed when dropped, whatever happened in between.
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// One suite job measured.
+struct Measured {
+    job: &'static SuiteJob,
+    mechanism: &'static str,
+    rows: u64,
+    variants: u64,
+    modes: usize,
+    /// Poses/s of each run, end to end.
+    rates: Vec<f64>,
+    /// The report of the fastest run.
+    best: RunReport,
+    bytes_per_pose: f64,
+}
+
+impl Measured {
+    fn rate(&self) -> f64 {
+        self.rates.iter().copied().fold(0.0, f64::max)
+    }
+
+    /// A stage's busy time against the fastest run's wall time.
+    fn share(&self, seconds: f64) -> f64 {
+        if self.best.seconds > 0.0 { seconds / self.best.seconds } else { 0.0 }
+    }
+}
+
+/// How the suite runs.
+pub struct SuiteOptions {
+    pub scale: f64,
+    pub repeat: usize,
+    pub solver: SolverKind,
+    pub compression: Codec,
+    pub writer: Writer,
+    pub json: bool,
+}
+
+/// `clearance bench --suite`: every job of [`SUITE`] end to end through the
+/// engine, as `clearance run` runs it, into a temporary directory removed
+/// afterwards; each the fastest of `repeat` runs. Then the kernel on the 2-D grid.
+pub fn suite(o: &SuiteOptions) -> Result<()> {
+    let isa = Isa::best().name();
+    let threads = rayon::current_num_threads();
+    let dir = TempDir(std::env::temp_dir().join(format!("clearance-bench-suite-{}", std::process::id())));
+    let mut measured = Vec::with_capacity(SUITE.len());
+    for s in SUITE {
+        let job = s.job(o.scale)?;
+        let opts = RunOptions {
+            out: dir.0.clone(),
+            columns: s.columns,
+            shard: None,
+            resume: false,
+            overwrite: false,
+            chunk_size: 65536,
+            solver: o.solver,
+            compression: o.compression,
+            writer: o.writer,
+            progress: Default::default(),
+            direct_io: crate::buffered_io_not_asked(),
+        };
+        let rows = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
+        let mut rates = Vec::with_capacity(o.repeat);
+        let (mut best, mut bytes) = (RunReport::default(), 0);
+        for _ in 0..o.repeat.max(1) {
+            let _ = std::fs::remove_dir_all(&dir.0);
+            let start = Instant::now();
+            let report = run(&job, s.file, &opts)?;
+            let rate = rows as f64 / start.elapsed().as_secs_f64();
+            if rate > rates.iter().copied().fold(0.0, f64::max) {
+                best = report;
+                bytes = dir_size(&dir.0.join("poses"));
+            }
+            rates.push(rate);
+        }
+        let _ = std::fs::remove_dir_all(&dir.0);
+        measured.push(Measured {
+            job: s,
+            mechanism: job.mechanism.kind.name(),
+            rows,
+            variants: job.variant_count(),
+            modes: job.analysis.modes.len(),
+            rates,
+            best,
+            bytes_per_pose: bytes as f64 / rows.max(1) as f64,
+        });
+    }
+    let kernel_job = SUITE[0].job(o.scale)?;
+    let kernel = (0..o.repeat.max(1)).map(|_| kernel_rate(&kernel_job, SolverKind::Fast)).fold(0.0, f64::max);
+    if o.json {
+        let records: Vec<String> = measured
+            .iter()
+            .map(|m| {
+                let st = &m.best.stages;
+                format!(
+                    "{{\"job\": \"{}\", \"file\": \"{}\", \"mechanism\": \"{}\", \"columns\": \"{}\", \"poses\": {}, \"variants\": {}, \"modes\": {}, \"poses_per_s\": {:.1}, \"seconds\": {:.4}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_writing\": {:.4}, \"bytes_per_pose\": {:.1}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"runs\": {}}}",
+                    m.job.name,
+                    m.job.file,
+                    m.mechanism,
+                    m.job.columns.name(),
+                    m.rows,
+                    m.variants,
+                    m.modes,
+                    m.rate(),
+                    m.best.seconds,
+                    m.share(st.pose_pass),
+                    m.share(st.search),
+                    m.share(st.writing),
+                    m.bytes_per_pose,
+                    o.writer.name(),
+                    best(&m.rates).1,
+                )
+            })
+            .collect();
+        println!(
+            "{{\"suite\": [{}], \"kernel\": {{\"job\": \"{}\", \"poses\": {}, \"poses_per_s\": {kernel:.1}, \"isa\": \"{isa}\"}}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"solver\": \"{}\", \"compression\": \"{}\", \"scale\": {}, \"repeat\": {}}}",
+            records.join(", "),
+            SUITE[0].name,
+            kernel_job.sample_count(),
+            o.writer.name(),
+            if o.solver == SolverKind::Fast { "fast" } else { "general" },
+            o.compression.name(),
+            o.scale,
+            o.repeat,
+        );
+    } else {
+        println!(
+            "suite: {} jobs, threads {threads}, vector instructions {isa}, writer {}, compression {}, best of {}, scale {}",
+            measured.len(),
+            o.writer.name(),
+            o.compression.name(),
+            o.repeat,
+            o.scale
+        );
+        println!(
+            "{:<20} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>8} {:>11}",
+            "job", "kind", "columns", "poses", "poses/s", "pose pass", "search", "writing", "bytes/pose"
+        );
+        let pct = |x: f64| format!("{:.0} %", 100.0 * x);
+        for m in &measured {
+            let st = &m.best.stages;
+            println!(
+                "{:<20} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>8} {:>11.1}",
+                m.job.name,
+                m.mechanism,
+                m.job.columns.name(),
+                m.rows,
+                m.rate(),
+                pct(m.share(st.pose_pass)),
+                pct(m.share(st.search)),
+                pct(m.share(st.writing)),
+                m.bytes_per_pose
+            );
+        }
+        println!("kernel ({}, {} poses, no I/O): {kernel:.0} poses/s", SUITE[0].name, kernel_job.sample_count());
+        println!(
+            "shares: each stage's busy time against the run's wall time; the stages overlap, so they may add up to more than 100 %"
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every file of `benches/suite/` is a valid job (so `clearance run` takes it)
+    /// and in the suite, and the suite's texts are those files.
+    #[test]
+    fn the_suite_is_the_files_of_benches_suite() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut files: Vec<String> = std::fs::read_dir(root.join("benches/suite"))
+            .unwrap()
+            .map(|e| format!("benches/suite/{}", e.unwrap().file_name().to_string_lossy()))
+            .collect();
+        files.sort();
+        let mut listed: Vec<String> = SUITE.iter().map(|s| s.file.to_string()).collect();
+        listed.sort();
+        listed.dedup();
+        assert_eq!(files, listed);
+        for s in SUITE {
+            assert_eq!(std::fs::read_to_string(root.join(s.file)).unwrap(), s.text, "{}", s.file);
+            let job = JobSpec::from_path(&root.join(s.file)).unwrap();
+            job.variants(s.file).unwrap();
+        }
+    }
+
+    /// The suite runs the jobs the issue names, at their sizes.
+    #[test]
+    fn the_suite_has_every_kind_of_job() {
+        let job = |name: &str| SUITE.iter().find(|s| s.name == name).unwrap().job(1.0).unwrap();
+        assert_eq!(job("grid_2d").sample_count(), 633 * 633);
+        assert_eq!(job("grid_3d").sample_count(), 400_000);
+        assert!(job("sweep_16").variant_count() >= 16);
+        let t = job("trajectory_dynamic");
+        assert!(t.trajectory.is_some() && t.analysis.modes.contains(&Mode::Dynamic));
+        assert_eq!(job("prs_inclined").mechanism.rail_angle_deg(), 30.0);
+        assert_eq!(job("rps_grid").mechanism.kind.name(), "3-RPS");
+        let sets: Vec<ColumnSet> =
+            SUITE.iter().filter(|s| s.file.ends_with("grid_2d.toml")).map(|s| s.columns).collect();
+        assert_eq!(sets, [ColumnSet::Standard, ColumnSet::Minimal, ColumnSet::Full]);
+    }
+
+    /// `--scale` scales the samples, not the variants or modes, and keeps every
+    /// range at two values or more.
+    #[test]
+    fn scaling_keeps_variants_modes_and_ranges() {
+        for s in SUITE {
+            let full = s.job(1.0).unwrap();
+            for scale in [0.1, 0.01, 1e-9] {
+                let job = s.job(scale).unwrap();
+                assert_eq!((job.variant_count(), &job.analysis.modes), (full.variant_count(), &full.analysis.modes));
+                let (n, want) = (job.sample_count() as f64, full.sample_count() as f64 * scale);
+                if scale >= 0.01 {
+                    assert!((n / want - 1.0).abs() < 0.25, "{}: {n} samples at {scale}, about {want} wanted", s.name);
+                } else {
+                    assert!(n >= 2.0, "{}", s.name);
+                }
+            }
+        }
+    }
 }

@@ -11,7 +11,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use clearance_engine::{
-    Codec, ColumnSet, EngineError, Isa, JobError, JobSpec, Reporter, RunOptions, SolverKind, cap_isa,
+    Codec, ColumnSet, EngineError, Isa, JobError, JobSpec, Reporter, RunOptions, SolverKind, Writer, cap_isa,
 };
 
 #[derive(Parser)]
@@ -57,6 +57,9 @@ enum Command {
         /// Parquet page compression: none, lz4 or zstd (benches/README.md has the trade-off).
         #[arg(long, default_value = "zstd", value_parser = parse_codec)]
         compression: Codec,
+        /// Encoder of the part files: `engine` (its own pages) or `arrow` (parquet's ArrowWriter); the same table.
+        #[arg(long, default_value = "engine", value_parser = parse_writer)]
+        writer: Writer,
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
@@ -94,6 +97,15 @@ enum Command {
         /// Parquet compression of the end-to-end measurement.
         #[arg(long, default_value = "zstd", value_parser = parse_codec)]
         compression: Codec,
+        /// Encoder of the part files of the end-to-end measurements: `engine` or `arrow`.
+        #[arg(long, default_value = "engine", value_parser = parse_writer)]
+        writer: Writer,
+        /// Run the suite of benches/suite/ (every kind of job) instead of the prototype's grid.
+        #[arg(long, conflicts_with_all = ["job", "poses"])]
+        suite: bool,
+        /// With --suite: about this many times each suite job's samples (e.g. 0.1).
+        #[arg(long, default_value_t = 1.0, requires = "suite", value_parser = parse_scale)]
+        scale: f64,
         /// Runs of each measurement; the fastest is reported, and the JSON lists them all.
         #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
         repeat: u64,
@@ -120,6 +132,17 @@ fn parse_shard(s: &str) -> Result<(u64, u64), String> {
         return Err(format!("shard {i}/{n}: need 0 <= I < N"));
     }
     Ok((i, n))
+}
+
+fn parse_writer(s: &str) -> Result<Writer, String> {
+    Writer::parse(s).ok_or_else(|| format!("unknown writer `{s}`; use {}", Writer::NAMES.join(" or ")))
+}
+
+fn parse_scale(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
+        _ => Err(format!("scale `{s}` is not a positive number")),
+    }
 }
 
 fn parse_codec(s: &str) -> Result<Codec, String> {
@@ -222,6 +245,7 @@ fn main() -> ExitCode {
             chunk_size,
             solver,
             compression,
+            writer,
             quiet,
         } => {
             let spec = match load_job(&job) {
@@ -242,6 +266,7 @@ fn main() -> ExitCode {
                 chunk_size,
                 solver,
                 compression,
+                writer,
                 progress: Reporter::new(std::sync::Arc::new(progress::Display::new(quiet))),
                 direct_io,
             };
@@ -273,12 +298,19 @@ fn main() -> ExitCode {
                 eprintln!("{} figures in {}", files.len(), out.display());
             })
         }
-        Command::Bench { poses, json, threads, solver, compression, repeat, job } => {
+        Command::Bench { poses, json, threads, solver, compression, writer, suite, scale, repeat, job } => {
             let job = match job.map(|p| JobSpec::from_path(&p)).transpose() {
                 Ok(job) => job,
                 Err(e) => return usage(e),
             };
-            init_threads(threads).and_then(|_| bench::bench(poses, json, solver, compression, repeat as usize, job))
+            let repeat = repeat as usize;
+            init_threads(threads).and_then(|_| {
+                if suite {
+                    bench::suite(&bench::SuiteOptions { scale, repeat, solver, compression, writer, json })
+                } else {
+                    bench::bench(poses, json, solver, compression, writer, repeat, job)
+                }
+            })
         }
     };
     match result {

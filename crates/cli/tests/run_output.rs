@@ -293,3 +293,109 @@ fn bench_json_has_the_interface_keys() {
     let bytes = v["bytes_per_pose"].as_f64().unwrap();
     assert!((111.0..=9.0 * 111.0).contains(&bytes), "{bytes} bytes a pose for 111 columns");
 }
+
+/// The keys of `bench --json` stay those scripts parse (docs/interface.md), whatever
+/// `--writer` measured: no key added, none dropped.
+#[test]
+fn bench_json_keys_do_not_change() {
+    let o = run(&["bench", "--json", "--poses", "500", "--threads", "1", "--repeat", "1", "--writer", "arrow"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+    let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    let mut expected = vec![
+        "job",
+        "mechanism",
+        "kernel_poses_per_s",
+        "kernel_general_poses_per_s",
+        "end_to_end_poses_per_s",
+        "threads",
+        "poses",
+        "solver",
+        "compression",
+        "bytes_per_pose",
+        "isa",
+        "repeat",
+        "kernel_runs",
+        "end_to_end_runs",
+    ];
+    expected.sort_unstable();
+    assert_eq!(keys, expected);
+}
+
+/// `bench --suite --json` runs every job of the suite, in its order, each with a
+/// positive rate, shares of wall time that a stage can have (pose pass and writing
+/// never zero), the column set, threads, vector instructions and writer asked for,
+/// and leaves nothing in the temporary directory.
+#[test]
+fn bench_suite_reports_every_job_and_cleans_up() {
+    for writer in ["engine", "arrow"] {
+        let tmp = tempfile::tempdir().unwrap();
+        let o = bin()
+            .args(["bench", "--suite", "--json", "--scale", "0.002", "--repeat", "2", "--threads", "1"])
+            .args(["--writer", writer, "--compression", "lz4"])
+            .env("TMPDIR", tmp.path())
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+        let jobs = v["suite"].as_array().unwrap();
+        let names: Vec<&str> = jobs.iter().map(|j| j["job"].as_str().unwrap()).collect();
+        assert_eq!(
+            names,
+            [
+                "grid_2d",
+                "grid_2d_minimal",
+                "grid_2d_full",
+                "grid_3d",
+                "sweep_16",
+                "trajectory_dynamic",
+                "prs_inclined",
+                "rps_grid"
+            ]
+        );
+        let columns: Vec<&str> = jobs.iter().map(|j| j["columns"].as_str().unwrap()).collect();
+        assert_eq!(columns[..4], ["standard", "minimal", "full", "standard"]);
+        for j in jobs {
+            let rate = j["poses_per_s"].as_f64().unwrap();
+            let runs: Vec<f64> = j["runs"].as_array().unwrap().iter().map(|r| r.as_f64().unwrap()).collect();
+            assert_eq!(runs.len(), 2, "{j}");
+            assert!(rate > 0.0 && (rate - runs.iter().copied().fold(0.0, f64::max)).abs() <= 0.1, "{j}");
+            for key in ["share_pose_pass", "share_search", "share_writing"] {
+                let share = j[key].as_f64().unwrap();
+                // Stages overlap, each at most the whole run.
+                assert!((0.0..=1.001).contains(&share), "{key} {share}: {j}");
+            }
+            assert!(j["share_pose_pass"].as_f64().unwrap() > 0.0 && j["share_writing"].as_f64().unwrap() > 0.0);
+            assert!(j["poses"].as_u64().unwrap() > 0 && j["bytes_per_pose"].as_f64().unwrap() > 10.0, "{j}");
+            assert_eq!(j["threads"], 1);
+            assert_eq!(j["writer"], writer);
+            assert_eq!(j["isa"], v["isa"]);
+            assert!(j["file"].as_str().unwrap().starts_with("benches/suite/"), "{j}");
+        }
+        assert!(["portable", "avx2", "avx512"].contains(&v["isa"].as_str().unwrap_or("")), "isa: {v}");
+        let by_name = |n: &str| jobs.iter().find(|j| j["job"] == n).unwrap();
+        assert_eq!(by_name("sweep_16")["variants"], 16);
+        assert_eq!(by_name("trajectory_dynamic")["modes"], 2);
+        assert_eq!(by_name("rps_grid")["mechanism"], "3-RPS");
+        assert!(v["kernel"]["poses_per_s"].as_f64().unwrap() > 0.0);
+        let left: Vec<_> = std::fs::read_dir(tmp.path()).unwrap().collect();
+        assert!(left.is_empty(), "{left:?} left in the temporary directory");
+    }
+}
+
+/// A writer that does not exist is a bad command line (exit 2), and `--suite` does
+/// not take `--poses`.
+#[test]
+fn bad_writer_or_suite_flags_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = write_job(dir.path(), "j.toml", "[grid]\nz = 2.05\npsi = 0.0\ntheta = 0.0\n");
+    let out = dir.path().join("out");
+    let o = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "--writer", "pyarrow"]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!out.exists());
+    let o = run(&["bench", "--suite", "--poses", "1000"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = run(&["bench", "--scale", "0.5"]);
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -38,10 +38,10 @@ pub use kernel::{bench_job, kernel_rate};
 pub use layout::Layout;
 pub use plan::{ColumnSize, Plan, PlannedVariant, Samples, plan};
 pub use progress::{Progress, Reporter};
-pub use run::{RunOptions, RunReport, run};
+pub use run::{RunOptions, RunReport, StageTimes, run};
 pub use solve::{Poses, SolveOptions, solve};
 pub use status::{RunStatus, status};
 
 pub use clearance_model::{JobError, JobSpec};
-pub use clearance_parquet::{Codec, ColumnSet};
+pub use clearance_parquet::{Codec, ColumnSet, Writer};
 pub use clearance_solver::{Isa, SolverKind, cap_isa};

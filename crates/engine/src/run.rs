@@ -13,15 +13,16 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
+use arrow::record_batch::RecordBatch;
 use clearance_discontinuity::{
     Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima, trace_into,
 };
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PageWriter, PartPages, PoseSchema, SummaryRow,
-    SummaryStats, TAIL_PAGE_ROWS, WriteOptions, discontinuity_batch, summary_batch, write_bytes, write_parquet,
-    write_part,
+    BlockSink, Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PageWriter, PartPages, PoseSchema, SummaryRow,
+    SummaryStats, TAIL_PAGE_ROWS, WriteOptions, Writer, discontinuity_batch, summary_batch, write_batch_arrow,
+    write_bytes, write_parquet, write_part,
 };
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
@@ -45,6 +46,9 @@ pub struct RunOptions {
     pub chunk_size: u64,
     pub solver: SolverKind,
     pub compression: Codec,
+    /// The encoder of the `poses` part files: the engine's own pages (the default)
+    /// or `parquet`'s `ArrowWriter`. Both give the same table.
+    pub writer: Writer,
     /// Told how far the run is; nothing by default.
     pub progress: Reporter,
     /// Part files past the page cache where the disk allows ([`WriteOptions::direct_io`]).
@@ -60,6 +64,28 @@ pub struct RunReport {
     pub total: u64,
     pub seconds: f64,
     pub complete: bool,
+    /// Where the time went.
+    pub stages: StageTimes,
+}
+
+/// Busy seconds of each stage of a run, measured on the run's own clock. The stages
+/// overlap (the writer thread works beside the pool, and the search of a unit's
+/// grid lines beside the computation of the next unit), so their sum may exceed
+/// [`RunReport::seconds`]; each against it is the share of the run's wall time
+/// that stage was under way.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    /// Solving the poses and putting them into columns, on the pool; with
+    /// [`Writer::Engine`] this includes encoding their pages, which the thread that
+    /// computed the rows does at once.
+    pub pose_pass: f64,
+    /// The discontinuity search: the grid lines or path each unit completes, and
+    /// the search at the end of a sharded, resumed or very long run.
+    pub search: f64,
+    /// The writer thread (part files, statistics and trace files; with
+    /// [`Writer::Arrow`] the part's encoding too), `discontinuities.parquet` and
+    /// `summary.parquet`, and the sync of every file before `_SUCCESS`.
+    pub writing: f64,
 }
 
 /// One part file's worth of work.
@@ -257,9 +283,17 @@ struct Part {
     stats_path: PathBuf,
     trace_path: PathBuf,
     traces: Vec<Trace>,
-    pages: PartPages,
+    body: Body,
     stats: SummaryStats,
     extra: Vec<(String, String)>,
+}
+
+/// The rows of a part file, as its writer takes them.
+enum Body {
+    /// Encoded already, page by page ([`Writer::Engine`]).
+    Pages(PartPages),
+    /// A record batch, for `ArrowWriter` ([`Writer::Arrow`]).
+    Batch(RecordBatch),
 }
 
 fn search_options(variant: &Variant) -> SearchOptions {
@@ -348,6 +382,7 @@ fn finalize(
     opts: &RunOptions,
     write_opts: &WriteOptions,
     mut kept: Kept,
+    stages: &mut StageTimes,
 ) -> Result<()> {
     opts.progress.get().searching();
     let mut switches = Vec::new();
@@ -369,7 +404,12 @@ fn finalize(
             };
             let found = match kept.found.remove(&(variant.index, mode)) {
                 Some(found) => found,
-                None => search_after(layout, model, source, mode, &search, &units, opts)?,
+                None => {
+                    let start = Instant::now();
+                    let found = search_after(layout, model, source, mode, &search, &units, opts)?;
+                    stages.search += start.elapsed().as_secs_f64();
+                    found
+                }
             };
             let mut counts = [0u64; 4];
             for d in &found {
@@ -385,12 +425,14 @@ fn finalize(
             switches.extend(found.into_iter().map(|d| (variant.index, d)));
         }
     }
+    let start = Instant::now();
     let [discontinuities, summary_file] = layout.final_files();
     let batch = discontinuity_batch(&switches);
     write_parquet(&discontinuities, batch.schema(), &[batch], write_opts, &[])?;
     let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
     let batch = summary_batch(&names, &summary);
     write_parquet(&summary_file, batch.schema(), &[batch], write_opts, &[])?;
+    stages.writing += start.elapsed().as_secs_f64();
     Ok(())
 }
 
@@ -486,7 +528,7 @@ struct Ctx<'a> {
 /// statistics merged ([`conclude`]).
 struct Computed<'a> {
     unit: &'a Unit,
-    pages: PartPages,
+    body: Body,
     traces: Vec<Trace>,
     /// The load magnitudes of each pose.
     loads: Vec<Loads>,
@@ -494,9 +536,49 @@ struct Computed<'a> {
     block_stats: Vec<Vec<SummaryStats>>,
 }
 
-/// Solves the poses of `unit` on the pool, a page at a time, each page encoded as
-/// soon as its rows are in. `loads` is a buffer to reuse.
-fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
+/// Solves the poses of `unit` on the pool into the rows its writer takes.
+/// `loads` is a buffer to reuse.
+fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, loads: Vec<Loads>) -> Result<Computed<'a>> {
+    match ctx.opts.writer {
+        Writer::Engine => compute_pages(ctx, unit, loads),
+        Writer::Arrow => compute_batch(ctx, unit, loads),
+    }
+}
+
+/// Solves one block of samples, from sample `first`, into rows `row..` of `sink`,
+/// with each pose's trace and load magnitudes (`traces` and `loads` are the
+/// block's); the block's statistics.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn solve_block(
+    blocks: &mut Blocks,
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    first: u64,
+    sink: &mut BlockSink<'_>,
+    row: usize,
+    traces: &mut [Trace],
+    loads: &mut [Loads],
+) -> SummaryStats {
+    let mut stats = SummaryStats::with_capacity(traces.len());
+    // A few batches at a time, so that results are used while in cache.
+    for (k, (ts, ls)) in traces.chunks_mut(SOLVE).zip(loads.chunks_mut(SOLVE)).enumerate() {
+        let (at, start) = (row + k * SOLVE, first + (k * SOLVE) as u64);
+        let (samples, results) = blocks.solve(model, source, start..start + ts.len() as u64, mode);
+        let rows = samples.iter().zip(results).zip(ts.iter_mut().zip(ls));
+        for (i, ((s, r), (t, l))) in rows.enumerate() {
+            sink.put(at + i, s, r);
+            stats.push(r);
+            *t = trace_into(r, model, l);
+        }
+    }
+    stats
+}
+
+/// [`compute`] for the engine's writer: a page at a time, each page encoded as
+/// soon as its rows are in.
+fn compute_pages<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
     let (model, source) = &ctx.models[unit.variant as usize];
     let n = (unit.range.end - unit.range.start) as usize;
     let mut pages = ctx.schema.part(unit.mode, n);
@@ -530,21 +612,9 @@ fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<C
             let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
             let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
             for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
-                let mut stats = SummaryStats::with_capacity(block_traces.len());
-                // A few batches at a time, so that results are used while in cache.
-                let batches = block_traces.chunks_mut(SOLVE).zip(block_loads.chunks_mut(SOLVE));
-                for (k, (ts, ls)) in batches.enumerate() {
-                    let row = b * BLOCK + k * SOLVE;
-                    let start = first + row as u64;
-                    let (samples, results) = blocks.solve(model, source, start..start + ts.len() as u64, unit.mode);
-                    let rows = samples.iter().zip(results).zip(ts.iter_mut().zip(ls));
-                    for (i, ((s, r), (t, l))) in rows.enumerate() {
-                        sink.put(row + i, s, r);
-                        stats.push(r);
-                        *t = trace_into(r, model, l);
-                    }
-                }
-                all.push(stats);
+                let (row, mode) = (b * BLOCK, unit.mode);
+                let start = first + row as u64;
+                all.push(solve_block(&mut blocks, model, source, mode, start, sink, row, block_traces, block_loads));
             }
             all
         });
@@ -570,13 +640,44 @@ fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<C
                 source,
             }
         })?;
-    Ok(Computed { unit, pages, traces, loads, block_stats })
+    Ok(Computed { unit, body: Body::Pages(pages), traces, loads, block_stats })
+}
+
+/// [`compute`] for `ArrowWriter`: blocks of rows into column buffers on the pool,
+/// then one record batch of the unit.
+fn compute_batch<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
+    let (model, source) = &ctx.models[unit.variant as usize];
+    let n = (unit.range.end - unit.range.start) as usize;
+    let mut columns = ctx.schema.columns(n);
+    let mut traces: Vec<Trace> = vec![0; n];
+    loads.resize(n, Loads::default());
+    let work: Vec<_> = columns
+        .blocks(ctx.schema, BLOCK)
+        .into_iter()
+        .zip(traces.chunks_mut(BLOCK).zip(loads[..n].chunks_mut(BLOCK)))
+        .enumerate()
+        .collect();
+    // One block's statistics per entry, in block order, as `compute_pages` gives them.
+    let block_stats: Vec<Vec<SummaryStats>> = work
+        .into_par_iter()
+        .map(|(b, (mut sink, (block_traces, block_loads)))| {
+            let worker = ctx.workers.lock().expect("no panic while held").pop();
+            let (mut blocks, buf) = worker.unwrap_or_else(|| (Blocks::default(), ctx.schema.page_buffer()));
+            let first = unit.range.start + (b * BLOCK) as u64;
+            let stats =
+                solve_block(&mut blocks, model, source, unit.mode, first, &mut sink, 0, block_traces, block_loads);
+            ctx.workers.lock().expect("no panic while held").push((blocks, buf));
+            vec![stats]
+        })
+        .collect();
+    let batch = ctx.schema.finish(unit.mode, columns);
+    Ok(Computed { unit, body: Body::Batch(batch), traces, loads, block_stats })
 }
 
 /// A computed unit's part, for the writer, with its traces pruned and its
 /// statistics merged (and kept in `kept`); and its load buffer, to reuse.
 fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads>) {
-    let Computed { unit, pages, traces, loads, block_stats } = c;
+    let Computed { unit, body, traces, loads, block_stats } = c;
     let (_, source) = &ctx.models[unit.variant as usize];
     // With the whole unit in hand, most samples are seen not to be load
     // minima, so the search solves only the others.
@@ -599,7 +700,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
         stats_path: layout.stats(unit.variant, unit.mode, unit.chunk),
         trace_path: layout.trace(unit.variant, unit.mode, unit.chunk),
         traces,
-        pages,
+        body,
         stats,
         extra,
     };
@@ -659,6 +760,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         KeepTraces::No
     };
     let mut kept = Kept { keep, ..Kept::default() };
+    let mut stages = StageTimes::default();
     // The buffers of written pages, for pages still to encode.
     let spare = &std::sync::Mutex::new(Vec::<Vec<u8>>::new());
     // The run's own files are on the disk before `_SUCCESS`: synced with the parts
@@ -667,8 +769,11 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let finalized = std::thread::scope(|scope| -> Result<bool> {
         let (tx, rx) = sync_channel::<Part>(1);
         let (schema, write_opts) = (&schema, &write_opts);
-        let writer = scope.spawn(move || -> Result<()> {
+        // Returns its busy seconds.
+        let writer = scope.spawn(move || -> Result<f64> {
+            let mut busy = 0.0;
             for part in rx {
+                let start = Instant::now();
                 for dir in [part.path.parent(), part.stats_path.parent()].into_iter().flatten() {
                     std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
                 }
@@ -678,10 +783,16 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                     &serde_json::to_vec(&part.stats).expect("statistics are plain numbers"),
                     write_opts,
                 )?;
-                write_part(&part.path, schema, &part.pages, write_opts, &part.extra)?;
-                spare.lock().expect("no panic while held").extend(part.pages.into_buffers());
+                match part.body {
+                    Body::Pages(pages) => {
+                        write_part(&part.path, schema, &pages, write_opts, &part.extra)?;
+                        spare.lock().expect("no panic while held").extend(pages.into_buffers());
+                    }
+                    Body::Batch(batch) => write_batch_arrow(&part.path, &batch, write_opts, &part.extra)?,
+                }
+                busy += start.elapsed().as_secs_f64();
             }
-            Ok(())
+            Ok(busy)
         });
         let workers = &std::sync::Mutex::new(Vec::new());
         let ctx = Ctx { schema, models: &models, variants: &variants, opts, layout, spare, workers };
@@ -708,18 +819,25 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         let traces = (kept.keep != KeepTraces::No).then(|| part.traces.clone());
                         let sent = tx.send(part).is_ok();
                         // Searched after the part is on its way: the writer need not wait.
+                        let start = Instant::now();
                         if let Some(traces) = traces {
                             let (model, source) = &models[unit.variant as usize];
                             let opts = search_options(&variants[unit.variant as usize]);
                             kept.add_traces(unit, &traces, model, source, &opts);
                         }
-                        (n, loads, sent)
+                        (n, loads, sent, start.elapsed().as_secs_f64())
                     })
                 },
-                || unit.map(|u| compute(&ctx, u, loads)).transpose(),
+                || {
+                    let start = Instant::now();
+                    (unit.map(|u| compute(&ctx, u, loads)).transpose(), start.elapsed().as_secs_f64())
+                },
             );
+            let (computed, pose_pass) = computed;
+            stages.pose_pass += pose_pass;
             previous = computed?;
-            if let Some((n, loads, sent)) = concluded {
+            if let Some((n, loads, sent, search)) = concluded {
+                stages.search += search;
                 spare_loads.push(loads);
                 if !sent {
                     writer_failed = true; // its error is reported below
@@ -732,16 +850,18 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         drop(tx);
         let finalized = (kept.keep == KeepTraces::Search && !writer_failed).then(|| {
             progress.finish();
-            finalize(layout, job, &variants, &models, &all, opts, write_opts, std::mem::take(&mut kept))
+            finalize(layout, job, &variants, &models, &all, opts, write_opts, std::mem::take(&mut kept), &mut stages)
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
-        writer.join().expect("the writer thread does not panic")?;
+        stages.writing += writer.join().expect("the writer thread does not panic")?;
         finalized.transpose().map(|f| f.is_some())
     })?;
     progress.finish();
 
     let finals: Vec<PathBuf> = if finalized { layout.final_files().into() } else { Vec::new() };
+    let syncing = Instant::now();
     sync_units(layout, &mine, &finals)?;
+    stages.writing += syncing.elapsed().as_secs_f64();
     if let Some((i, n)) = opts.shard {
         write_marker(&layout.shard_marker(i, n))?;
     }
@@ -753,11 +873,11 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     };
     if complete {
         if !finalized {
-            finalize(layout, job, &variants, &models, &all, opts, &durable, kept)?;
+            finalize(layout, job, &variants, &models, &all, opts, &durable, kept, &mut stages)?;
         }
         write_marker(&layout.success())?;
     }
-    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })
+    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
 }
 
 #[cfg(test)]

@@ -7,7 +7,9 @@ use std::fs::File;
 use arrow::array::{Array, ArrayRef, Float64Array, RecordBatch};
 use arrow::compute::cast;
 use arrow::datatypes::DataType;
-use clearance_engine::{Codec, ColumnSet, JobSpec, Layout, Reporter, RunOptions, SolveOptions, SolverKind, run, solve};
+use clearance_engine::{
+    Codec, ColumnSet, JobSpec, Layout, Reporter, RunOptions, SolveOptions, SolverKind, Writer, run, solve,
+};
 use clearance_model::Mode;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -91,6 +93,7 @@ fn check(text: &str, columns: ColumnSet, chunk_size: u64) {
         chunk_size,
         solver: SolverKind::Fast,
         compression: Codec::Zstd,
+        writer: Writer::Engine,
         progress: Reporter::default(),
         direct_io: true,
     };

@@ -13,6 +13,10 @@
 //!   mergeable [`SummaryStats`]).
 //! - [`write_parquet`]: one file written under a temporary name and renamed when
 //!   complete, with the job and engine version in the key-value metadata.
+//! - Part files of `poses` by one of two [`Writer`]s: the engine's own page encoder
+//!   ([`PageWriter`], [`write_part`]; pages encoded as their rows are computed), or
+//!   `parquet`'s stock `ArrowWriter` from a record batch ([`write_batch_arrow`]).
+//!   Both give the same table.
 //!
 //! ```
 //! use clearance_parquet::{ColumnSet, PoseSchema};
@@ -24,12 +28,14 @@
 mod output;
 mod pages;
 mod schema;
+mod stock;
 mod summary;
 mod tables;
 mod writer;
 
 pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
 pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSchema, UnitColumns};
+pub use stock::{Writer, arrow_properties, write_batch_arrow};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
 pub use tables::discontinuity_batch;
 pub use writer::{Codec, ParquetError, WriteOptions, write_bytes, write_parquet, write_part};

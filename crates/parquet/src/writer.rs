@@ -41,7 +41,7 @@ pub enum ParquetError {
 impl ParquetError {
     /// The writer reports I/O failures as `External` parquet errors; they are
     /// `Io`, whatever layer met them.
-    fn from_parquet(path: &Path, e: parquet::errors::ParquetError) -> Self {
+    pub(crate) fn from_parquet(path: &Path, e: parquet::errors::ParquetError) -> Self {
         let path = path.to_path_buf();
         match e {
             parquet::errors::ParquetError::External(inner) => match inner.downcast::<std::io::Error>() {
@@ -131,6 +131,15 @@ impl Codec {
             Codec::None => Compression::UNCOMPRESSED,
             Codec::Lz4 => Compression::LZ4_RAW,
             Codec::Zstd => Compression::ZSTD(ZstdLevel::try_new(ZSTD_LEVEL).expect("the level is valid")),
+        }
+    }
+
+    /// The compression of the double columns' pages ([`PAGE_ZSTD_LEVEL`] for zstd),
+    /// for a writer that takes it as a `parquet` setting.
+    pub(crate) fn page_compression(self) -> Compression {
+        match self {
+            Codec::Zstd => Compression::ZSTD(ZstdLevel::try_new(PAGE_ZSTD_LEVEL).expect("the level is valid")),
+            other => other.compression(),
         }
     }
 }
@@ -393,7 +402,10 @@ pub fn write_bytes(path: &Path, bytes: &[u8], opts: &WriteOptions) -> Result<(),
 
 /// Runs `write` on the temporary sibling of `path`, then renames it to `path`;
 /// removes it on any failure.
-fn atomically(path: &Path, write: impl FnOnce(&Path) -> Result<(), ParquetError>) -> Result<(), ParquetError> {
+pub(crate) fn atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), ParquetError>,
+) -> Result<(), ParquetError> {
     let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
     let result = write(&tmp).and_then(|()| {
@@ -407,7 +419,7 @@ fn atomically(path: &Path, write: impl FnOnce(&Path) -> Result<(), ParquetError>
 
 /// Syncs a finished file when `durable`; else, if it went through the page cache,
 /// asks the disk to start taking it.
-fn finish_file(out: &Output, durable: bool) -> std::io::Result<()> {
+pub(crate) fn finish_file(out: &Output, durable: bool) -> std::io::Result<()> {
     if durable {
         out.file().sync_all()
     } else {
