@@ -280,7 +280,7 @@ fn ups_paths(job: &JobSpec, source: &SampleSource) -> Vec<UpsPath> {
                 let stride: u64 = lens[k + 1..].iter().product();
                 let total: u64 = lens.iter().product();
                 for origin in 0..total {
-                    if (origin / stride) % lens[k] == 0 {
+                    if (origin / stride).is_multiple_of(lens[k]) {
                         out.push(UpsPath {
                             along: UPS_INPUTS[k],
                             axis: Some(k),
