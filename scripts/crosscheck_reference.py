@@ -22,6 +22,11 @@ existed):
   independently;
 * ``3-RPS``: ``kind = "3-RPS"`` with varied radii, cylinder/piston lengths and
   masses, default or explicit strokes, symmetric or uneven layouts.
+* ``6-UPS``: ``kind = "6-UPS"`` against scripts/reference_ups.py: the default
+  geometry, perturbed circles with tilted U axes, or explicit points; varied legs,
+  strokes, masses, point masses, inertia, gravity and loads; each of s_radial,
+  u_radial, u_angular on or off; grids over one to three of the six inputs and
+  trajectories of all six, kinetostatic and dynamic; exact mode.
 
 With several families each job draws its family first.  Heights are chosen from
 the reference's own kinematics so that the poses are mostly reachable and well
@@ -56,7 +61,10 @@ Comparison rule (per cell, both sides non-null):
       (forces: max(M_force, M_couple/L), couples: L times that; position
       errors: max(M_err_len, L*M_err_ang), rotation errors: that over L;
       likewise for exact errors; other groups: M_g).  With kappa ~ 50 it is
-      ~1e-13 of F_c; it matters only for ill-conditioned rows.
+      ~1e-13 of F_c; it matters only for ill-conditioned rows.  For the 6-UPS,
+      F_c of the error groups is at least their natural magnitude N_g: the
+      u_angular take-up is cancelled by passive motions of its own size, so its
+      (zero) error carries round-off of that size, not of the error's.
 
   The table prints, per column, the worst raw normalised error
   |a-b| / max(|a|, |b|, S_c) (before the round-off term) and the number of
@@ -110,6 +118,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import reference_model as rm  # noqa: E402
+import reference_ups as ru  # noqa: E402
 
 REPO = os.path.dirname(HERE)
 EPS = np.finfo(float).eps
@@ -245,7 +254,7 @@ def random_job(rng, index):
 # --------------------------------------------------------------------------
 # random jobs of the mechanism family (docs/model.md section 10)
 # --------------------------------------------------------------------------
-FAMILIES_OF_JOBS = ("prototype", "3-PRS", "3-RPS")
+FAMILIES_OF_JOBS = ("prototype", "3-PRS", "3-RPS", "6-UPS")
 RAIL_ANGLES_EXACT = (-90.0, 0.0, 30.0, 90.0)
 
 
@@ -443,6 +452,126 @@ def random_family_job(rng, index, kind):
     raise RuntimeError(f"no admissible {kind} job found in 50 draws")
 
 
+def _ups_harmonics(rng, offset, amp):
+    k = int(rng.integers(1, 3))
+    return {"offset": offset, "harmonics": [
+        {"amplitude": amp * _r(rng, 0.3, 1.0) / k, "period": _r(rng, 1.0, 4.0),
+         "phase": _r(rng, -math.pi, math.pi)} for _ in range(k)]}
+
+
+def random_ups_job(rng, index):
+    """A 6-UPS job (docs/model.md 10.3); (job, tag).  Geometry: the defaults (keys
+    left out), perturbed circles with tilted U axes, or explicit points off the planes;
+    random masses, point masses, platform inertia, gravity and external load; each of
+    s_radial, u_radial, u_angular on or off; a grid over some of the six inputs or a
+    trajectory in one or both modes; exact mode on some ok-dominated jobs; "edge" jobs
+    reach past the stroke (unreachable rows)."""
+    for _attempt in range(50):
+        edge = rng.random() < 0.15
+        job = {"name": f"xcheck_{index:03d}"}
+        mech = {"kind": "6-UPS"}
+        v = int(rng.integers(0, 3))
+        if v >= 1:
+            mech["base_radius"] = _r(rng, 0.4, 0.6)
+            mech["platform_radius"] = _r(rng, 0.2, 0.35)
+            mech["base_angles_deg"] = [a + _r(rng, -5, 5) for a in (-15, 15, 105, 135, 225, 255)]
+            mech["platform_angles_deg"] = [a + _r(rng, -5, 5) for a in (-45, 45, 75, 165, 195, 285)]
+        if v == 1 and rng.random() < 0.6:
+            mech["u_axes"] = [[-math.sin(t) + _r(rng, -0.2, 0.2), math.cos(t), _r(rng, -0.3, 0.3)]
+                              for t in np.radians(mech["base_angles_deg"])]
+        if v == 2:
+            P0 = ru.normalize_job({"mechanism": dict(mech), "grid": {"z": 0.7}})
+            mech["base_points"] = [[float(b[0]), float(b[1]), _r(rng, -0.05, 0.05)] for b in P0["B"]]
+            mech["platform_points"] = [[float(a[0]), float(a[1]), _r(rng, -0.05, 0.05)] for a in P0["AP"]]
+            for kk in ("base_radius", "base_angles_deg", "platform_angles_deg"):
+                mech.pop(kk, None)
+        if rng.random() < 0.5:
+            lc, lp = _r(rng, 0.4, 0.7), _r(rng, 0.4, 0.7)
+            mech.update(cylinder_length=lc, piston_length=lp)
+            if rng.random() < 0.5:
+                mech["min_length"] = max(lc, lp) + _r(rng, 0.0, 0.05)
+                mech["max_length"] = lc + lp - _r(rng, 0.0, 0.05)
+        weightless = rng.random() < 0.08     # no gravity, no load: every take-up indeterminate
+        if weightless:
+            mech["gravity"] = [0.0, 0.0, 0.0]
+        elif rng.random() < 0.3:
+            mech["gravity"] = [_r(rng, -1.0, 1.0), _r(rng, -1.0, 1.0), _r(rng, -10.5, -9.0)]
+        job["mechanism"] = mech
+        mass = {}
+        if rng.random() < 0.6:
+            mass.update(platform=_r(rng, 5.0, 15.0), cylinder=_r(rng, 0.5, 3.0), piston=_r(rng, 0.3, 2.0))
+        if rng.random() < 0.3:
+            mass["platform_inertia"] = [_r(rng, 0.1, 0.5), _r(rng, 0.1, 0.5), _r(rng, 0.2, 0.8)]
+        if rng.random() < 0.5:
+            mass["points"] = [{"mass": _r(rng, 1.0, 20.0),
+                               "at": [_r(rng, -0.2, 0.2), _r(rng, -0.2, 0.2), _r(rng, -0.5, 0.8)]}
+                              for _ in range(int(rng.integers(1, 3)))]
+        if mass:
+            job["mass"] = mass
+        if rng.random() < 0.5 and not weightless:
+            job["load"] = {"force": [float(x) for x in rng.normal(0, 20, 3)],
+                           "moment": [float(x) for x in rng.normal(0, 3, 3)],
+                           "at": [_r(rng, -0.2, 0.2), _r(rng, -0.2, 0.2), _r(rng, -0.2, 0.3)]}
+        cl = {"s_radial": _logu(rng, -5.0, -3.5), "u_radial": _logu(rng, -5.5, -4.0),
+              "u_angular": _logu(rng, -5.0, -2.5)}
+        for k in list(cl):
+            if rng.random() < 0.2:
+                cl[k] = 0.0
+        job["clearance"] = cl
+        P = ru.normalize_job(dict(job, grid={"z": 0.7}))
+        dxy = P["AP"][:, :2] - P["B"][:, :2]
+        h2 = P["size"] ** 2 - float((dxy * dxy).sum(1).mean())
+        if h2 <= 0:
+            continue
+        z0 = math.sqrt(h2) - float((P["AP"][:, 2] - P["B"][:, 2]).mean())
+        span = 2.5 if edge else 1.0
+        if edge:                  # towards the end of the stroke: some legs out of it
+            z0 += 0.2 * P["size"]
+        traj = rng.random() < 0.4
+        analysis = {"exact": bool(rng.random() < 0.5) and not edge}
+        if traj:
+            modes = [["kinetostatic"], ["dynamic"], ["kinetostatic", "dynamic"]][int(rng.integers(0, 3))]
+            t0 = _r(rng, 0.0, 2.0)
+            job["trajectory"] = {"time": {"start": t0, "stop": t0 + _r(rng, 1.0, 4.0),
+                                          "n": int(rng.integers(15, 60))},
+                                 "x": _ups_harmonics(rng, _r(rng, -0.02, 0.02), 0.05 * span),
+                                 "y": _ups_harmonics(rng, _r(rng, -0.02, 0.02), 0.05 * span),
+                                 "z": _ups_harmonics(rng, z0, 0.05 * span),
+                                 "phi": _ups_harmonics(rng, 0.0, 0.15 * span),
+                                 "psi": _ups_harmonics(rng, 0.0, 0.12 * span),
+                                 "theta": _ups_harmonics(rng, 0.0, 0.12 * span)}
+            for k in ("x", "y", "phi"):
+                if rng.random() < 0.25:
+                    del job["trajectory"][k]          # left out: the constant 0
+            analysis["modes"] = modes
+        else:
+            spans = {"x": 0.06, "y": 0.06, "z": 0.06, "phi": 0.2, "psi": 0.15, "theta": 0.15}
+            grid = {}
+            swept = rng.choice(list(spans), size=int(rng.integers(1, 4)), replace=False)
+            for k, w in spans.items():
+                c = z0 if k == "z" else 0.0
+                if k in swept:
+                    a, b = sorted(rng.uniform(-w * span, w * span, 2))
+                    b = max(b, a + 0.2 * w)
+                    grid[k] = {"start": c + float(a), "stop": c + float(b), "n": int(rng.integers(2, 9))}
+                elif k in ("z", "psi", "theta") or rng.random() < 0.6:
+                    grid[k] = c + _r(rng, -0.3 * w, 0.3 * w)
+            job["grid"] = grid
+            modes = ["kinetostatic"]
+        if rng.random() < 0.2:
+            analysis["discontinuity_load_fraction"] = _r(rng, 0.01, 0.1)
+        job["analysis"] = analysis
+        ref = ru.compute(tomllib.loads(to_toml(job)), "minimal")
+        ok = float(np.mean(np.isin(ref["status"], ["ok", "indeterminate_contact"])))
+        if ok < (0.3 if edge else 0.8):
+            continue
+        tag = f"6-UPS geom{v}" + (" edge" if edge else "") + (" weightless" if weightless else "") + \
+            (" trajectory " + "+".join(modes) if traj else " grid " + "/".join(sorted(swept))) + \
+            (" exact" if analysis["exact"] else "")
+        return job, tag
+    raise RuntimeError(f"no admissible 6-UPS job found in 50 draws (job {index})")
+
+
 def parse_kinds(text):
     kinds = list(FAMILIES_OF_JOBS) if text.strip() == "all" else \
         [k.strip() for k in text.split(",") if k.strip()]
@@ -459,6 +588,8 @@ def make_job(rng, index, kinds):
     if kind == "prototype":
         job, tag = random_job(rng, index)
         return job, ("prototype " + tag) if len(kinds) > 1 else tag
+    if kind == "6-UPS":
+        return random_ups_job(rng, index)
     return random_family_job(rng, index, kind)
 
 
@@ -526,7 +657,7 @@ def group_of(col):
         return col
     if col.startswith("env_"):
         return "env_len" if col.rsplit("_", 1)[1] in ("x", "y", "z", "p") else "env_ang"
-    if col in ("z", "x", "y", "q1", "q2", "q3"):
+    if col in ("z", "x", "y", "q1", "q2", "q3", "q4", "q5", "q6"):
         return "length"
     if col in ("psi", "theta", "phi"):
         return "angle"
@@ -535,22 +666,26 @@ def group_of(col):
     if col.startswith("err_"):
         comp = col.rsplit("_", 1)[1]
         return "err_len" if comp in ("x", "y", "z") else "err_ang"
-    if col.startswith("m_r") or col.endswith("_angular"):
+    if col.startswith(("m_r", "m_u")) or col.endswith("_angular"):
         return "couple"
-    if col.startswith(("f_r", "f_s", "margin_")):
+    if col.startswith(("f_r", "f_s", "f_u", "margin_")):
         return "force"
     return None
 
 
 def physical_scale(P):
-    """Natural magnitude of each unit group for the job (see the module doc)."""
+    """Natural magnitude of each unit group for the job (see the module doc); for the
+    6-UPS the translations are s_radial and u_radial and the angle u_angular."""
     c = P["clear"]
-    trans = max(c["s_radial"], c["r_radial"], c["r_axial"])
+    if P.get("kind") == ru.KIND:
+        trans, ang = max(c["s_radial"], c["u_radial"]), c["u_angular"]
+    else:
+        trans, ang = max(c["s_radial"], c["r_radial"], c["r_axial"]), c["r_angular"]
     L = P["size"]
-    return {"length": L, "angle": 1.0, "err_len": trans + L * c["r_angular"],
-            "err_ang": c["r_angular"] + trans / L, "force": P["W"], "couple": P["W"] * L,
-            "exact_len": trans + L * c["r_angular"], "exact_ang": c["r_angular"] + trans / L,
-            "env_len": trans + L * c["r_angular"], "env_ang": c["r_angular"] + trans / L}
+    return {"length": L, "angle": 1.0, "err_len": trans + L * ang,
+            "err_ang": ang + trans / L, "force": P["W"], "couple": P["W"] * L,
+            "exact_len": trans + L * ang, "exact_ang": ang + trans / L,
+            "env_len": trans + L * ang, "env_ang": ang + trans / L}
 
 
 # groups whose values come out of one linear solve together: (length-like, angle-like)
@@ -622,8 +757,9 @@ def compare(ref, eng, job_label, stats, P, notes=None, strict_dominant=False, ne
     notes = [] if notes is None else notes
     near_ties = {} if near_ties is None else near_ties
     expected = [c for c in ref if c != "variant" and c not in EXTRA_COLUMNS]
-    if not any(c in eng for c in ENV_COLUMNS):
-        expected = [c for c in expected if c not in ENV_COLUMNS]
+    is_env = [c for c in expected if c.startswith("env_") or c == "dominant"]
+    if not any(c in eng for c in is_env):
+        expected = [c for c in expected if c not in is_env]
         notes.append("engine output has no envelope columns (env_*, dominant): not compared")
     missing = [c for c in expected if c not in eng]
     if missing:
@@ -671,6 +807,10 @@ def compare(ref, eng, job_label, stats, P, notes=None, strict_dominant=False, ne
             scale[(m, c)] = max(mc[c], GROUP_FLOOR * mg[group_of(c)],
                                 PHYS_FLOOR * phys.get(group_of(c), 0.0))
             fam[(m, c)] = family_magnitude(group_of(c), mg, P["size"])
+            if P.get("kind") == ru.KIND and group_of(c) in FAMILIES and not group_of(c).startswith("env"):
+                # u_angular's error is zero, but the passive motions that cancel its
+                # take-up are of its size: that is the solution vector's magnitude.
+                fam[(m, c)] = max(fam[(m, c)], phys[group_of(c)])
     S_all = {c: np.array([scale[(m, c)] for m in modes]) for c in num_cols}
     R_all = {c: COND_ALLOWANCE * EPS * kap * np.array([fam[(m, c)] for m in modes])
              for c in num_cols}
@@ -838,7 +978,7 @@ def main(argv=None):
     ap.add_argument("--strict-dominant", action="store_true",
                     help="fail on near ties of `dominant` too (see the module doc)")
     ap.add_argument("--kinds", default="prototype",
-                    help="comma-separated job families: prototype, 3-PRS, 3-RPS, or all "
+                    help="comma-separated job families: prototype, 3-PRS, 3-RPS, 6-UPS, or all "
                          "(default prototype)")
     args = ap.parse_args(argv)
     try:
@@ -866,10 +1006,12 @@ def main(argv=None):
             # round-trip through TOML so both sides read the very same numbers
             job = tomllib.loads(to_toml(job))
             t0 = time.time()
-            ref = rm.compute(job, extras=True)
+            ups = job.get("mechanism", {}).get("kind") == ru.KIND
+            reference = (lambda j: ru.compute(j, "full")) if ups else (lambda j: rm.compute(j, extras=True))
+            ref = reference(job)
             if maybe_add_thresholds(rng, job, ref):
                 tag += " singular_cond"
-                ref = rm.compute(job, extras=True)
+                ref = reference(job)
             t_ref = time.time() - t0
             text = to_toml(job)
             job = tomllib.loads(text)
@@ -901,9 +1043,9 @@ def main(argv=None):
             else:
                 try:
                     eng, nfiles = read_engine(out)
-                    Pj = rm.normalize_job(job)
+                    Pj = ru.normalize_job(job) if ups else rm.normalize_job(job)
                     fails += compare(ref, eng, label, stats, Pj, notes, args.strict_dominant, near_ties)
-                    if any(c in eng for c in ENV_COLUMNS):
+                    if not ups and any(c in eng for c in ENV_COLUMNS):
                         fails += compare_summary(ref, out, Pj, notes, near_ties)
                 except Exception as exc:  # report, do not crash the whole run
                     fails.append(f"reading/comparing failed: {type(exc).__name__}: {exc}")

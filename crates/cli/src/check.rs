@@ -1,7 +1,7 @@
 //! `clearance check JOB`: validate and print the expanded plan.
 
 use anyhow::Result;
-use clearance_engine::{JobSpec, Samples, SolverKind, bench_job, kernel_rate, plan};
+use clearance_engine::{JobSpec, Samples, SolverKind, bench_job, kernel_rate, plan, ups_kernel_rate};
 
 pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
     let plan = plan(job, file)?;
@@ -11,6 +11,9 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
     match plan.samples {
         Samples::Grid { z, psi, theta } => println!("samples: grid {z} z × {psi} psi × {theta} theta = {n}"),
         Samples::Trajectory { times } => println!("samples: trajectory of {times} times"),
+        Samples::Grid6 { x, y, z, phi, psi, theta } => {
+            println!("samples: grid {x} x × {y} y × {z} z × {phi} phi × {psi} psi × {theta} theta = {n}")
+        }
     }
     println!("modes: {}", plan.modes.join(", "));
     println!("variants: {}", plan.variants.len());
@@ -26,7 +29,11 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
         println!("  --columns {:<8}: {:>3} columns, at most ~{}", c.set, c.columns, human_bytes(c.bytes as f64));
     }
     if timing {
-        let rate = kernel_rate(&bench_job(20_000), SolverKind::Fast);
+        let rate = if job.mechanism.kind == clearance_engine::MechanismKind::Ups6 {
+            ups_kernel_rate(2_000)
+        } else {
+            kernel_rate(&bench_job(20_000), SolverKind::Fast)
+        };
         let dynamic = if plan.modes.contains(&"dynamic") { " (dynamic poses cost somewhat more)" } else { "" };
         println!(
             "estimated compute time: {:.1} s at {:.0} poses/s measured now on {} threads{dynamic}",

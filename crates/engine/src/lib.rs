@@ -13,6 +13,9 @@
 //!   explicit [`Poses`] instead of the job's grid or trajectory;
 //! - [`plan`]: what a job will compute; [`status`]: is a run complete?
 //!
+//! A 6-UPS job (`[mechanism] kind = "6-UPS"`) takes the same doors: [`run`] and
+//! [`solve`] hand it to its own module, with six inputs, six limbs and its tables.
+//!
 //! ```
 //! use clearance_engine::{JobSpec, SolveOptions, solve};
 //! let job = JobSpec::from_toml_str(
@@ -32,9 +35,10 @@ mod progress;
 mod run;
 mod solve;
 mod status;
+mod ups;
 
 pub use error::EngineError;
-pub use kernel::{bench_job, kernel_rate};
+pub use kernel::{bench_job, kernel_rate, ups_kernel_rate};
 pub use layout::Layout;
 pub use plan::{ColumnSize, Plan, PlannedVariant, Samples, plan};
 pub use progress::{Progress, Reporter};
@@ -42,6 +46,6 @@ pub use run::{RunOptions, RunReport, StageTimes, run};
 pub use solve::{Poses, SolveOptions, solve};
 pub use status::{RunStatus, status};
 
-pub use clearance_model::{JobError, JobSpec};
+pub use clearance_model::{JobError, JobSpec, MechanismKind};
 pub use clearance_parquet::{Codec, ColumnSet, Writer};
 pub use clearance_solver::{Isa, SolverKind, cap_isa};

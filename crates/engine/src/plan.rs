@@ -1,7 +1,7 @@
 //! What a job will compute, before computing it (`clearance check`).
 
 use clearance_model::{JobSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, SamplesSpec};
-use clearance_parquet::{ColumnSet, PoseSchema};
+use clearance_parquet::{ColumnSet, PoseSchema, UpsSchema};
 use serde::Serialize;
 
 use crate::error::EngineError;
@@ -37,6 +37,15 @@ pub enum Samples {
     Trajectory {
         times: u64,
     },
+    /// A 6-UPS grid: values of each of its six inputs, row-major in this order.
+    Grid6 {
+        x: u64,
+        y: u64,
+        z: u64,
+        phi: u64,
+        psi: u64,
+        theta: u64,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -59,7 +68,12 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
     let variants = job.variants(file)?;
     let sample_count = job.sample_count();
     let modes: Vec<&'static str> = job.analysis.modes.iter().map(|m| m.name()).collect();
+    let ups = job.mechanism.kind == MechanismKind::Ups6;
     let samples = match job.samples() {
+        SamplesSpec::Grid(g) if ups => {
+            let [x, y, z, phi, psi, theta] = g.axes6().map(|r| r.len());
+            Samples::Grid6 { x, y, z, phi, psi, theta }
+        }
         SamplesSpec::Grid(g) => Samples::Grid { z: g.z.len(), psi: g.psi.len(), theta: g.theta.len() },
         SamplesSpec::Trajectory(t) => Samples::Trajectory { times: t.time.len() },
     };
@@ -67,7 +81,11 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
     let columns = [ColumnSet::Minimal, ColumnSet::Standard, ColumnSet::Full]
         .into_iter()
         .map(|set| {
-            let columns = PoseSchema::new(set, job.analysis.exact).names().count();
+            let columns = if ups {
+                UpsSchema::new(set, job.analysis.exact).names().count()
+            } else {
+                PoseSchema::new(set, job.analysis.exact).names().count()
+            };
             ColumnSize { set: set.name(), columns, bytes: rows * columns as u64 * 8 }
         })
         .collect();
@@ -85,6 +103,21 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
 
 fn describe(m: &MechanismSpec) -> String {
     let mut out = m.kind.name().to_string();
+    if m.kind == MechanismKind::Ups6 {
+        let base = if m.base_points.is_some() {
+            "base points as given".to_string()
+        } else {
+            format!("base radius {} m at {:?}°", m.base_radius(), m.base_angles_deg())
+        };
+        let platform = if m.platform_points.is_some() {
+            "platform points as given".to_string()
+        } else {
+            format!("platform radius {} m at {:?}°", m.platform_radius(), m.platform_angles_deg())
+        };
+        let axes = if m.u_axes.is_some() { ", U axes as given" } else { "" };
+        out.push_str(&format!(", {base}, {platform}{axes}, leg stroke {} to {} m", m.min_length(), m.max_length()));
+        return out;
+    }
     if m.kind == MechanismKind::Prs3 {
         out.push_str(&format!(", rails at {}° from vertical", m.rail_angle_deg()));
     }

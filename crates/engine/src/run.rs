@@ -90,15 +90,15 @@ pub struct StageTimes {
 
 /// One part file's worth of work.
 #[derive(Clone, Debug)]
-struct Unit {
-    number: u64,
-    variant: u64,
-    mode: Mode,
-    chunk: u64,
-    range: std::ops::Range<u64>,
+pub(crate) struct Unit {
+    pub(crate) number: u64,
+    pub(crate) variant: u64,
+    pub(crate) mode: Mode,
+    pub(crate) chunk: u64,
+    pub(crate) range: std::ops::Range<u64>,
 }
 
-fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
+pub(crate) fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
     let n = job.sample_count();
     let mut out = Vec::new();
     for variant in 0..job.variant_count() {
@@ -115,7 +115,7 @@ fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
 /// fits. Parts are renamed into place before they reach the disk (the run syncs
 /// them before `_SUCCESS`), so after a power cut a part can exist and be empty or
 /// torn; `--resume` computes such a part again.
-fn part_complete(path: &Path) -> bool {
+pub(crate) fn part_complete(path: &Path) -> bool {
     use std::io::{Read, Seek, SeekFrom};
     let check = || -> std::io::Result<bool> {
         let mut f = std::fs::File::open(path)?;
@@ -152,7 +152,7 @@ fn unit_complete(layout: &Layout, u: &Unit) -> bool {
 /// survives a power cut. The files are flushed from several threads at once: each
 /// `fsync` mostly waits for the disk, and one after another they were a run's last
 /// 2 % (benches/README.md).
-fn sync_units(layout: &Layout, units: &[Unit], others: &[PathBuf]) -> Result<()> {
+pub(crate) fn sync_units(layout: &Layout, units: &[Unit], others: &[PathBuf]) -> Result<()> {
     let files: Vec<PathBuf> = units
         .iter()
         .flat_map(|u| {
@@ -215,7 +215,7 @@ const _: () = assert!(PAGE_ROWS.is_multiple_of(BLOCK) && TAIL_PAGE_ROWS.is_multi
 /// about 1 KB each, are still in the core's cache when they are written out.
 const SOLVE: usize = 64;
 
-fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) -> Result<()> {
+pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) -> Result<()> {
     let out = layout.root();
     let entries: Vec<_> = match std::fs::read_dir(out) {
         Ok(rd) => rd.filter_map(|e| e.ok()).collect(),
@@ -269,7 +269,7 @@ fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) -> Result<()>
 }
 
 /// An empty completion marker, on the disk before this returns.
-fn write_marker(path: &Path) -> Result<()> {
+pub(crate) fn write_marker(path: &Path) -> Result<()> {
     write_bytes(path, b"", &WriteOptions::default())?;
     if let Some(dir) = path.parent() {
         let _ = std::fs::File::open(dir).and_then(|d| d.sync_all());
@@ -710,6 +710,9 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
 /// Runs `job` (read from `job_file`, named in messages) into `opts.out`, computing
 /// the units of `opts.shard` on the current rayon pool.
 pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
+    if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
+        return crate::ups::run_ups(job, job_file, opts);
+    }
     let variants: Vec<Variant> = job.variants(job_file)?;
     let job_toml = job.to_toml_string();
     let layout = &Layout::new(&opts.out);

@@ -71,6 +71,14 @@ const BLOCK: usize = 1024;
 /// batch each, in the order of a run's units: a `variant` column (UInt64), then
 /// exactly the columns, values and nulls of the run's part files (tested).
 pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<RecordBatch>, EngineError> {
+    if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
+        if opts.poses.is_some() {
+            return Err(EngineError::Samples(
+                "a 6-UPS job takes its poses (x, y, z, phi, psi, theta) from its [grid] or [trajectory]".into(),
+            ));
+        }
+        return crate::ups::solve_ups(job, file, opts.columns);
+    }
     let variants = job.variants(file)?;
     if let Some(p) = &opts.poses {
         if p.psi.len() != p.len() || p.theta.len() != p.len() {

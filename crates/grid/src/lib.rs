@@ -57,8 +57,41 @@ impl SampleSource {
 
     pub fn len(&self) -> u64 {
         match self {
-            SampleSource::Grid(g) => g.z.len() * g.psi.len() * g.theta.len(),
+            SampleSource::Grid(g) => g.axes6().iter().map(|r| r.len()).product(),
             SampleSource::Trajectory(t) => t.time.len(),
+        }
+    }
+
+    /// Sample `i` of a 6-UPS job (`i < len()`): its time and each of the six inputs
+    /// `x, y, z, phi, psi, theta` as `[value, rate, acceleration]`. A grid is
+    /// row-major in that order (the last input fastest).
+    #[track_caller]
+    pub fn sample6(&self, i: u64) -> (Option<f64>, [[f64; 3]; 6]) {
+        assert!(i < self.len(), "sample index {i} out of range 0..{}", self.len());
+        match self {
+            SampleSource::Grid(g) => {
+                let axes = g.axes6();
+                let mut rest = i;
+                let mut out = [[0.0; 3]; 6];
+                for k in (0..6).rev() {
+                    let n = axes[k].len();
+                    out[k] = [axes[k].value(rest % n), 0.0, 0.0];
+                    rest /= n;
+                }
+                (None, out)
+            }
+            SampleSource::Trajectory(tr) => {
+                let t = tr.time.value(i);
+                (Some(t), tr.inputs6().map(|input| input.eval(t)))
+            }
+        }
+    }
+
+    /// A 6-UPS grid's six axes' lengths (`x, y, z, phi, psi, theta`).
+    pub fn grid_shape6(&self) -> Option<[u64; 6]> {
+        match self {
+            SampleSource::Grid(g) => Some(g.axes6().map(|r| r.len())),
+            SampleSource::Trajectory(_) => None,
         }
     }
 

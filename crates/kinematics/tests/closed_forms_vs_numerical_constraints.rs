@@ -100,7 +100,7 @@ fn newton_solves_layouts_without_closed_forms() {
         assert!(!geom.closed_form);
         let (psi, theta) = (rng.random_range(-0.4..0.4), rng.random_range(-0.4..0.4));
         let z = match kind {
-            MechanismKind::Rps3 => rng.random_range(1.0..1.4),
+            MechanismKind::Rps3 | MechanismKind::Ups6 => rng.random_range(1.0..1.4),
             _ if beta.abs() > 45.0 => rng.random_range(0.3..0.6),
             _ => rng.random_range(0.8..1.2),
         };
@@ -122,7 +122,7 @@ fn newton_solves_layouts_without_closed_forms() {
                     assert!((along.dot(&geom.rail(j)) - pose.q[j]).abs() < 1e-13, "q_{j} is the slider's travel");
                     assert!((pose.a[j] - pose.b[j]).dot(&geom.rail(j)) > 0.0, "slider behind A_{j}");
                 }
-                MechanismKind::Rps3 => {
+                MechanismKind::Rps3 | MechanismKind::Ups6 => {
                     assert!((leg - pose.q[j]).abs() < 1e-13, "leg {j} length {leg} against q {}", pose.q[j]);
                     assert!(pose.q[j] >= geom.stroke.0 && pose.q[j] <= geom.stroke.1, "stroke");
                 }

@@ -47,7 +47,9 @@ pub struct LoadSpec {
 }
 
 /// Clearance magnitudes at full take-up (docs/model.md §5). 0 (the default) is rigid.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// The 3-limb kinds take `s_radial` and the `r_*` kinds, the 6-UPS `s_radial` and the
+/// `u_*` kinds (docs/model.md §10.3).
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ClearanceSpec {
     /// Spherical joints, radial (m).
@@ -58,6 +60,31 @@ pub struct ClearanceSpec {
     pub r_axial: f64,
     /// Revolute joints, angular (rad).
     pub r_angular: f64,
+    /// 6-UPS: universal joints, radial (m).
+    pub u_radial: f64,
+    /// 6-UPS: universal joints, angular play about `n_i` (rad); harmless, its error is zero.
+    pub u_angular: f64,
+    /// Whether the job is a 6-UPS (set by [`JobSpec::fill_defaults`]): the kinds written
+    /// out for provenance are that kind's own, so that `job.toml` runs again.
+    #[serde(skip)]
+    pub ups: bool,
+}
+
+impl Serialize for ClearanceSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut t = s.serialize_struct("ClearanceSpec", 4)?;
+        t.serialize_field("s_radial", &self.s_radial)?;
+        if self.ups {
+            t.serialize_field("u_radial", &self.u_radial)?;
+            t.serialize_field("u_angular", &self.u_angular)?;
+        } else {
+            t.serialize_field("r_radial", &self.r_radial)?;
+            t.serialize_field("r_axial", &self.r_axial)?;
+            t.serialize_field("r_angular", &self.r_angular)?;
+        }
+        t.end()
+    }
 }
 
 impl ClearanceSpec {
@@ -74,6 +101,11 @@ impl ClearanceSpec {
     /// Magnitudes in the order of [`KINDS`].
     pub fn as_array(&self) -> [f64; 4] {
         KINDS.map(|k| self.get(k))
+    }
+
+    /// 6-UPS magnitudes in the order `s_radial, u_radial, u_angular`.
+    pub fn ups_array(&self) -> [f64; 3] {
+        [self.s_radial, self.u_radial, self.u_angular]
     }
 }
 
@@ -191,13 +223,37 @@ impl<'de> Deserialize<'de> for RangeSpec {
     }
 }
 
-/// The workspace grid: every combination of the three inputs.
+/// The workspace grid: every combination of the inputs, row-major in the order
+/// `x, y, z, phi, psi, theta`. `x, y, phi` are inputs of the 6-UPS only (default 0).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<RangeSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<RangeSpec>,
     pub z: RangeSpec,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phi: Option<RangeSpec>,
     pub psi: RangeSpec,
     pub theta: RangeSpec,
+}
+
+/// A grid axis left out: one value, 0.
+const ZERO_RANGE: RangeSpec = RangeSpec::Value(0.0);
+
+impl GridSpec {
+    /// The six axes `x, y, z, phi, psi, theta` (those left out are the value 0).
+    pub fn axes6(&self) -> [&RangeSpec; 6] {
+        [
+            self.x.as_ref().unwrap_or(&ZERO_RANGE),
+            self.y.as_ref().unwrap_or(&ZERO_RANGE),
+            &self.z,
+            self.phi.as_ref().unwrap_or(&ZERO_RANGE),
+            &self.psi,
+            &self.theta,
+        ]
+    }
 }
 
 /// One term `amplitude·sin(2π·t/period + phase)`.
@@ -273,14 +329,38 @@ impl InputSpec {
     }
 }
 
-/// A trajectory `(Z(t), Ψ(t), Θ(t))` sampled at `time`.
+/// A trajectory `(Z(t), Ψ(t), Θ(t))` sampled at `time`; the 6-UPS also takes
+/// `x(t), y(t), Φ(t)` (default 0).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrajectorySpec {
     pub time: RangeSpec,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<InputSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<InputSpec>,
     pub z: InputSpec,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phi: Option<InputSpec>,
     pub psi: InputSpec,
     pub theta: InputSpec,
+}
+
+/// A trajectory input left out: the constant 0.
+const ZERO_INPUT: InputSpec = InputSpec::Constant(0.0);
+
+impl TrajectorySpec {
+    /// The six inputs `x, y, z, phi, psi, theta` (those left out are the constant 0).
+    pub fn inputs6(&self) -> [&InputSpec; 6] {
+        [
+            self.x.as_ref().unwrap_or(&ZERO_INPUT),
+            self.y.as_ref().unwrap_or(&ZERO_INPUT),
+            &self.z,
+            self.phi.as_ref().unwrap_or(&ZERO_INPUT),
+            &self.psi,
+            &self.theta,
+        ]
+    }
 }
 
 /// One swept parameter: a dotted path into the job and its values.
@@ -305,6 +385,12 @@ impl JobSpec {
         let table: toml::Table = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
         crate::keys::check_keys(file, &table)?;
         let mut job: JobSpec = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
+        // The platform's default mass is the kind's: the typed struct cannot tell a
+        // 9.8 left out from one written.
+        let platform_given = table.get("mass").and_then(|m| m.get("platform")).is_some();
+        if job.mechanism.kind == MechanismKind::Ups6 && !platform_given {
+            job.mass.platform = crate::mechanism::UPS_PLATFORM_MASS;
+        }
         if job.name.is_none() {
             let stem = std::path::Path::new(file)
                 .file_stem()
@@ -345,7 +431,7 @@ impl JobSpec {
     /// (validation refuses it).
     pub fn sample_count(&self) -> u64 {
         match self.samples() {
-            SamplesSpec::Grid(g) => g.z.len().saturating_mul(g.psi.len()).saturating_mul(g.theta.len()),
+            SamplesSpec::Grid(g) => g.axes6().iter().fold(1u64, |n, r| n.saturating_mul(r.len())),
             SamplesSpec::Trajectory(t) => t.time.len(),
         }
     }
@@ -355,6 +441,21 @@ impl JobSpec {
     pub fn fill_defaults(&mut self) {
         self.mechanism.fill_defaults();
         self.mass.fill_defaults(self.mechanism.kind);
+        let ups = self.mechanism.kind == MechanismKind::Ups6;
+        self.clearance.ups = ups;
+        if ups {
+            // Written out, so that a sweep can name every input.
+            if let Some(g) = &mut self.grid {
+                for r in [&mut g.x, &mut g.y, &mut g.phi] {
+                    r.get_or_insert(ZERO_RANGE);
+                }
+            }
+            if let Some(t) = &mut self.trajectory {
+                for i in [&mut t.x, &mut t.y, &mut t.phi] {
+                    i.get_or_insert(ZERO_INPUT);
+                }
+            }
+        }
     }
 
     /// Total moving mass: platform, point masses and every limb's bodies (kg).
@@ -411,6 +512,8 @@ impl JobSpec {
             let unit = if kind == ClearanceKind::RAngular { "rad" } else { "m" };
             non_negative(file, &format!("clearance.{}", kind.name()), self.clearance.get(kind), unit)?;
         }
+        non_negative(file, "clearance.u_radial", self.clearance.u_radial, "m")?;
+        non_negative(file, "clearance.u_angular", self.clearance.u_angular, "rad")?;
         let a = &self.analysis;
         if a.modes.is_empty() {
             return err("analysis.modes", "must list at least one of \"kinetostatic\", \"dynamic\"".into());
@@ -444,8 +547,8 @@ impl JobSpec {
                         "\"dynamic\" needs a [trajectory] (a grid has no velocities); use \"kinetostatic\"".into(),
                     );
                 }
-                for (key, r) in [("grid.z", &g.z), ("grid.psi", &g.psi), ("grid.theta", &g.theta)] {
-                    range(file, key, r)?;
+                for (name, r) in ["x", "y", "z", "phi", "psi", "theta"].into_iter().zip(g.axes6()) {
+                    range(file, &format!("grid.{name}"), r)?;
                 }
             }
             (None, Some(t)) => {
@@ -454,8 +557,9 @@ impl JobSpec {
                     RangeSpec::Value(v) => v.abs(),
                     RangeSpec::Range { start, stop, .. } => start.abs().max(stop.abs()),
                 };
-                for (key, input) in [("trajectory.z", &t.z), ("trajectory.psi", &t.psi), ("trajectory.theta", &t.theta)]
-                {
+                for (name, input) in ["x", "y", "z", "phi", "psi", "theta"].into_iter().zip(t.inputs6()) {
+                    let key = &format!("trajectory.{name}");
+                    let key = key.as_str();
                     match input {
                         InputSpec::Constant(v) => finite(file, key, *v)?,
                         InputSpec::Harmonics { offset, harmonics } => {
@@ -516,7 +620,7 @@ impl JobSpec {
             );
         }
         let samples = match self.samples() {
-            SamplesSpec::Grid(g) => g.z.len().checked_mul(g.psi.len()).and_then(|n| n.checked_mul(g.theta.len())),
+            SamplesSpec::Grid(g) => g.axes6().iter().try_fold(1u64, |n, r| n.checked_mul(r.len())),
             SamplesSpec::Trajectory(t) => Some(t.time.len()),
         };
         if samples.and_then(|n| n.checked_mul(variants)).and_then(|n| n.checked_mul(a.modes.len() as u64)).is_none() {
@@ -539,6 +643,10 @@ impl JobSpec {
             ("mechanism.rail_angle_deg", m.rail_angle_deg.is_some()),
             ("mechanism.limb_angles_deg", m.limb_angles_deg.is_some()),
             ("mechanism.platform_angles_deg", m.platform_angles_deg.is_some()),
+            ("mechanism.base_angles_deg", m.base_angles_deg.is_some()),
+            ("mechanism.base_points", m.base_points.is_some()),
+            ("mechanism.platform_points", m.platform_points.is_some()),
+            ("mechanism.u_axes", m.u_axes.is_some()),
             ("mechanism.cylinder_length", m.cylinder_length.is_some()),
             ("mechanism.piston_length", m.piston_length.is_some()),
             ("mechanism.min_length", m.min_length.is_some()),
@@ -546,13 +654,17 @@ impl JobSpec {
             ("mass.leg", self.mass.leg.is_some()),
             ("mass.cylinder", self.mass.cylinder.is_some()),
             ("mass.piston", self.mass.piston.is_some()),
+            ("clearance.r_radial", self.clearance.r_radial != 0.0),
+            ("clearance.r_axial", self.clearance.r_axial != 0.0),
+            ("clearance.r_angular", self.clearance.r_angular != 0.0),
+            ("clearance.u_radial", self.clearance.u_radial != 0.0),
+            ("clearance.u_angular", self.clearance.u_angular != 0.0),
         ];
         let foreign: Vec<&str> = given
             .iter()
             .filter(|(key, set)| {
                 let (table, name) = key.split_once('.').expect("dotted");
-                let keys = if table == "mechanism" { kind.mechanism_keys() } else { kind.mass_keys() };
-                *set && !keys.contains(&name)
+                *set && !kind.section_keys(table).contains(&name)
             })
             .map(|(key, _)| *key)
             .collect();
@@ -593,6 +705,7 @@ impl JobSpec {
         for (key, angles) in [
             ("mechanism.limb_angles_deg", &m.limb_angles_deg),
             ("mechanism.platform_angles_deg", &m.platform_angles_deg),
+            ("mechanism.base_angles_deg", &m.base_angles_deg),
         ] {
             let Some(angles) = angles else { continue };
             if angles.len() != kind.limbs() {
@@ -633,7 +746,34 @@ impl JobSpec {
                 }
             }
         }
-        if kind == MechanismKind::Rps3 && m.min_length() >= m.max_length() {
+        for (key, points) in [
+            ("mechanism.base_points", &m.base_points),
+            ("mechanism.platform_points", &m.platform_points),
+            ("mechanism.u_axes", &m.u_axes),
+        ] {
+            let Some(points) = points else { continue };
+            if points.len() != 6 {
+                return Err(JobError::new(
+                    file,
+                    key,
+                    format!("a 6-UPS has 6 limbs: give 6 vectors [x, y, z], got {}", points.len()),
+                ));
+            }
+            for (i, p) in points.iter().enumerate() {
+                for (k, v) in p.iter().enumerate() {
+                    finite(file, &format!("{key}.{i}.{k}"), *v)?;
+                }
+                let norm = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+                if key == "mechanism.u_axes" && !(norm > 0.0 && norm.is_finite()) {
+                    return Err(JobError::new(
+                        file,
+                        format!("{key}.{i}"),
+                        "a universal joint's axis must be a non-zero vector".to_string(),
+                    ));
+                }
+            }
+        }
+        if matches!(kind, MechanismKind::Rps3 | MechanismKind::Ups6) && m.min_length() >= m.max_length() {
             let key = if m.max_length.is_some() { "mechanism.max_length" } else { "mechanism.min_length" };
             return Err(JobError::new(
                 file,

@@ -18,25 +18,37 @@ fn allowed(path: &str) -> Option<&'static [&'static str]> {
             "rail_angle_deg",
             "limb_angles_deg",
             "platform_angles_deg",
+            "base_angles_deg",
             "cylinder_length",
             "piston_length",
             "min_length",
             "max_length",
+            "base_points",
+            "platform_points",
+            "u_axes",
         ],
         "mass" => &["platform", "leg", "cylinder", "piston", "platform_inertia", "points"],
         "mass.points.*" => &["mass", "at"],
         "load" => &["force", "moment", "at"],
-        "clearance" => &["s_radial", "r_radial", "r_axial", "r_angular"],
+        "clearance" => &["s_radial", "r_radial", "r_axial", "r_angular", "u_radial", "u_angular"],
         "analysis" => {
             &["modes", "exact", "discontinuity_load_fraction", "indeterminate_load_fraction", "singular_cond"]
         }
-        "grid" => &["z", "psi", "theta"],
-        "grid.z" | "grid.psi" | "grid.theta" | "trajectory.time" => &["start", "stop", "n"],
-        "trajectory" => &["time", "z", "psi", "theta"],
-        "trajectory.z" | "trajectory.psi" | "trajectory.theta" => &["offset", "harmonics"],
-        "trajectory.z.harmonics.*" | "trajectory.psi.harmonics.*" | "trajectory.theta.harmonics.*" => {
-            &["amplitude", "period", "phase"]
+        // Every kind's inputs; x, y, phi are refused after for the 3-limb kinds.
+        "grid" => &["x", "y", "z", "phi", "psi", "theta"],
+        "grid.x" | "grid.y" | "grid.z" | "grid.phi" | "grid.psi" | "grid.theta" | "trajectory.time" => {
+            &["start", "stop", "n"]
         }
+        "trajectory" => &["time", "x", "y", "z", "phi", "psi", "theta"],
+        "trajectory.x" | "trajectory.y" | "trajectory.z" | "trajectory.phi" | "trajectory.psi" | "trajectory.theta" => {
+            &["offset", "harmonics"]
+        }
+        "trajectory.x.harmonics.*"
+        | "trajectory.y.harmonics.*"
+        | "trajectory.z.harmonics.*"
+        | "trajectory.phi.harmonics.*"
+        | "trajectory.psi.harmonics.*"
+        | "trajectory.theta.harmonics.*" => &["amplitude", "period", "phase"],
         "sweep.*" => &["param", "values"],
         _ => return None,
     })
@@ -64,12 +76,14 @@ pub fn suggest<'a>(key: &str, options: &[&'a str]) -> Option<&'a str> {
 }
 
 /// Checks every key of the parsed file against the tables it may appear in, and
-/// the keys of `[mechanism]` and `[mass]` against the mechanism kind.
+/// the keys of `[mechanism]`, `[mass]`, `[clearance]`, `[grid]` and `[trajectory]`
+/// against the mechanism kind.
 pub fn check_keys(file: &str, table: &toml::Table) -> Result<(), JobError> {
     walk(file, table, "", "")?;
     let kind = kind_of(file, table)?;
     let mut foreign = Vec::new();
-    for (section, keys) in [("mechanism", kind.mechanism_keys()), ("mass", kind.mass_keys())] {
+    for section in SECTIONS {
+        let keys = kind.section_keys(section);
         if let Some(toml::Value::Table(t)) = table.get(section) {
             foreign.extend(t.keys().filter(|k| !keys.contains(&k.as_str())).map(|k| format!("{section}.{k}")));
         }
@@ -83,8 +97,11 @@ pub fn check_keys(file: &str, table: &toml::Table) -> Result<(), JobError> {
     }
 }
 
+/// The sections whose keys depend on the mechanism kind.
+const SECTIONS: [&str; 5] = ["mechanism", "mass", "clearance", "grid", "trajectory"];
+
 /// The mechanism kind named by `mechanism.kind` (the default when absent).
-fn kind_of(file: &str, table: &toml::Table) -> Result<MechanismKind, JobError> {
+pub(crate) fn kind_of(file: &str, table: &toml::Table) -> Result<MechanismKind, JobError> {
     let Some(value) = table.get("mechanism").and_then(|m| m.get("kind")) else { return Ok(MechanismKind::default()) };
     let names = MECHANISM_KINDS.map(|k| format!("\"{}\"", k.name())).join(", ");
     match value.as_str() {
@@ -101,15 +118,20 @@ pub(crate) fn foreign_reason(kind: MechanismKind, keys: &[&str]) -> String {
         let (section, name) = key.split_once('.').unwrap_or(("", key));
         let owners: Vec<&str> = MECHANISM_KINDS
             .into_iter()
-            .filter(|k| if section == "mass" { k.mass_keys() } else { k.mechanism_keys() }.contains(&name))
+            .filter(|k| k.section_keys(section).contains(&name))
             .map(MechanismKind::name)
             .collect();
         if owners.is_empty() { format!("`{key}`") } else { format!("`{key}` (a key of {})", owners.join(", ")) }
     };
     let listed: Vec<String> = keys.iter().map(|k| owners(k)).collect();
     let (noun, verb) = if keys.len() == 1 { ("key", "does") } else { ("keys", "do") };
+    let inputs = if keys.iter().any(|k| k.starts_with("grid.") || k.starts_with("trajectory.")) {
+        format!(" (its inputs are {})", kind.inputs().join(", "))
+    } else {
+        String::new()
+    };
     format!(
-        "the {noun} {} {verb} not belong to a {} mechanism; remove {} or set `mechanism.kind`",
+        "the {noun} {} {verb} not belong to a {} mechanism{inputs}; remove {} or set `mechanism.kind`",
         listed.join(", "),
         kind.name(),
         if keys.len() == 1 { "it" } else { "them" }

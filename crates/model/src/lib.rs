@@ -34,7 +34,10 @@ pub use job::{
     SweepSpec, TrajectorySpec,
 };
 pub use kinds::{ClearanceKind, KINDS, joint_name};
-pub use mechanism::{MECHANISM_KINDS, MassSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, PointMass};
+pub use mechanism::{
+    MECHANISM_KINDS, MassSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, PointMass, UPS_BASE_ANGLES_DEG,
+    UPS_PLATFORM_ANGLES_DEG, UPS_PLATFORM_MASS,
+};
 pub use sweep::{MAX_VARIANTS, Variant};
 
 /// Angles of the three limbs about `z` (docs/model.md §1), in radians.

@@ -20,10 +20,14 @@ pub enum MechanismKind {
     /// Revolute at the base, actuated leg (cylinder and piston), spherical.
     #[serde(rename = "3-RPS")]
     Rps3,
+    /// The Gough–Stewart platform: universal joint at the base, actuated leg,
+    /// spherical joint; six limbs and six inputs.
+    #[serde(rename = "6-UPS")]
+    Ups6,
 }
 
 /// Every kind, in the order error messages list them.
-pub const MECHANISM_KINDS: [MechanismKind; 2] = [MechanismKind::Prs3, MechanismKind::Rps3];
+pub const MECHANISM_KINDS: [MechanismKind; 3] = [MechanismKind::Prs3, MechanismKind::Rps3, MechanismKind::Ups6];
 
 impl MechanismKind {
     /// The name used in job files (`3-PRS`).
@@ -31,6 +35,7 @@ impl MechanismKind {
         match self {
             Self::Prs3 => "3-PRS",
             Self::Rps3 => "3-RPS",
+            Self::Ups6 => "6-UPS",
         }
     }
 
@@ -40,7 +45,42 @@ impl MechanismKind {
 
     /// Number of limbs.
     pub fn limbs(self) -> usize {
-        3
+        match self {
+            Self::Prs3 | Self::Rps3 => 3,
+            Self::Ups6 => 6,
+        }
+    }
+
+    /// The pose inputs of a grid or trajectory, in row-major order: `z, psi, theta`
+    /// for the 3-limb kinds (the rest are parasitic motions), all six for the 6-UPS.
+    pub fn inputs(self) -> &'static [&'static str] {
+        match self {
+            Self::Prs3 | Self::Rps3 => &["z", "psi", "theta"],
+            Self::Ups6 => &["x", "y", "z", "phi", "psi", "theta"],
+        }
+    }
+
+    /// The keys of `[clearance]` this kind takes.
+    pub fn clearance_keys(self) -> &'static [&'static str] {
+        match self {
+            Self::Prs3 | Self::Rps3 => &["s_radial", "r_radial", "r_axial", "r_angular"],
+            Self::Ups6 => &["s_radial", "u_radial", "u_angular"],
+        }
+    }
+
+    /// The keys a section takes for this kind: `[mechanism]`, `[mass]`,
+    /// `[clearance]`, or the inputs of `[grid]` and `[trajectory]`.
+    pub fn section_keys(self, section: &str) -> &'static [&'static str] {
+        match section {
+            "mass" => self.mass_keys(),
+            "clearance" => self.clearance_keys(),
+            "grid" => self.inputs(),
+            "trajectory" => match self {
+                Self::Prs3 | Self::Rps3 => &["time", "z", "psi", "theta"],
+                Self::Ups6 => &["time", "x", "y", "z", "phi", "psi", "theta"],
+            },
+            _ => self.mechanism_keys(),
+        }
     }
 
     /// The keys of `[mechanism]` this kind takes.
@@ -68,6 +108,21 @@ impl MechanismKind {
                 "min_length",
                 "max_length",
             ],
+            Self::Ups6 => &[
+                "kind",
+                "base_radius",
+                "base_angles_deg",
+                "platform_radius",
+                "platform_angles_deg",
+                "gravity",
+                "cylinder_length",
+                "piston_length",
+                "min_length",
+                "max_length",
+                "base_points",
+                "platform_points",
+                "u_axes",
+            ],
         }
     }
 
@@ -75,10 +130,17 @@ impl MechanismKind {
     pub fn mass_keys(self) -> &'static [&'static str] {
         match self {
             Self::Prs3 => &["platform", "leg", "platform_inertia", "points"],
-            Self::Rps3 => &["platform", "cylinder", "piston", "platform_inertia", "points"],
+            Self::Rps3 | Self::Ups6 => &["platform", "cylinder", "piston", "platform_inertia", "points"],
         }
     }
 }
+
+/// 6-UPS defaults (docs/model.md §10.3): the base points' polar angles (degrees).
+pub const UPS_BASE_ANGLES_DEG: [f64; 6] = [-15.0, 15.0, 105.0, 135.0, 225.0, 255.0];
+/// 6-UPS defaults: the platform points' polar angles in platform axes (degrees).
+pub const UPS_PLATFORM_ANGLES_DEG: [f64; 6] = [-45.0, 45.0, 75.0, 165.0, 195.0, 285.0];
+/// 6-UPS default platform mass (kg); the 3-limb kinds' is 9.8.
+pub const UPS_PLATFORM_MASS: f64 = 10.0;
 
 /// The limb angles of the paper's prototype (degrees).
 pub const PROTOTYPE_LIMB_ANGLES_DEG: [f64; 3] = [0.0, 120.0, 240.0];
@@ -111,7 +173,21 @@ pub struct MechanismSpec {
     /// `γ_j`, the polar angles of the spherical joints on the platform. Default: the limb angles.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub platform_angles_deg: Option<Vec<f64>>,
-    /// 3-RPS: length of the cylinder, from the base revolute. Default 0.8.
+    /// 6-UPS: polar angles of the base points `B_i` on the circle of `base_radius`.
+    /// Default `[-15, 15, 105, 135, 225, 255]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub base_angles_deg: Option<Vec<f64>>,
+    /// 6-UPS: the six base points `[x, y, z]` (world, m), instead of the circle.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub base_points: Option<Vec<[f64; 3]>>,
+    /// 6-UPS: the six platform points `[x, y, z]` (platform frame, m), instead of the circle.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub platform_points: Option<Vec<[f64; 3]>>,
+    /// 6-UPS: the six fixed universal-joint axes `a1_i` (world; normalised). Default
+    /// horizontal, tangent to the base circle at `B_i`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u_axes: Option<Vec<[f64; 3]>>,
+    /// 3-RPS, 6-UPS: length of the cylinder, from the base joint. Default 0.8 (0.5).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cylinder_length: Option<f64>,
     /// 3-RPS: length of the piston, up to the spherical joint. Default 0.8.
@@ -136,6 +212,10 @@ impl Default for MechanismSpec {
             rail_angle_deg: None,
             limb_angles_deg: None,
             platform_angles_deg: None,
+            base_angles_deg: None,
+            base_points: None,
+            platform_points: None,
+            u_axes: None,
             cylinder_length: None,
             piston_length: None,
             min_length: None,
@@ -154,6 +234,7 @@ impl MechanismSpec {
         self.base_radius.unwrap_or(match self.kind {
             MechanismKind::Prs3 => 0.18,
             MechanismKind::Rps3 => 0.3,
+            MechanismKind::Ups6 => 0.5,
         })
     }
 
@@ -161,6 +242,7 @@ impl MechanismSpec {
         self.platform_radius.unwrap_or(match self.kind {
             MechanismKind::Prs3 => 0.36,
             MechanismKind::Rps3 => 0.2,
+            MechanismKind::Ups6 => 0.3,
         })
     }
 
@@ -168,7 +250,7 @@ impl MechanismSpec {
     pub fn leg_length(&self) -> f64 {
         match self.kind {
             MechanismKind::Prs3 => self.leg_length.unwrap_or(1.0),
-            MechanismKind::Rps3 => f64::NAN,
+            MechanismKind::Rps3 | MechanismKind::Ups6 => f64::NAN,
         }
     }
 
@@ -182,15 +264,23 @@ impl MechanismSpec {
     }
 
     pub fn platform_angles_deg(&self) -> Vec<f64> {
-        self.platform_angles_deg.clone().unwrap_or_else(|| self.limb_angles_deg())
+        self.platform_angles_deg.clone().unwrap_or_else(|| match self.kind {
+            MechanismKind::Ups6 => UPS_PLATFORM_ANGLES_DEG.to_vec(),
+            _ => self.limb_angles_deg(),
+        })
+    }
+
+    /// 6-UPS: the base points' polar angles (degrees).
+    pub fn base_angles_deg(&self) -> Vec<f64> {
+        self.base_angles_deg.clone().unwrap_or_else(|| UPS_BASE_ANGLES_DEG.to_vec())
     }
 
     pub fn cylinder_length(&self) -> f64 {
-        self.cylinder_length.unwrap_or(0.8)
+        self.cylinder_length.unwrap_or(if self.kind == MechanismKind::Ups6 { 0.5 } else { 0.8 })
     }
 
     pub fn piston_length(&self) -> f64 {
-        self.piston_length.unwrap_or(0.8)
+        self.piston_length.unwrap_or(if self.kind == MechanismKind::Ups6 { 0.5 } else { 0.8 })
     }
 
     pub fn min_length(&self) -> f64 {
@@ -205,7 +295,7 @@ impl MechanismSpec {
     pub fn length_scale(&self) -> f64 {
         match self.kind {
             MechanismKind::Prs3 => self.leg_length(),
-            MechanismKind::Rps3 => self.max_length(),
+            MechanismKind::Rps3 | MechanismKind::Ups6 => self.max_length(),
         }
     }
 
@@ -213,7 +303,9 @@ impl MechanismSpec {
     pub fn fill_defaults(&mut self) {
         self.base_radius = Some(self.base_radius());
         self.platform_radius = Some(self.platform_radius());
-        self.limb_angles_deg = Some(self.limb_angles_deg());
+        if self.kind != MechanismKind::Ups6 {
+            self.limb_angles_deg = Some(self.limb_angles_deg());
+        }
         match self.kind {
             MechanismKind::Prs3 => {
                 self.leg_length = Some(self.leg_length());
@@ -222,6 +314,12 @@ impl MechanismSpec {
             MechanismKind::Rps3 => {
                 self.cylinder_length = Some(self.cylinder_length());
                 self.piston_length = Some(self.piston_length());
+            }
+            MechanismKind::Ups6 => {
+                self.cylinder_length = Some(self.cylinder_length());
+                self.piston_length = Some(self.piston_length());
+                self.base_angles_deg = Some(self.base_angles_deg());
+                self.platform_angles_deg = Some(self.platform_angles_deg());
             }
         }
     }
@@ -232,8 +330,8 @@ impl MechanismSpec {
         let list = |v: Vec<f64>| toml::Value::Array(v.into_iter().map(toml::Value::Float).collect());
         match (self.kind, key) {
             (_, "platform_angles_deg") => Some(list(self.platform_angles_deg())),
-            (MechanismKind::Rps3, "min_length") => Some(toml::Value::Float(self.min_length())),
-            (MechanismKind::Rps3, "max_length") => Some(toml::Value::Float(self.max_length())),
+            (MechanismKind::Rps3 | MechanismKind::Ups6, "min_length") => Some(toml::Value::Float(self.min_length())),
+            (MechanismKind::Rps3 | MechanismKind::Ups6, "max_length") => Some(toml::Value::Float(self.max_length())),
             _ => None,
         }
     }
@@ -243,7 +341,7 @@ impl MechanismSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MassSpec {
-    /// Platform mass (kg), centre of mass at P. Default 9.8.
+    /// Platform mass (kg), centre of mass at P. Default 9.8 (6-UPS: 10).
     pub platform: f64,
     /// 3-PRS: mass of each leg (kg), a slender rod. Default 3.0.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -273,22 +371,24 @@ impl MassSpec {
     pub fn leg(&self, kind: MechanismKind) -> f64 {
         match kind {
             MechanismKind::Prs3 => self.leg.unwrap_or(3.0),
-            MechanismKind::Rps3 => 0.0,
+            MechanismKind::Rps3 | MechanismKind::Ups6 => 0.0,
         }
     }
 
-    /// 3-RPS: each cylinder's mass (0 for other kinds).
+    /// 3-RPS, 6-UPS: each cylinder's mass (0 for the 3-PRS).
     pub fn cylinder(&self, kind: MechanismKind) -> f64 {
         match kind {
             MechanismKind::Rps3 => self.cylinder.unwrap_or(2.0),
+            MechanismKind::Ups6 => self.cylinder.unwrap_or(1.5),
             MechanismKind::Prs3 => 0.0,
         }
     }
 
-    /// 3-RPS: each piston's mass (0 for other kinds).
+    /// 3-RPS, 6-UPS: each piston's mass (0 for the 3-PRS).
     pub fn piston(&self, kind: MechanismKind) -> f64 {
         match kind {
             MechanismKind::Rps3 => self.piston.unwrap_or(1.0),
+            MechanismKind::Ups6 => self.piston.unwrap_or(0.75),
             MechanismKind::Prs3 => 0.0,
         }
     }
@@ -297,7 +397,7 @@ impl MassSpec {
     pub fn limb(&self, kind: MechanismKind) -> f64 {
         match kind {
             MechanismKind::Prs3 => self.leg(kind),
-            MechanismKind::Rps3 => self.cylinder(kind) + self.piston(kind),
+            MechanismKind::Rps3 | MechanismKind::Ups6 => self.cylinder(kind) + self.piston(kind),
         }
     }
 
@@ -305,7 +405,7 @@ impl MassSpec {
     pub fn fill_defaults(&mut self, kind: MechanismKind) {
         match kind {
             MechanismKind::Prs3 => self.leg = Some(self.leg(kind)),
-            MechanismKind::Rps3 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 => {
                 self.cylinder = Some(self.cylinder(kind));
                 self.piston = Some(self.piston(kind));
             }

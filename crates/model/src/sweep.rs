@@ -60,9 +60,10 @@ impl JobSpec {
             for (i, (path, v)) in params.iter().enumerate() {
                 set_path(&mut t, path, *v).map_err(|why| JobError::new(file, format!("sweep.{i}.param"), why))?;
             }
-            let job: JobSpec = t.try_into().map_err(|e: toml::de::Error| {
+            let mut job: JobSpec = t.try_into().map_err(|e: toml::de::Error| {
                 JobError::new(file, "sweep", format!("variant {index}: {}", e.message().trim()))
             })?;
+            job.clearance.ups = job.mechanism.kind == crate::MechanismKind::Ups6;
             job.validate(file).map_err(|mut e| {
                 let what = params.iter().map(|(p, v)| format!("{p} = {v}")).collect::<Vec<_>>().join(", ");
                 e.reason = format!("{} (in the sweep variant {index}: {what})", e.reason);

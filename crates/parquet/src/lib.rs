@@ -11,6 +11,8 @@
 //! - [`discontinuity_batch`] and [`summary_batch`]: `discontinuities.parquet` (one row
 //!   per refined switch) and `summary.parquet` (one row per variant and mode, from
 //!   mergeable [`SummaryStats`]).
+//! - [`UpsSchema`], [`ups_summary_batch`], [`ups_discontinuity_batch`]: the same
+//!   tables for the 6-UPS (six inputs, six limbs, its own clearance kinds).
 //! - [`write_parquet`]: one file written under a temporary name and renamed when
 //!   complete, with the job and engine version in the key-value metadata.
 //! - Part files of `poses` by one of two [`Writer`]s: the engine's own page encoder
@@ -31,6 +33,7 @@ mod schema;
 mod stock;
 mod summary;
 mod tables;
+mod ups;
 mod writer;
 
 pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
@@ -38,6 +41,10 @@ pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSc
 pub use stock::{Writer, arrow_properties, write_batch_arrow};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
 pub use tables::discontinuity_batch;
+pub use ups::{
+    UPS_INPUTS, UPS_SWITCH_KINDS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch, ups_discontinuity_batch,
+    ups_summary_batch,
+};
 pub use writer::{Codec, ParquetError, WriteOptions, write_bytes, write_parquet, write_part};
 
 /// The engine version written into every file's metadata.

@@ -24,6 +24,9 @@ pub enum PlotError {
     /// plotters or the PNG encoder failed.
     #[error("cannot draw {path}: {message}")]
     Draw { path: PathBuf, message: String },
+    /// The run's mechanism kind has no figures (the 6-UPS, for now).
+    #[error("{dir}: {why}")]
+    Unsupported { dir: PathBuf, why: String },
     /// The embedded font (data/fonts/DejaVuSans.ttf) is not a usable TrueType file.
     #[error("the embedded font cannot be loaded")]
     Font,

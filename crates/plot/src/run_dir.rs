@@ -47,6 +47,14 @@ impl RunDir {
         let text = std::fs::read_to_string(&job_path).map_err(PlotError::io(&job_path))?;
         let file = job_path.display().to_string();
         let job = JobSpec::from_toml_str(&text, &file)?;
+        if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
+            return Err(PlotError::Unsupported {
+                dir: dir.to_path_buf(),
+                why: "a 6-UPS run has no figures yet; its Parquet files (poses/, summary.parquet, \
+                      discontinuities.parquet) read with pyarrow, Polars or DuckDB"
+                    .to_string(),
+            });
+        }
         let variants = job.variants(&file)?;
         Ok(Self { layout, job, variants })
     }

@@ -103,6 +103,9 @@ pub struct UpsModel {
     pub load: Load,
     /// Also solve the exact error (docs/model.md §7) of `ok` poses.
     pub exact: bool,
+    /// Above this `cond_a` or `cond_jp` (the reduced 6 × 6 condition numbers of
+    /// docs/conventions.md) a pose is `near_singular`.
+    pub singular_cond: f64,
     /// The limbs, the clearance kinds with their magnitudes, gravity, the
     /// indeterminate-load floor and the conditioning limit.
     pub assembly: Assembly,
@@ -130,8 +133,53 @@ impl UpsModel {
         ];
         let weight = mass.total() * gravity.norm();
         let load = Load { force: Vector3::zeros(), moment: Vector3::zeros(), at_local: Vector3::zeros() };
-        let assembly = Assembly::new(limbs, kinds, gravity, 1e-9 * weight, 1e8);
-        Self { geometry, mass, load, exact: false, assembly }
+        // The reduced condition numbers decide `near_singular` (`singular_cond`); the
+        // assembled systems only refuse a failed factorisation.
+        let assembly = Assembly::new(limbs, kinds, gravity, 1e-9 * weight, f64::INFINITY);
+        Self { geometry, mass, load, exact: false, singular_cond: 1e8, assembly }
+    }
+
+    /// The model of a validated 6-UPS job: geometry, bodies (point masses and a given
+    /// platform inertia included), external load, clearances and analysis limits.
+    pub fn from_job(job: &clearance_model::JobSpec) -> Self {
+        let m = &job.mechanism;
+        let six = |v: Vec<f64>| -> [f64; 6] { std::array::from_fn(|i| v.get(i).copied().unwrap_or(f64::NAN)) };
+        let points = |v: &Option<Vec<[f64; 3]>>| -> Option<[[f64; 3]; 6]> {
+            v.as_ref().map(|p| std::array::from_fn(|i| p.get(i).copied().unwrap_or([f64::NAN; 3])))
+        };
+        let params = clearance_kinematics::UpsParams {
+            base_radius: m.base_radius(),
+            base_angles_deg: six(m.base_angles_deg()),
+            platform_radius: m.platform_radius(),
+            platform_angles_deg: six(m.platform_angles_deg()),
+            cylinder_length: m.cylinder_length(),
+            piston_length: m.piston_length(),
+            min_length: Some(m.min_length()),
+            max_length: Some(m.max_length()),
+            base_points: points(&m.base_points),
+            platform_points: points(&m.platform_points),
+            u_axes: points(&m.u_axes),
+        };
+        let geometry = UpsGeometry::new(&params);
+        let kind = m.kind;
+        let ms = &job.mass;
+        let mut mass = UpsMass::new(&geometry, ms.platform, ms.cylinder(kind), ms.piston(kind));
+        if let Some(i) = ms.platform_inertia {
+            mass.inertia_local = Matrix3::from_diagonal(&Vector3::new(i[0], i[1], i[2]));
+        }
+        for p in &ms.points {
+            mass.add_point(p.mass, Vector3::from(p.at));
+        }
+        let mut model = Self::new(geometry, mass, Vector3::from(m.gravity), job.clearance.ups_array());
+        model.load = Load {
+            force: Vector3::from(job.load.force),
+            moment: Vector3::from(job.load.moment),
+            at_local: Vector3::from(job.load.at),
+        };
+        model.exact = job.analysis.exact;
+        model.singular_cond = job.analysis.singular_cond;
+        model.assembly.floor = job.analysis.indeterminate_load_fraction * model.weight();
+        model
     }
 
     /// `W`, the weight of all moving bodies (N).
@@ -282,11 +330,13 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
     let Some((pose, posed)) = ups_posture(model, sample, mode) else { return out };
     out.q = pose.q;
     out.status = Status::NearSingular;
-    if pose.near_singular {
+    (out.cond_a, out.cond_jp) = ups_condition(&pose);
+    // NaN is not within the limit.
+    let within = |c: f64| c <= model.singular_cond;
+    if pose.near_singular || !within(out.cond_a) || !within(out.cond_jp) {
         return out;
     }
     let sol = model.assembly.solve(&posed, &mut ws.data);
-    (out.cond_a, out.cond_jp) = (sol.cond_a, sol.cond_jp);
     if sol.status == Status::NearSingular {
         return out;
     }
@@ -304,6 +354,31 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
         out.exact = ups_exact_error(model, &pose, &sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
     }
     out
+}
+
+/// `(cond_a, cond_jp)` of a posture (docs/conventions.md, "Condition numbers", for six
+/// limbs): with the legs eliminated the equilibrium leaves the six axial components of
+/// `f_Si`, so `cond_a` is `κ₁(G)` with columns `[e_i; r_i × e_i]`, `r_i = A_i − P`; the
+/// force along each leg is the one screw reciprocal to its passive freedoms, so
+/// `cond_jp` is `κ₁` of the rows `[(r_i × e_i)ᵀ, e_iᵀ]`, which is `κ∞(G)`. Infinite where
+/// `G` is singular. Both are exact and need no U axis: a leg along its fixed axis still
+/// has them.
+pub fn ups_condition(pose: &UpsPosture) -> (f64, f64) {
+    let mut g = SMatrix::<f64, 6, 6>::zeros();
+    for i in 0..6 {
+        let e = pose.e[i];
+        let m = (pose.a[i] - pose.p).cross(&e);
+        for k in 0..3 {
+            g[(k, i)] = e[k];
+            g[(3 + k, i)] = m[k];
+        }
+    }
+    let one = |m: &SMatrix<f64, 6, 6>| (0..6).map(|c| m.column(c).abs().sum()).fold(0.0, f64::max);
+    let inf = |m: &SMatrix<f64, 6, 6>| (0..6).map(|r| m.row(r).abs().sum()).fold(0.0, f64::max);
+    match g.try_inverse() {
+        Some(gi) if gi.iter().all(|v| v.is_finite()) => (one(&g) * one(&gi), inf(&g) * inf(&gi)),
+        _ => (f64::INFINITY, f64::INFINITY),
+    }
 }
 
 /// [`solve_ups_pose`] for each sample of a batch, into `out` (same length).

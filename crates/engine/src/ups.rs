@@ -1,0 +1,488 @@
+//! A 6-UPS run (docs/model.md §10.3): the same plan, directory, shards and resume as
+//! the 3-limb kinds ([`run`](crate::run())), with the six-input samples, the
+//! 42 × 42 / 30 × 30 solve of [`solve_ups_par`] and the kind's own tables.
+//!
+//! A unit (variant, mode, chunk) is solved whole on the pool and written as one part
+//! file with its statistics beside it. When every unit is in, the discontinuity
+//! search (docs/model.md §8) follows every grid line of every swept input, or the
+//! trajectory, for the vector loads `f_Si` (`s_radial`) and `f_Ui` (`u_radial`); it
+//! solves the poses of each path again rather than keeping traces, so it needs
+//! nothing from the parts and a resumed or sharded run searches the same way.
+
+use std::path::Path;
+use std::time::Instant;
+
+use arrow::record_batch::RecordBatch;
+use clearance_discontinuity::brent_min;
+use clearance_grid::SampleSource;
+use clearance_model::{InputSpec, JobSpec, Mode, RangeSpec, SamplesSpec, Variant};
+use clearance_parquet::{
+    ColumnSet, ENGINE_VERSION, UPS_INPUTS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch, WriteOptions,
+    ups_discontinuity_batch, ups_summary_batch, write_bytes, write_parquet,
+};
+use clearance_solver::Status;
+use clearance_solver::ups::{UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_par, solve_ups_pose};
+use rayon::prelude::*;
+
+use crate::error::EngineError;
+use crate::layout::Layout;
+use crate::run::{RunOptions, RunReport, Unit, part_complete, prepare_dir, sync_units, units, write_marker};
+
+type Result<T, E = EngineError> = std::result::Result<T, E>;
+
+/// Samples solved by one worker at a time.
+const BLOCK: usize = 64;
+
+/// The samples `range` of a 6-UPS source: their rows (identity and inputs) and the
+/// solver's samples (inputs with rates).
+fn samples(source: &SampleSource, range: std::ops::Range<u64>) -> (Vec<UpsRow>, Vec<UpsSample>) {
+    range
+        .map(|i| {
+            let (t, s) = source.sample6(i);
+            (UpsRow { sample: i, t, inputs: s.map(|v| v[0]) }, s)
+        })
+        .unzip()
+}
+
+/// Solves `rows` of one mode on the current rayon pool.
+fn solve_rows(model: &UpsModel, samples: &[UpsSample], mode: Mode) -> Vec<UpsResult> {
+    let mut out = vec![UpsResult::default(); samples.len()];
+    solve_ups_par(model, samples, mode, BLOCK, &mut out);
+    out
+}
+
+/// The poses of a 6-UPS job as record batches, one per (variant, mode), in memory:
+/// a `variant` column, then the columns of a run's part files.
+pub(crate) fn solve_ups(job: &JobSpec, file: &str, columns: ColumnSet) -> Result<Vec<RecordBatch>> {
+    use arrow::array::{ArrayRef, UInt64Array};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use std::sync::Arc;
+    let schema = UpsSchema::new(columns, job.analysis.exact);
+    let mut fields = vec![Arc::new(Field::new("variant", DataType::UInt64, false))];
+    fields.extend(schema.schema().fields().iter().cloned());
+    let out_schema = Arc::new(Schema::new(fields));
+    let mut out = Vec::new();
+    for v in job.variants(file)? {
+        let model = UpsModel::from_job(&v.job);
+        let source = SampleSource::new(&v.job);
+        let (rows, samples) = samples(&source, 0..source.len());
+        for &mode in &v.job.analysis.modes {
+            let batch = schema.batch(mode, &rows, &solve_rows(&model, &samples, mode));
+            let mut columns: Vec<ArrayRef> = vec![Arc::new(UInt64Array::from_value(v.index, batch.num_rows()))];
+            columns.extend(batch.columns().iter().cloned());
+            out.push(RecordBatch::try_new(out_schema.clone(), columns).expect("columns match the schema"));
+        }
+    }
+    Ok(out)
+}
+
+fn read_stats(path: &Path) -> Result<UpsStats> {
+    let text = std::fs::read(path).map_err(|source| EngineError::MissingStats { path: path.to_path_buf(), source })?;
+    serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
+}
+
+fn unit_complete(layout: &Layout, u: &Unit) -> bool {
+    part_complete(&layout.part(u.variant, u.mode, u.chunk))
+        && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
+}
+
+/// Runs a 6-UPS `job` into `opts.out` (see [`run`](crate::run())).
+pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
+    let variants: Vec<Variant> = job.variants(job_file)?;
+    let job_toml = job.to_toml_string();
+    let layout = &Layout::new(&opts.out);
+    prepare_dir(layout, &job_toml, opts)?;
+
+    let all = units(job, opts.chunk_size);
+    let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
+    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && unit_complete(layout, u))).cloned().collect();
+    let mine_poses: u64 = mine.iter().map(|u| u.range.end - u.range.start).sum();
+    let todo_poses: u64 = todo.iter().map(|u| u.range.end - u.range.start).sum();
+    let total = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
+
+    let schema = UpsSchema::new(opts.columns, job.analysis.exact);
+    let write_opts = WriteOptions {
+        metadata: vec![
+            ("clearance.job".into(), job_toml.clone()),
+            ("clearance.version".into(), ENGINE_VERSION.into()),
+            ("clearance.git_commit".into(), env!("CLEARANCE_GIT_COMMIT").into()),
+            ("clearance.columns".into(), opts.columns.name().into()),
+        ],
+        row_group_rows: opts.chunk_size as usize,
+        codec: opts.compression,
+        durable: false,
+        direct_io: opts.direct_io,
+    };
+    let models: Vec<(UpsModel, SampleSource)> =
+        variants.iter().map(|v| (UpsModel::from_job(&v.job), SampleSource::new(&v.job))).collect();
+
+    let progress = opts.progress.get();
+    progress.start(mine_poses, mine_poses - todo_poses);
+    let start = Instant::now();
+    let mut done = mine_poses - todo_poses;
+    for u in &todo {
+        progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
+        let (model, source) = &models[u.variant as usize];
+        let (rows, samples) = samples(source, u.range.clone());
+        let results = solve_rows(model, &samples, u.mode);
+        let batch = schema.batch(u.mode, &rows, &results);
+        let mut stats = UpsStats::default();
+        for r in &results {
+            stats.push(r);
+        }
+        stats.flush();
+        let (part, stats_path) = (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
+        for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
+            std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
+        }
+        write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
+        let params = &variants[u.variant as usize].params;
+        let extra = vec![
+            ("clearance.variant".to_string(), u.variant.to_string()),
+            (
+                "clearance.params".to_string(),
+                params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(","),
+            ),
+        ];
+        write_parquet(&part, batch.schema(), &[batch], &write_opts, &extra)?;
+        done += u.range.end - u.range.start;
+        progress.advance(u.range.end - u.range.start, done);
+    }
+    progress.finish();
+    sync_units(layout, &mine, &[])?;
+    if let Some((i, n)) = opts.shard {
+        write_marker(&layout.shard_marker(i, n))?;
+    }
+    let complete = match opts.shard {
+        None => true,
+        Some((_, n)) => (0..n).all(|i| layout.shard_marker(i, n).exists()),
+    };
+    if complete {
+        progress.searching();
+        let durable = WriteOptions { durable: true, ..write_opts.clone() };
+        finalize(layout, job, &variants, &models, &all, &durable)?;
+        write_marker(&layout.success())?;
+    }
+    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete })
+}
+
+/// The summary and the discontinuities of a run whose units are all written.
+fn finalize(
+    layout: &Layout,
+    job: &JobSpec,
+    variants: &[Variant],
+    models: &[(UpsModel, SampleSource)],
+    all: &[Unit],
+    write_opts: &WriteOptions,
+) -> Result<()> {
+    let mut summary = Vec::new();
+    let mut switches = Vec::new();
+    for (variant, (model, source)) in variants.iter().zip(models) {
+        for &mode in &job.analysis.modes {
+            let mut stats = UpsStats::default();
+            for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
+                stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
+            }
+            let found = search(variant, model, source, mode);
+            let mut counts = [0u64; 2];
+            for s in &found {
+                counts[s.kind] += 1;
+            }
+            switches.extend(found);
+            summary.push(UpsSummaryRow {
+                variant: variant.index,
+                mode: mode.name(),
+                params: variant.params.iter().map(|(_, v)| *v).collect(),
+                stats,
+                switches: counts,
+            });
+        }
+    }
+    let batch = ups_discontinuity_batch(&switches);
+    write_parquet(&layout.discontinuities(), batch.schema(), &[batch], write_opts, &[])?;
+    let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
+    let batch = ups_summary_batch(&names, &summary);
+    write_parquet(&layout.summary(), batch.schema(), &[batch], write_opts, &[])?;
+    Ok(())
+}
+
+/// One path of the search: the samples it passes, in order, and any point between.
+struct UpsPath {
+    /// The input it varies (`t` along a trajectory).
+    along: &'static str,
+    /// Index of the varying input among the six (`None`: time).
+    axis: Option<usize>,
+    /// The varying input's range (or the time range).
+    range: RangeSpec,
+    origin: u64,
+    stride: u64,
+    len: usize,
+}
+
+impl UpsPath {
+    fn index(&self, k: usize) -> u64 {
+        self.origin + k as u64 * self.stride
+    }
+
+    /// The sample at path parameter `p` (in sample steps, `0..len − 1`): time and the
+    /// six inputs with their rates.
+    fn sample_at(
+        &self,
+        source: &SampleSource,
+        trajectory: Option<&[&InputSpec; 6]>,
+        p: f64,
+    ) -> (Option<f64>, UpsSample) {
+        let value = |r: &RangeSpec| match *r {
+            RangeSpec::Value(v) => v,
+            RangeSpec::Range { start, stop, n } => {
+                if n <= 1 {
+                    start
+                } else {
+                    start + (stop - start) * p / ((n - 1) as f64)
+                }
+            }
+        };
+        match (self.axis, trajectory) {
+            (None, Some(inputs)) => {
+                let t = value(&self.range);
+                (Some(t), inputs.map(|i| i.eval(t)))
+            }
+            (Some(axis), _) => {
+                let (_, mut s) = source.sample6(self.origin);
+                s[axis] = [value(&self.range), 0.0, 0.0];
+                (None, s)
+            }
+            (None, None) => source.sample6(self.origin),
+        }
+    }
+}
+
+/// Every path of a source: the trajectory, or each grid line of each input with
+/// more than one value (docs/model.md §8).
+fn ups_paths(job: &JobSpec, source: &SampleSource) -> Vec<UpsPath> {
+    match job.samples() {
+        SamplesSpec::Trajectory(t) => vec![UpsPath {
+            along: "t",
+            axis: None,
+            range: t.time.clone(),
+            origin: 0,
+            stride: 1,
+            len: source.len() as usize,
+        }],
+        SamplesSpec::Grid(g) => {
+            let axes = g.axes6();
+            let lens = axes.map(|r| r.len());
+            let mut out = Vec::new();
+            for k in 0..6 {
+                if lens[k] < 2 {
+                    continue;
+                }
+                let stride: u64 = lens[k + 1..].iter().product();
+                let total: u64 = lens.iter().product();
+                for origin in 0..total {
+                    if (origin / stride).is_multiple_of(lens[k]) {
+                        out.push(UpsPath {
+                            along: UPS_INPUTS[k],
+                            axis: Some(k),
+                            range: axes[k].clone(),
+                            origin,
+                            stride,
+                            len: lens[k] as usize,
+                        });
+                    }
+                }
+            }
+            out
+        }
+    }
+}
+
+/// The load deciding kind `kind` (0 `s_radial`, 1 `u_radial`) of limb `l`, and that
+/// kind's error `[Δp; Δα]`, where the pose has reactions.
+fn load(r: &UpsResult, kind: usize, l: usize) -> Option<nalgebra::Vector3<f64>> {
+    matches!(r.status, Status::Ok | Status::IndeterminateContact).then(|| if kind == 0 { r.f_s[l] } else { r.f_u[l] })
+}
+
+fn kind_error(r: &UpsResult, kind: usize) -> Option<[f64; 6]> {
+    let e = &r.errors[kind];
+    (matches!(r.status, Status::Ok | Status::IndeterminateContact) && r.kind_ok[kind])
+        .then(|| [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z])
+}
+
+/// Path parameters closer than this are one minimum.
+const SAME: f64 = 1e-6;
+/// The location tolerance in the path parameter (sample steps).
+const LOCATE_TOL: f64 = 1e-10;
+
+/// The switches of one (variant, mode): every path, in order, on the rayon pool.
+fn search(variant: &Variant, model: &UpsModel, source: &SampleSource, mode: Mode) -> Vec<UpsSwitch> {
+    let job = &variant.job;
+    let clearance = job.clearance.ups_array();
+    let kinds: Vec<usize> = (0..2).filter(|&k| clearance[k] > 0.0).collect();
+    if kinds.is_empty() {
+        return Vec::new();
+    }
+    let threshold = job.analysis.discontinuity_load_fraction * model.weight();
+    let floor = model.assembly.floor;
+    let trajectory = job.trajectory.as_ref().map(|t| t.inputs6());
+    let paths = ups_paths(job, source);
+    let found: Vec<Vec<UpsSwitch>> = paths
+        .par_iter()
+        .map_init(
+            || UpsWorkspace::new(model),
+            |ws, path| {
+                let solve = |ws: &mut UpsWorkspace, p: f64| {
+                    let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
+                    (t, s, solve_ups_pose(model, &s, mode, ws))
+                };
+                let results: Vec<UpsResult> = (0..path.len)
+                    .map(|k| {
+                        let (_, s) = source.sample6(path.index(k));
+                        solve_ups_pose(model, &s, mode, ws)
+                    })
+                    .collect();
+                let mut out = Vec::new();
+                for &kind in &kinds {
+                    for l in 0..6 {
+                        let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> = results
+                            .iter()
+                            .map(|r| load(r, kind, l).map(|f| (f.norm(), f)).filter(|(m, _)| *m > floor))
+                            .collect();
+                        // Each interval refined on its own, then the minima kept (`select`).
+                        let refined: Vec<Refined> = minima(&mags)
+                            .into_iter()
+                            .map(|(lo, hi)| {
+                                let mut f = |p: f64| {
+                                    let (_, _, r) = solve(ws, p);
+                                    load(&r, kind, l).map_or(f64::MAX, |v| v.norm())
+                                };
+                                let (x, m) = brent_min(lo, hi, LOCATE_TOL, &mut f);
+                                Refined { lo, hi, x, m }
+                            })
+                            .collect();
+                        for Refined { x, m, .. } in select(&refined, &mags) {
+                            if m >= threshold {
+                                continue;
+                            }
+                            let reach = 2.0 * m.max(floor);
+                            let Some((before, after)) = sides(&mags, x, reach) else { continue };
+                            let (db, da) = (mags[before].expect("determinate").1, mags[after].expect("determinate").1);
+                            if db.dot(&da) >= 0.0 {
+                                continue; // a dip that does not turn the direction by more than 90°
+                            }
+                            let jump = match (kind_error(&results[before], kind), kind_error(&results[after], kind)) {
+                                (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
+                                _ => [f64::NAN; 6],
+                            };
+                            let (t, s, _) = solve(ws, x);
+                            out.push(UpsSwitch {
+                                variant: variant.index,
+                                mode,
+                                limb: l + 1,
+                                kind,
+                                along: path.along,
+                                t,
+                                inputs: s.map(|v| v[0]),
+                                margin: m,
+                                jump,
+                            });
+                        }
+                    }
+                }
+                out
+            },
+        )
+        .collect();
+    found.into_iter().flatten().collect()
+}
+
+type Mags = [Option<(f64, nalgebra::Vector3<f64>)>];
+
+/// A minimum of the load magnitude found by refining the interval `[lo, hi]`.
+#[derive(Clone, Copy, Debug)]
+struct Refined {
+    lo: f64,
+    hi: f64,
+    x: f64,
+    m: f64,
+}
+
+/// A refined minimum within this of an interval's end sits on that sample.
+const END: f64 = 1e-7;
+
+/// The distinct interior minima among the refined intervals: a minimum found at an
+/// interval's end is the interval's lowest point, not a dip of it, so it is kept only
+/// when that end is a sampled minimum and the interval on its other side found no dip
+/// of its own (then the dip is at the sample itself); minima closer than [`SAME`] are one.
+fn select(refined: &[Refined], mags: &Mags) -> Vec<Refined> {
+    let at_end = |r: &Refined| [r.lo, r.hi].into_iter().find(|e| (r.x - e).abs() < END);
+    let mut out: Vec<Refined> = Vec::new();
+    for r in refined {
+        if let Some(end) = at_end(r) {
+            let inner_beside = refined.iter().any(|o| (o.lo == end || o.hi == end) && at_end(o).is_none());
+            if !is_min(mags, end as usize) || inner_beside {
+                continue;
+            }
+        }
+        if out.iter().all(|o| (o.x - r.x).abs() >= SAME) {
+            out.push(*r);
+        }
+    }
+    out
+}
+
+/// Whether sample `k` is an interior local minimum among determinate neighbours.
+fn is_min(mags: &Mags, k: usize) -> bool {
+    if k == 0 || k + 1 >= mags.len() {
+        return false;
+    }
+    match (mags[k - 1], mags[k], mags[k + 1]) {
+        // Strict on one side, so that a flat stretch is not a minimum at every sample.
+        (Some((a, _)), Some((m, _)), Some((b, _))) => m < a && m <= b,
+        _ => false,
+    }
+}
+
+/// The intervals `(k, k + 1)` to refine: both beside each sampled interior minimum,
+/// searched on their own, and every interval whose end directions differ by more
+/// than 90° although neither end is a sampled minimum (a dip between monotone samples).
+fn minima(mags: &Mags) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    for k in 0..mags.len().saturating_sub(1) {
+        let (Some((_, a)), Some((_, b))) = (mags[k], mags[k + 1]) else { continue };
+        if is_min(mags, k) || is_min(mags, k + 1) || a.dot(&b) < 0.0 {
+            out.push((k as f64, (k + 1) as f64));
+        }
+    }
+    out
+}
+
+/// The samples where the direction is read on either side of a minimum at `x`: the
+/// first sample whose magnitude has risen to `reach`, else the sampled maximum where
+/// the magnitude falls again, else the last determinate sample before a gap or the
+/// path's end. `None` if a side has no determinate sample.
+fn sides(mags: &Mags, x: f64, reach: f64) -> Option<(usize, usize)> {
+    let walk = |mut k: usize, step: isize| -> Option<usize> {
+        mags[k]?;
+        loop {
+            let m = mags[k]?.0;
+            if m >= reach {
+                return Some(k);
+            }
+            let next = k as isize + step;
+            if next < 0 || next as usize >= mags.len() {
+                return Some(k);
+            }
+            match mags[next as usize] {
+                Some((n, _)) if n >= m => k = next as usize,
+                Some(_) => return Some(k), // the magnitude falls again: the next dip's
+                None => return Some(k),
+            }
+        }
+    };
+    let below = x.floor() as usize;
+    let above = (x.ceil() as usize).min(mags.len() - 1);
+    let before = if (x - below as f64) < SAME && below > 0 { below - 1 } else { below };
+    let after = if (above as f64 - x) < SAME && above + 1 < mags.len() { above + 1 } else { above };
+    Some((walk(before, -1)?, walk(after, 1)?))
+}

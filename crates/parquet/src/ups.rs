@@ -1,0 +1,365 @@
+//! The 6-UPS tables (docs/model.md §10.3, docs/interface.md): `poses` rows with the
+//! six inputs, six limbs and the kinds `s_radial`, `u_radial`, `u_angular`; the
+//! summary's statistics; the switches of `discontinuities.parquet`.
+//!
+//! The 3-limb tables ([`PoseSchema`](crate::PoseSchema)) are built page by page for
+//! throughput; these are plain Arrow batches, which a 42 × 42 solve per pose
+//! leaves far from the bottleneck. Nulls follow docs/conventions.md as for the
+//! other kinds, and no value that is not finite is ever written.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use arrow::array::{ArrayRef, Float64Array, StringArray, UInt32Array, UInt64Array};
+use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+use arrow::record_batch::RecordBatch;
+use clearance_model::Mode;
+use clearance_solver::ups::{UPS_KINDS, UpsResult};
+use clearance_solver::{PoseError, Status};
+use serde::{Deserialize, Serialize};
+
+use crate::schema::ColumnSet;
+use crate::summary::{Series, field};
+
+/// The six inputs, in the grid's row-major order.
+pub const UPS_INPUTS: [&str; 6] = ["x", "y", "z", "phi", "psi", "theta"];
+const INPUT_UNITS: [&str; 6] = ["m", "m", "m", "rad", "rad", "rad"];
+const ERR_PARTS: [(&str, &str); 9] = [
+    ("x", "m"),
+    ("y", "m"),
+    ("z", "m"),
+    ("rx", "rad"),
+    ("ry", "rad"),
+    ("rz", "rad"),
+    ("phi", "rad"),
+    ("psi", "rad"),
+    ("theta", "rad"),
+];
+
+/// One 6-UPS sample's identity: its index, its time (trajectories) and inputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpsRow {
+    pub sample: u64,
+    pub t: Option<f64>,
+    pub inputs: [f64; 6],
+}
+
+/// What fills one float column from a row.
+type Fill = Box<dyn Fn(&UpsRow, &UpsResult) -> Option<f64> + Send + Sync>;
+
+/// The `poses` columns of a 6-UPS run for one column set.
+pub struct UpsSchema {
+    schema: SchemaRef,
+    floats: Vec<Fill>,
+}
+
+fn error_part(e: &PoseError, i: usize) -> f64 {
+    match i {
+        0..3 => e.dp[i],
+        3..6 => e.dalpha[i - 3],
+        _ => e.euler[i - 6],
+    }
+}
+
+/// Reactions, margins and per-kind errors exist for `ok` and indeterminate rows.
+fn loaded(r: &UpsResult) -> bool {
+    matches!(r.status, Status::Ok | Status::IndeterminateContact)
+}
+
+impl UpsSchema {
+    /// The columns of `set`, plus the exact-error columns when `exact` is on. The
+    /// standard set's envelope and dominant-joint columns are not computed for this
+    /// kind (docs/interface.md).
+    pub fn new(set: ColumnSet, exact: bool) -> Self {
+        let mut names: Vec<(String, &'static str)> = Vec::new();
+        let mut floats: Vec<Fill> = Vec::new();
+        let mut push = |name: String, unit: &'static str, f: Fill| {
+            names.push((name, unit));
+            floats.push(f);
+        };
+        for (i, (name, unit)) in UPS_INPUTS.iter().zip(INPUT_UNITS).enumerate() {
+            push(name.to_string(), unit, Box::new(move |s, _| Some(s.inputs[i])));
+        }
+        for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
+            push(
+                format!("err_{c}"),
+                unit,
+                Box::new(move |_, r| (r.status == Status::Ok).then(|| error_part(&r.total, i))),
+            );
+        }
+        if set >= ColumnSet::Standard {
+            for (k, kind) in UPS_KINDS.iter().enumerate() {
+                for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
+                    push(
+                        format!("err_{kind}_{c}"),
+                        unit,
+                        Box::new(move |_, r| (loaded(r) && r.kind_ok[k]).then(|| error_part(&r.errors[k], i))),
+                    );
+                }
+            }
+            for l in 0..6 {
+                push(
+                    format!("q{}", l + 1),
+                    "m",
+                    Box::new(move |_, r| (r.status != Status::Unreachable).then_some(r.q[l])),
+                );
+            }
+            for l in 0..6 {
+                let n = l + 1;
+                // margins: [s_radial, u_radial, u_angular] by kind, then limb.
+                for (name, k, unit) in [
+                    (format!("margin_u{n}_radial"), 1, "N"),
+                    (format!("margin_u{n}_angular"), 2, "N*m"),
+                    (format!("margin_s{n}"), 0, "N"),
+                ] {
+                    push(name, unit, Box::new(move |_, r| loaded(r).then_some(r.margins[k][l])));
+                }
+            }
+        }
+        if set >= ColumnSet::Full {
+            for l in 0..6 {
+                let n = l + 1;
+                for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
+                    push(format!("f_u{n}_{c}"), "N", Box::new(move |_, r| loaded(r).then_some(r.f_u[l][a])));
+                }
+                push(format!("m_u{n}"), "N*m", Box::new(move |_, r| loaded(r).then_some(r.mu[l])));
+                for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
+                    push(format!("f_s{n}_{c}"), "N", Box::new(move |_, r| loaded(r).then_some(r.f_s[l][a])));
+                }
+            }
+            push("cond_a".into(), "1", Box::new(|_, r| (r.status != Status::Unreachable).then_some(r.cond_a)));
+            push("cond_jp".into(), "1", Box::new(|_, r| (r.status != Status::Unreachable).then_some(r.cond_jp)));
+        }
+        if exact {
+            // The stored exact error is [Δα; Δp]; columns follow the err_* order (Δp first).
+            for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
+                let at = if i < 3 { i + 3 } else { i - 3 };
+                push(format!("exact_err_{c}"), unit, Box::new(move |_, r| r.exact.map(|e| e[at])));
+            }
+        }
+        let unit = |u: &str| HashMap::from([("unit".to_string(), u.to_string())]);
+        let mut fields = vec![
+            Field::new("mode", DataType::Utf8, false).with_metadata(unit("")),
+            Field::new("sample", DataType::UInt64, false).with_metadata(unit("1")),
+            Field::new("t", DataType::Float64, true).with_metadata(unit("s")),
+            Field::new("status", DataType::Utf8, false).with_metadata(unit("")),
+        ];
+        fields.extend(names.iter().map(|(n, u)| Field::new(n, DataType::Float64, true).with_metadata(unit(u))));
+        Self { schema: Arc::new(Schema::new(fields)), floats }
+    }
+
+    pub fn schema(&self) -> SchemaRef {
+        self.schema.clone()
+    }
+
+    /// Column names in order.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.schema.fields().iter().map(|f| f.name().as_str())
+    }
+
+    /// The record batch of one mode's rows (`rows` and `results` of the same length).
+    #[track_caller]
+    pub fn batch(&self, mode: Mode, rows: &[UpsRow], results: &[UpsResult]) -> RecordBatch {
+        assert_eq!(rows.len(), results.len(), "one result per row");
+        let mut out: Vec<ArrayRef> = vec![
+            Arc::new(StringArray::from_iter_values(rows.iter().map(|_| mode.name()))),
+            Arc::new(UInt64Array::from_iter_values(rows.iter().map(|s| s.sample))),
+            Arc::new(Float64Array::from_iter(rows.iter().map(|s| s.t.filter(|t| t.is_finite())))),
+            Arc::new(StringArray::from_iter_values(results.iter().map(|r| r.status.name()))),
+        ];
+        for f in &self.floats {
+            out.push(Arc::new(Float64Array::from_iter(
+                rows.iter().zip(results).map(|(s, r)| f(s, r).filter(|v| v.is_finite())),
+            )));
+        }
+        RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
+    }
+}
+
+/// The partial statistics of a set of 6-UPS poses of one (variant, mode).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct UpsStats {
+    pub samples: u64,
+    /// Counts per status, in the order of `Status::ALL`.
+    pub status: [u64; 4],
+    /// |Δp| and |Δα| of the total error (`ok` poses).
+    pub dp: Series,
+    pub dalpha: Series,
+    /// The same per kind (poses where that kind is determinate), order of [`UPS_KINDS`].
+    pub dp_kind: [Series; 3],
+    pub dalpha_kind: [Series; 3],
+    pub cond_a_max: f64,
+    pub cond_jp_max: f64,
+}
+
+impl UpsStats {
+    pub fn push(&mut self, r: &UpsResult) {
+        self.samples += 1;
+        self.status[r.status.index()] += 1;
+        if r.status != Status::Unreachable {
+            self.cond_a_max = self.cond_a_max.max(r.cond_a);
+            self.cond_jp_max = self.cond_jp_max.max(r.cond_jp);
+        }
+        if r.status == Status::Ok {
+            self.dp.push(r.total.dp.norm());
+            self.dalpha.push(r.total.dalpha.norm());
+        }
+        if loaded(r) {
+            for k in 0..3 {
+                if r.kind_ok[k] {
+                    self.dp_kind[k].push(r.errors[k].dp.norm());
+                    self.dalpha_kind[k].push(r.errors[k].dalpha.norm());
+                }
+            }
+        }
+    }
+
+    /// Moves every series' pending values into its histogram.
+    pub fn flush(&mut self) {
+        for s in [&mut self.dp, &mut self.dalpha].into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind) {
+            s.flush();
+        }
+    }
+
+    pub fn merge(&mut self, o: &UpsStats) {
+        self.samples += o.samples;
+        for i in 0..4 {
+            self.status[i] += o.status[i];
+        }
+        for k in 0..3 {
+            self.dp_kind[k].merge(&o.dp_kind[k]);
+            self.dalpha_kind[k].merge(&o.dalpha_kind[k]);
+        }
+        self.dp.merge(&o.dp);
+        self.dalpha.merge(&o.dalpha);
+        self.cond_a_max = self.cond_a_max.max(o.cond_a_max);
+        self.cond_jp_max = self.cond_jp_max.max(o.cond_jp_max);
+    }
+}
+
+/// The kinds whose take-up can switch (docs/model.md §8): `u_angular` never does.
+pub const UPS_SWITCH_KINDS: [&str; 2] = ["s_radial", "u_radial"];
+
+/// One row of a 6-UPS `summary.parquet`.
+pub struct UpsSummaryRow {
+    pub variant: u64,
+    pub mode: &'static str,
+    /// The swept parameters' values, in the order of the job's `[[sweep]]`.
+    pub params: Vec<f64>,
+    pub stats: UpsStats,
+    /// Switch counts per kind, order of [`UPS_SWITCH_KINDS`].
+    pub switches: [u64; 2],
+}
+
+/// A 6-UPS `summary.parquet`: the 3-limb summary's columns for this kind's kinds
+/// (no envelope or dominant-joint columns).
+pub fn ups_summary_batch(param_names: &[String], rows: &[UpsSummaryRow]) -> RecordBatch {
+    let mut fields = vec![field("variant", DataType::UInt64, false, "1"), field("mode", DataType::Utf8, false, "")];
+    let mut cols: Vec<ArrayRef> = vec![
+        Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.variant))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|r| r.mode))),
+    ];
+    for (i, name) in param_names.iter().enumerate() {
+        fields.push(field(name, DataType::Float64, false, "as in the job"));
+        cols.push(Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r.params[i]))));
+    }
+    fields.push(field("samples", DataType::UInt64, false, "1"));
+    cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.stats.samples))));
+    for (i, s) in Status::ALL.iter().enumerate() {
+        let name = match s {
+            Status::IndeterminateContact => "share_indeterminate".to_string(),
+            other => format!("share_{}", other.name()),
+        };
+        fields.push(field(&name, DataType::Float64, false, "1"));
+        cols.push(Arc::new(Float64Array::from_iter_values(
+            rows.iter().map(|r| r.stats.status[i] as f64 / r.stats.samples.max(1) as f64),
+        )));
+    }
+    let mut stat_cols = |prefix: String, unit: &'static str, get: &dyn Fn(&UpsStats) -> &Series| {
+        for (suffix, f) in [
+            ("max", &Series::maximum as &dyn Fn(&Series) -> Option<f64>),
+            ("rms", &Series::rms),
+            ("p95", &|s: &Series| s.quantile(0.95)),
+        ] {
+            fields.push(field(&format!("{prefix}_{suffix}"), DataType::Float64, true, unit));
+            cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|r| f(get(&r.stats))))));
+        }
+    };
+    stat_cols("dp".into(), "m", &|s| &s.dp);
+    stat_cols("dalpha".into(), "rad", &|s| &s.dalpha);
+    for (k, kind) in UPS_KINDS.iter().enumerate() {
+        stat_cols(format!("dp_{kind}"), "m", &move |s| &s.dp_kind[k]);
+        stat_cols(format!("dalpha_{kind}"), "rad", &move |s| &s.dalpha_kind[k]);
+    }
+    fields.push(field("switches", DataType::UInt64, false, "1"));
+    cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.switches.iter().sum()))));
+    for (k, kind) in UPS_SWITCH_KINDS.iter().enumerate() {
+        fields.push(field(&format!("switches_{kind}"), DataType::UInt64, false, "1"));
+        cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.switches[k]))));
+    }
+    for (name, get) in [("cond_a_max", &|s: &UpsStats| s.cond_a_max), ("cond_jp_max", &|s: &UpsStats| s.cond_jp_max)]
+        as [(&str, &dyn Fn(&UpsStats) -> f64); 2]
+    {
+        fields.push(field(name, DataType::Float64, true, "1"));
+        cols.push(Arc::new(Float64Array::from_iter(
+            rows.iter().map(|r| Some(get(&r.stats)).filter(|v| v.is_finite() && *v > 0.0)),
+        )));
+    }
+    RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).expect("columns match the schema")
+}
+
+/// One refined switch of a 6-UPS joint's take-up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UpsSwitch {
+    pub variant: u64,
+    pub mode: Mode,
+    /// 1..6.
+    pub limb: usize,
+    /// An index into [`UPS_SWITCH_KINDS`].
+    pub kind: usize,
+    /// The input the path varies (`t` along a trajectory).
+    pub along: &'static str,
+    pub t: Option<f64>,
+    pub inputs: [f64; 6],
+    /// The deciding load there (N).
+    pub margin: f64,
+    /// That kind's ΔΓ after minus before, as `[Δp; Δα]`.
+    pub jump: [f64; 6],
+}
+
+/// A 6-UPS `discontinuities.parquet`: every input of the kind, `limb` 1..6.
+pub fn ups_discontinuity_batch(rows: &[UpsSwitch]) -> RecordBatch {
+    let f64s = |get: &dyn Fn(&UpsSwitch) -> f64| -> ArrayRef {
+        Arc::new(Float64Array::from_iter_values(rows.iter().map(get)))
+    };
+    let mut fields = vec![
+        field("variant", DataType::UInt64, false, "1"),
+        field("mode", DataType::Utf8, false, ""),
+        field("limb", DataType::UInt32, false, "1"),
+        field("kind", DataType::Utf8, false, ""),
+        field("along", DataType::Utf8, false, ""),
+        field("t", DataType::Float64, true, "s"),
+    ];
+    let mut cols: Vec<ArrayRef> = vec![
+        Arc::new(UInt64Array::from_iter_values(rows.iter().map(|d| d.variant))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.mode.name()))),
+        Arc::new(UInt32Array::from_iter_values(rows.iter().map(|d| d.limb as u32))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| UPS_SWITCH_KINDS[d.kind]))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.along))),
+        Arc::new(Float64Array::from_iter(rows.iter().map(|d| d.t))),
+    ];
+    for (i, (name, unit)) in UPS_INPUTS.iter().zip(INPUT_UNITS).enumerate() {
+        fields.push(field(name, DataType::Float64, false, unit));
+        cols.push(f64s(&move |d| d.inputs[i]));
+    }
+    fields.push(field("margin", DataType::Float64, true, "N"));
+    cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.margin).filter(|m| m.is_finite())))));
+    for (i, (c, unit)) in
+        [("x", "m"), ("y", "m"), ("z", "m"), ("rx", "rad"), ("ry", "rad"), ("rz", "rad")].into_iter().enumerate()
+    {
+        // Null where a side of the switch has that kind indeterminate.
+        fields.push(field(&format!("jump_{c}"), DataType::Float64, true, unit));
+        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.jump[i]).filter(|v| v.is_finite())))));
+    }
+    RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).expect("columns match the schema")
+}
