@@ -42,6 +42,7 @@ fn options(out: &std::path::Path, shard: Option<(u64, u64)>) -> RunOptions {
         compression: Codec::Zstd,
         progress: Reporter::default(),
         direct_io: false,
+        writer: clearance_engine::Writer::Engine,
     }
 }
 
