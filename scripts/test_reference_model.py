@@ -20,6 +20,7 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import reference_model as rm  # noqa: E402
+import reference_ups as ru  # noqa: E402
 
 ALL4 = {"s_radial": 1e-4, "r_radial": 1e-4, "r_axial": 1e-4, "r_angular": 1e-4}
 RNG = np.random.default_rng(12345)
@@ -572,7 +573,7 @@ def test_paper_kinetostatic_switch_with_30kg():
     assert lo < i < hi and cosang < 0.0                      # turns by more than 90 degrees
 
 
-@pytest.mark.parametrize("kinds", ["prototype", "3-PRS", "3-RPS", "all"])
+@pytest.mark.parametrize("kinds", ["prototype", "3-PRS", "3-RPS", "6-UPS", "all"])
 def test_crosscheck_job_generator_round_trips_through_toml(kinds):
     """The cross-check's random jobs are valid for the reference and survive TOML; the
     family jobs carry their kind, and their poses are mostly reachable."""
@@ -584,12 +585,12 @@ def test_crosscheck_job_generator_round_trips_through_toml(kinds):
     for i in range(12):
         job, tag = xc.make_job(rng, i, kl)
         assert tomllib.loads(xc.to_toml(job)) == job
-        cols = rm.compute(job)
+        kind = job.get("mechanism", {}).get("kind")
+        cols = ru.compute(job, "minimal") if kind == ru.KIND else rm.compute(job)
         assert set(np.unique(cols["status"])) <= {"ok", "unreachable", "near_singular",
                                                    "indeterminate_contact"}
-        kind = job.get("mechanism", {}).get("kind")
-        assert kind in ([None] if kl == ["prototype"] else [None, "3-PRS", "3-RPS"] if kinds == "all"
-                        else [kinds])
+        assert kind in ([None] if kl == ["prototype"] else [None, "3-PRS", "3-RPS", ru.KIND]
+                        if kinds == "all" else [kinds])
         n_ok += int((cols["status"] != "unreachable").sum())
         n_all += cols["status"].size
     assert n_ok >= 0.8 * n_all
