@@ -568,12 +568,13 @@ def joint_contributions(Gt, Gr, disp):
 
 
 def dominant_joint(P, contrib, rows):
-    """Object array of joint names (None outside `rows` or with no clearance): the joint of
-    non-zero clearance whose own contribution has the largest |Delta p|, the first in
-    JOINTS order among those within reference_model.DOMINANT_TIE of it.  (u_angular's contribution is round-off: a job whose only
-    clearance is u_angular names a joint by its round-off.)"""
+    """Object array of joint names (None outside `rows` or with no candidate): the joint
+    of non-zero clearance whose own contribution has the largest |Delta p|, the first in
+    JOINTS order among those within reference_model.DOMINANT_TIE of it.  u_angular is
+    never a candidate: it cannot move the platform (its contribution is round-off), so
+    a job whose only clearance is u_angular has no dominant joint."""
     out = np.full(contrib.shape[0], None, dtype=object)
-    cand = np.array([P["clear"][k] != 0.0 for k, _ in JOINTS])
+    cand = np.array([P["clear"][k] != 0.0 and k != "u_angular" for k, _ in JOINTS])
     if not cand.any():
         return out
     dp = np.where(cand, np.linalg.norm(contrib[..., 3:6], axis=-1), -np.inf)

@@ -673,6 +673,16 @@ def test_envelope_and_dominant_against_reciprocal_screws():
     np.testing.assert_array_equal(c["dominant"][clear], expect[clear])
 
 
+def test_tilt_play_alone_has_no_dominant_joint():
+    """u_angular cannot move the platform, so with no other clearance no joint dominates
+    (round-off must not name one), and its envelope is round-off."""
+    job = with_job(LOADED, clearance={"s_radial": 0.0, "u_radial": 0.0, "u_angular": 1e-3})
+    c = ru.pose_arrays(job, *random_poses(20))
+    assert (c["status"] == "ok").all()
+    assert all(d is None for d in c["dominant"])
+    assert np.abs(c["env_p"]).max() < 1e-15
+
+
 def test_leg_spin_does_not_reach_the_reactions():
     """Slender legs have no axial inertia, so the spin sigma_i e_i of omega_i leaves
     I w' + w x I w unchanged: the dynamic right-hand side with sigma = 0 (omega = e x e',

@@ -43,6 +43,11 @@ impl ClearanceKind {
 /// kind's name with the limb (`limb` from 0) after the joint's letter (`s1_radial`,
 /// `r2_axial`, …). `kind` indexes [`KINDS`].
 pub fn joint_name(kind: usize, limb: usize) -> String {
-    let name = KINDS[kind].name();
-    format!("{}{}{}", &name[..1], limb + 1, &name[1..])
+    joint_label(KINDS[kind].name(), limb)
+}
+
+/// [`joint_name`] for a kind given by its name (the 6-UPS's `u_radial` gives `u5_radial`
+/// for `limb = 4`).
+pub fn joint_label(kind: &str, limb: usize) -> String {
+    format!("{}{}{}", &kind[..1], limb + 1, &kind[1..])
 }

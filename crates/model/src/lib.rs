@@ -33,7 +33,7 @@ pub use job::{
     AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, Mode, RangeSpec, SamplesSpec,
     SweepSpec, TrajectorySpec,
 };
-pub use kinds::{ClearanceKind, KINDS, joint_name};
+pub use kinds::{ClearanceKind, KINDS, joint_label, joint_name};
 pub use mechanism::{
     MECHANISM_KINDS, MassSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, PointMass, UPS_BASE_ANGLES_DEG,
     UPS_PLATFORM_ANGLES_DEG, UPS_PLATFORM_MASS,

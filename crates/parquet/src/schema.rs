@@ -92,7 +92,7 @@ pub struct PoseSchema {
 }
 
 /// The envelope's parts: each component of `[Δp; Δα]`, then bounds on `|Δp|`, `|Δα|`.
-const ENVELOPE_PARTS: [(&str, &str); 8] =
+pub(crate) const ENVELOPE_PARTS: [(&str, &str); 8] =
     [("x", "m"), ("y", "m"), ("z", "m"), ("rx", "rad"), ("ry", "rad"), ("rz", "rad"), ("p", "m"), ("alpha", "rad")];
 
 const ERR_PARTS: [(&str, &str); 9] = [

@@ -294,75 +294,122 @@ pub struct SummaryRow {
 
 /// `summary.parquet`: one row per (variant, mode).
 pub fn summary_batch(param_names: &[String], rows: &[SummaryRow]) -> RecordBatch {
-    let mut fields = vec![field("variant", DataType::UInt64, false, "1"), field("mode", DataType::Utf8, false, "")];
-    let mut cols: Vec<ArrayRef> = vec![
-        Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.variant))),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|r| r.mode))),
-    ];
-    for (i, name) in param_names.iter().enumerate() {
-        fields.push(field(name, DataType::Float64, false, "as in the job"));
-        cols.push(Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r.params[i]))));
-    }
-    fields.push(field("samples", DataType::UInt64, false, "1"));
-    cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.stats.samples))));
-    for (i, s) in Status::ALL.iter().enumerate() {
-        let name = match s {
-            Status::IndeterminateContact => "share_indeterminate".to_string(),
-            other => format!("share_{}", other.name()),
-        };
-        fields.push(field(&name, DataType::Float64, false, "1"));
-        cols.push(Arc::new(Float64Array::from_iter_values(
-            rows.iter().map(|r| r.stats.status[i] as f64 / r.stats.samples.max(1) as f64),
-        )));
-    }
-    let mut stat_cols = |prefix: String, unit: &'static str, get: &dyn Fn(&SummaryStats) -> &Series| {
-        for (suffix, f) in [
-            ("max", &Series::maximum as &dyn Fn(&Series) -> Option<f64>),
-            ("rms", &Series::rms),
-            ("p95", &|s: &Series| s.quantile(0.95)),
-        ] {
-            fields.push(field(&format!("{prefix}_{suffix}"), DataType::Float64, true, unit));
-            cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|r| f(get(&r.stats))))));
-        }
-    };
-    stat_cols("dp".into(), "m", &|s| &s.dp);
-    stat_cols("dalpha".into(), "rad", &|s| &s.dalpha);
+    let mut t = SummaryTable::new(rows);
+    t.head(param_names, |r| (r.variant, r.mode, &r.params, r.stats.samples, r.stats.status));
+    t.series("dp", "m", |r| &r.stats.dp);
+    t.series("dalpha", "rad", |r| &r.stats.dalpha);
     for kind in KINDS {
         let k = kind.index();
-        stat_cols(format!("dp_{}", kind.name()), "m", &move |s| &s.dp_kind[k]);
-        stat_cols(format!("dalpha_{}", kind.name()), "rad", &move |s| &s.dalpha_kind[k]);
+        t.series(&format!("dp_{}", kind.name()), "m", move |r| &r.stats.dp_kind[k]);
+        t.series(&format!("dalpha_{}", kind.name()), "rad", move |r| &r.stats.dalpha_kind[k]);
     }
-    stat_cols("env_p".into(), "m", &|s| &s.env_p);
-    stat_cols("env_alpha".into(), "rad", &|s| &s.env_alpha);
-    // Per joint: the share of ok poses it dominates and the RMS of its own |Δp|.
-    for (k, j) in (0..4).flat_map(|k| (0..3).map(move |j| (k, j))) {
-        let name = clearance_solver::joint_name(k, j);
-        let ok = |r: &SummaryRow| r.stats.status[Status::Ok.index()];
-        fields.push(field(&format!("dominant_share_{name}"), DataType::Float64, true, "1"));
-        cols.push(Arc::new(Float64Array::from_iter(
-            rows.iter().map(|r| (ok(r) > 0).then(|| r.stats.dominant[k][j] as f64 / ok(r) as f64)),
-        )));
-        fields.push(field(&format!("rms_dp_{name}"), DataType::Float64, true, "m"));
-        cols.push(Arc::new(Float64Array::from_iter(
-            rows.iter().map(|r| (ok(r) > 0).then(|| (r.stats.joint_sum_sq[k][j] / ok(r) as f64).sqrt())),
-        )));
+    t.series("env_p", "m", |r| &r.stats.env_p);
+    t.series("env_alpha", "rad", |r| &r.stats.env_alpha);
+    let joints = (0..4).flat_map(|k| (0..3).map(move |j| (clearance_solver::joint_name(k, j), k, j)));
+    let ok = Status::Ok.index();
+    t.joints(joints, |r, k, j| (r.stats.status[ok], r.stats.dominant[k][j], r.stats.joint_sum_sq[k][j]));
+    t.switches(&KINDS.map(|k| k.name()), |r| &r.switches);
+    t.conditions(|r| (r.stats.cond_a_max, r.stats.cond_jp_max));
+    t.finish()
+}
+
+/// The columns of a `summary.parquet` of any kind, built column by column from its rows.
+pub(crate) struct SummaryTable<'a, R> {
+    rows: &'a [R],
+    fields: Vec<Field>,
+    cols: Vec<ArrayRef>,
+}
+
+impl<'a, R> SummaryTable<'a, R> {
+    pub(crate) fn new(rows: &'a [R]) -> Self {
+        Self { rows, fields: Vec::new(), cols: Vec::new() }
     }
-    fields.push(field("switches", DataType::UInt64, false, "1"));
-    cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.switches.iter().sum()))));
-    for kind in KINDS {
-        fields.push(field(&format!("switches_{}", kind.name()), DataType::UInt64, false, "1"));
-        cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.switches[kind.index()]))));
+
+    fn push(&mut self, field: Field, col: ArrayRef) {
+        self.fields.push(field);
+        self.cols.push(col);
     }
-    for (name, get) in
-        [("cond_a_max", &|s: &SummaryStats| s.cond_a_max), ("cond_jp_max", &|s: &SummaryStats| s.cond_jp_max)]
-            as [(&str, &dyn Fn(&SummaryStats) -> f64); 2]
-    {
-        fields.push(field(name, DataType::Float64, true, "1"));
-        cols.push(Arc::new(Float64Array::from_iter(
-            rows.iter().map(|r| Some(get(&r.stats)).filter(|v| v.is_finite() && *v > 0.0)),
-        )));
+
+    fn u64(&mut self, name: &str, unit: &str, get: impl Fn(&R) -> u64) {
+        let col = Arc::new(UInt64Array::from_iter_values(self.rows.iter().map(get)));
+        self.push(field(name, DataType::UInt64, false, unit), col);
     }
-    RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).expect("columns match the schema")
+
+    fn float(&mut self, name: &str, unit: &str, get: impl Fn(&R) -> Option<f64>) {
+        let col = Arc::new(Float64Array::from_iter(self.rows.iter().map(get)));
+        self.push(field(name, DataType::Float64, true, unit), col);
+    }
+
+    /// `variant`, `mode`, the swept parameters, `samples` and the share of each status;
+    /// `get` gives a row's variant, mode, parameter values, samples and status counts.
+    pub(crate) fn head(&mut self, param_names: &[String], get: impl Fn(&R) -> (u64, &str, &Vec<f64>, u64, [u64; 4])) {
+        self.u64("variant", "1", |r| get(r).0);
+        let modes = Arc::new(StringArray::from_iter_values(self.rows.iter().map(|r| get(r).1)));
+        self.push(field("mode", DataType::Utf8, false, ""), modes);
+        for (i, name) in param_names.iter().enumerate() {
+            let col = Arc::new(Float64Array::from_iter_values(self.rows.iter().map(|r| get(r).2[i])));
+            self.push(field(name, DataType::Float64, false, "as in the job"), col);
+        }
+        self.u64("samples", "1", |r| get(r).3);
+        for (i, s) in Status::ALL.iter().enumerate() {
+            let name = match s {
+                Status::IndeterminateContact => "share_indeterminate".to_string(),
+                other => format!("share_{}", other.name()),
+            };
+            let col = Arc::new(Float64Array::from_iter_values(self.rows.iter().map(|r| {
+                let (.., samples, status) = get(r);
+                status[i] as f64 / samples.max(1) as f64
+            })));
+            self.push(field(&name, DataType::Float64, false, "1"), col);
+        }
+    }
+
+    /// `<prefix>_max`, `_rms` and `_p95` of one series.
+    pub(crate) fn series(&mut self, prefix: &str, unit: &str, get: impl Fn(&R) -> &Series) {
+        self.float(&format!("{prefix}_max"), unit, |r| get(r).maximum());
+        self.float(&format!("{prefix}_rms"), unit, |r| get(r).rms());
+        self.float(&format!("{prefix}_p95"), unit, |r| get(r).quantile(0.95));
+    }
+
+    /// Per joint `(name, kind, limb)`: the share of ok poses it dominates
+    /// (`dominant_share_<name>`) and the RMS of its own |Δp| over them (`rms_dp_<name>`);
+    /// `get` gives a row's count of ok poses, how many of them the joint dominates, and
+    /// the sum of squares of its contribution.
+    pub(crate) fn joints(
+        &mut self,
+        joints: impl Iterator<Item = (String, usize, usize)>,
+        get: impl Fn(&R, usize, usize) -> (u64, u64, f64),
+    ) {
+        for (name, k, j) in joints {
+            self.float(&format!("dominant_share_{name}"), "1", |r| {
+                let (ok, dominated, _) = get(r, k, j);
+                (ok > 0).then(|| dominated as f64 / ok as f64)
+            });
+            self.float(&format!("rms_dp_{name}"), "m", |r| {
+                let (ok, _, sum_sq) = get(r, k, j);
+                (ok > 0).then(|| (sum_sq / ok as f64).sqrt())
+            });
+        }
+    }
+
+    /// `switches` and `switches_<kind>` for the kinds that can switch.
+    pub(crate) fn switches(&mut self, kinds: &[&str], get: impl Fn(&R) -> &[u64]) {
+        self.u64("switches", "1", |r| get(r).iter().sum());
+        for (k, kind) in kinds.iter().enumerate() {
+            self.u64(&format!("switches_{kind}"), "1", |r| get(r)[k]);
+        }
+    }
+
+    /// `cond_a_max`, `cond_jp_max` (null where no pose had one).
+    pub(crate) fn conditions(&mut self, get: impl Fn(&R) -> (f64, f64)) {
+        let positive = |v: f64| Some(v).filter(|v| v.is_finite() && *v > 0.0);
+        self.float("cond_a_max", "1", |r| positive(get(r).0));
+        self.float("cond_jp_max", "1", |r| positive(get(r).1));
+    }
+
+    pub(crate) fn finish(self) -> RecordBatch {
+        RecordBatch::try_new(Arc::new(Schema::new(self.fields)), self.cols).expect("columns match the schema")
+    }
 }
 
 pub(crate) fn field(name: &str, t: DataType, nullable: bool, unit: &str) -> Field {

@@ -18,8 +18,8 @@ use clearance_solver::ups::{UPS_KINDS, UpsResult};
 use clearance_solver::{PoseError, Status};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::ColumnSet;
-use crate::summary::{Series, field};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS};
+use crate::summary::{Series, SummaryTable, field};
 
 /// The six inputs, in the grid's row-major order.
 pub const UPS_INPUTS: [&str; 6] = ["x", "y", "z", "phi", "psi", "theta"];
@@ -51,6 +51,13 @@ type Fill = Box<dyn Fn(&UpsRow, &UpsResult) -> Option<f64> + Send + Sync>;
 pub struct UpsSchema {
     schema: SchemaRef,
     floats: Vec<Fill>,
+    /// Whether the `dominant` column (after `status`) is in the set.
+    dominant: bool,
+}
+
+/// The `dominant` column's values, by `6·kind + limb`.
+fn joint_names() -> Vec<String> {
+    UPS_KINDS.iter().flat_map(|k| (0..6).map(move |l| clearance_solver::joint_label(k, l))).collect()
 }
 
 fn error_part(e: &PoseError, i: usize) -> f64 {
@@ -67,9 +74,7 @@ fn loaded(r: &UpsResult) -> bool {
 }
 
 impl UpsSchema {
-    /// The columns of `set`, plus the exact-error columns when `exact` is on. The
-    /// standard set's envelope and dominant-joint columns are not computed for this
-    /// kind (docs/interface.md).
+    /// The columns of `set`, plus the exact-error columns when `exact` is on.
     pub fn new(set: ColumnSet, exact: bool) -> Self {
         let mut names: Vec<(String, &'static str)> = Vec::new();
         let mut floats: Vec<Fill> = Vec::new();
@@ -115,6 +120,17 @@ impl UpsSchema {
                     push(name, unit, Box::new(move |_, r| loaded(r).then_some(r.margins[k][l])));
                 }
             }
+            // The envelope of all kinds, then of each kind (NaN outside loaded rows).
+            let kinds = std::iter::once(None).chain(UPS_KINDS.iter().enumerate().map(Some));
+            for kind in kinds {
+                for (c, (part, unit)) in ENVELOPE_PARTS.iter().enumerate() {
+                    let (name, f): (String, Fill) = match kind {
+                        None => (format!("env_{part}"), Box::new(move |_, r| Some(r.envelope_total()[c]))),
+                        Some((k, kind)) => (format!("env_{kind}_{part}"), Box::new(move |_, r| Some(r.envelope[k][c]))),
+                    };
+                    push(name, unit, f);
+                }
+            }
         }
         if set >= ColumnSet::Full {
             for l in 0..6 {
@@ -144,8 +160,12 @@ impl UpsSchema {
             Field::new("t", DataType::Float64, true).with_metadata(unit("s")),
             Field::new("status", DataType::Utf8, false).with_metadata(unit("")),
         ];
+        let dominant = set >= ColumnSet::Standard;
+        if dominant {
+            fields.push(Field::new("dominant", DataType::Utf8, true).with_metadata(unit("")));
+        }
         fields.extend(names.iter().map(|(n, u)| Field::new(n, DataType::Float64, true).with_metadata(unit(u))));
-        Self { schema: Arc::new(Schema::new(fields)), floats }
+        Self { schema: Arc::new(Schema::new(fields)), floats, dominant }
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -167,6 +187,12 @@ impl UpsSchema {
             Arc::new(Float64Array::from_iter(rows.iter().map(|s| s.t.filter(|t| t.is_finite())))),
             Arc::new(StringArray::from_iter_values(results.iter().map(|r| r.status.name()))),
         ];
+        if self.dominant {
+            let names = joint_names();
+            out.push(Arc::new(StringArray::from_iter(
+                results.iter().map(|r| r.dominant.map(|(k, l)| names[6 * k + l].as_str())),
+            )));
+        }
         for f in &self.floats {
             out.push(Arc::new(Float64Array::from_iter(
                 rows.iter().zip(results).map(|(s, r)| f(s, r).filter(|v| v.is_finite())),
@@ -190,6 +216,17 @@ pub struct UpsStats {
     pub dalpha_kind: [Series; 3],
     pub cond_a_max: f64,
     pub cond_jp_max: f64,
+    /// The envelope's bounds on |Δp| and |Δα| (`ok` and indeterminate poses).
+    #[serde(default)]
+    pub env_p: Series,
+    #[serde(default)]
+    pub env_alpha: Series,
+    /// Per joint (`[kind][limb]`), over `ok` poses: how often it dominates, and the sum
+    /// of squares of its own contribution to |Δp|.
+    #[serde(default)]
+    pub dominant: [[u64; 6]; 3],
+    #[serde(default)]
+    pub joint_sum_sq: [[f64; 6]; 3],
 }
 
 impl UpsStats {
@@ -203,8 +240,23 @@ impl UpsStats {
         if r.status == Status::Ok {
             self.dp.push(r.total.dp.norm());
             self.dalpha.push(r.total.dalpha.norm());
+            if let Some((k, l)) = r.dominant {
+                self.dominant[k][l] += 1;
+            }
+            for (sums, limbs) in self.joint_sum_sq.iter_mut().zip(&r.contribution) {
+                for (sum, v) in sums.iter_mut().zip(limbs) {
+                    if v.is_finite() {
+                        *sum += v * v;
+                    }
+                }
+            }
         }
         if loaded(r) {
+            let total = r.envelope_total();
+            if total[6].is_finite() && total[7].is_finite() {
+                self.env_p.push(total[6]);
+                self.env_alpha.push(total[7]);
+            }
             for k in 0..3 {
                 if r.kind_ok[k] {
                     self.dp_kind[k].push(r.errors[k].dp.norm());
@@ -216,7 +268,8 @@ impl UpsStats {
 
     /// Moves every series' pending values into its histogram.
     pub fn flush(&mut self) {
-        for s in [&mut self.dp, &mut self.dalpha].into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind) {
+        let totals = [&mut self.dp, &mut self.dalpha, &mut self.env_p, &mut self.env_alpha];
+        for s in totals.into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind) {
             s.flush();
         }
     }
@@ -232,6 +285,14 @@ impl UpsStats {
         }
         self.dp.merge(&o.dp);
         self.dalpha.merge(&o.dalpha);
+        self.env_p.merge(&o.env_p);
+        self.env_alpha.merge(&o.env_alpha);
+        for k in 0..3 {
+            for l in 0..6 {
+                self.dominant[k][l] += o.dominant[k][l];
+                self.joint_sum_sq[k][l] += o.joint_sum_sq[k][l];
+            }
+        }
         self.cond_a_max = self.cond_a_max.max(o.cond_a_max);
         self.cond_jp_max = self.cond_jp_max.max(o.cond_jp_max);
     }
@@ -251,61 +312,28 @@ pub struct UpsSummaryRow {
     pub switches: [u64; 2],
 }
 
-/// A 6-UPS `summary.parquet`: the 3-limb summary's columns for this kind's kinds
-/// (no envelope or dominant-joint columns).
+/// A 6-UPS `summary.parquet`: the 3-limb summary's columns for this kind's kinds and
+/// joints.
 pub fn ups_summary_batch(param_names: &[String], rows: &[UpsSummaryRow]) -> RecordBatch {
-    let mut fields = vec![field("variant", DataType::UInt64, false, "1"), field("mode", DataType::Utf8, false, "")];
-    let mut cols: Vec<ArrayRef> = vec![
-        Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.variant))),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|r| r.mode))),
-    ];
-    for (i, name) in param_names.iter().enumerate() {
-        fields.push(field(name, DataType::Float64, false, "as in the job"));
-        cols.push(Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r.params[i]))));
-    }
-    fields.push(field("samples", DataType::UInt64, false, "1"));
-    cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.stats.samples))));
-    for (i, s) in Status::ALL.iter().enumerate() {
-        let name = match s {
-            Status::IndeterminateContact => "share_indeterminate".to_string(),
-            other => format!("share_{}", other.name()),
-        };
-        fields.push(field(&name, DataType::Float64, false, "1"));
-        cols.push(Arc::new(Float64Array::from_iter_values(
-            rows.iter().map(|r| r.stats.status[i] as f64 / r.stats.samples.max(1) as f64),
-        )));
-    }
-    let mut stat_cols = |prefix: String, unit: &'static str, get: &dyn Fn(&UpsStats) -> &Series| {
-        for (suffix, f) in [
-            ("max", &Series::maximum as &dyn Fn(&Series) -> Option<f64>),
-            ("rms", &Series::rms),
-            ("p95", &|s: &Series| s.quantile(0.95)),
-        ] {
-            fields.push(field(&format!("{prefix}_{suffix}"), DataType::Float64, true, unit));
-            cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|r| f(get(&r.stats))))));
-        }
-    };
-    stat_cols("dp".into(), "m", &|s| &s.dp);
-    stat_cols("dalpha".into(), "rad", &|s| &s.dalpha);
+    let mut t = SummaryTable::new(rows);
+    t.head(param_names, |r| (r.variant, r.mode, &r.params, r.stats.samples, r.stats.status));
+    t.series("dp", "m", |r| &r.stats.dp);
+    t.series("dalpha", "rad", |r| &r.stats.dalpha);
     for (k, kind) in UPS_KINDS.iter().enumerate() {
-        stat_cols(format!("dp_{kind}"), "m", &move |s| &s.dp_kind[k]);
-        stat_cols(format!("dalpha_{kind}"), "rad", &move |s| &s.dalpha_kind[k]);
+        t.series(&format!("dp_{kind}"), "m", move |r| &r.stats.dp_kind[k]);
+        t.series(&format!("dalpha_{kind}"), "rad", move |r| &r.stats.dalpha_kind[k]);
     }
-    fields.push(field("switches", DataType::UInt64, false, "1"));
-    cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.switches.iter().sum()))));
-    for (k, kind) in UPS_SWITCH_KINDS.iter().enumerate() {
-        fields.push(field(&format!("switches_{kind}"), DataType::UInt64, false, "1"));
-        cols.push(Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.switches[k]))));
-    }
-    for (name, get) in [("cond_a_max", &|s: &UpsStats| s.cond_a_max), ("cond_jp_max", &|s: &UpsStats| s.cond_jp_max)]
-        as [(&str, &dyn Fn(&UpsStats) -> f64); 2]
-    {
-        fields.push(field(name, DataType::Float64, true, "1"));
-        cols.push(Arc::new(Float64Array::from_iter(
-            rows.iter().map(|r| Some(get(&r.stats)).filter(|v| v.is_finite() && *v > 0.0)),
-        )));
-    }
-    RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).expect("columns match the schema")
+    t.series("env_p", "m", |r| &r.stats.env_p);
+    t.series("env_alpha", "rad", |r| &r.stats.env_alpha);
+    let joints = UPS_KINDS
+        .iter()
+        .enumerate()
+        .flat_map(|(k, kind)| (0..6).map(move |l| (clearance_solver::joint_label(kind, l), k, l)));
+    let ok = Status::Ok.index();
+    t.joints(joints, |r, k, l| (r.stats.status[ok], r.stats.dominant[k][l], r.stats.joint_sum_sq[k][l]));
+    t.switches(&UPS_SWITCH_KINDS, |r| &r.switches);
+    t.conditions(|r| (r.stats.cond_a_max, r.stats.cond_jp_max));
+    t.finish()
 }
 
 /// One refined switch of a 6-UPS joint's take-up.

@@ -393,19 +393,32 @@ impl Assembly {
         data.lu_a.solve_factored(data.w.as_mut());
         self.reactions_into(posed, &data.w, &mut out);
         self.take_up(posed, &mut out);
-        self.assemble_error(posed, &out, data.jp.as_mut(), data.dq.as_mut());
+        if self.solve_errors(posed, &mut out, data) {
+            let determinate = out.kind_ok.iter().take(self.kinds.len()).all(|&ok| ok);
+            out.status = if determinate { Status::Ok } else { Status::IndeterminateContact };
+        }
+        out
+    }
+
+    /// The per-kind and total errors of the take-ups in `out.take` (docs/model.md §6),
+    /// and `out.cond_jp`; false (errors untouched) where `J_P` is singular or
+    /// ill-conditioned. [`Assembly::solve`] calls it after the take-up; alone, it gives
+    /// the response to any displacements of the joints.
+    pub fn solve_errors(&self, posed: &Posed, out: &mut LimbsSolution, data: &mut AssemblyData) -> bool {
+        self.assemble_error(posed, out, data.jp.as_mut(), data.dq.as_mut());
         if !data.lu_jp.factor(data.jp.as_ref()) {
             out.cond_jp = f64::INFINITY;
-            return out;
+            return false;
         }
         out.cond_jp = data.lu_jp.cond_one_estimate(data.jp.as_ref());
         if !self.conditioned(out.cond_jp) {
-            return out;
+            return false;
         }
         data.lu_jp.solve_factored(data.dq.as_mut());
         let (first, m0) = self.screws(posed, 0);
+        out.total = PoseError::default();
         for k in 0..self.kinds.len() {
-            let mut t = self.clearance_twist(posed, &out, k, 0);
+            let mut t = self.clearance_twist(posed, out, k, 0);
             for u in 0..m0 {
                 t += first[u] * data.dq[(u, k)];
             }
@@ -416,9 +429,7 @@ impl Assembly {
                 out.total.euler[q] += out.errors[k].euler[q];
             }
         }
-        let determinate = out.kind_ok.iter().take(self.kinds.len()).all(|&ok| ok);
-        out.status = if determinate { Status::Ok } else { Status::IndeterminateContact };
-        out
+        true
     }
 
     /// [`Assembly::solve`] for each pose of a batch, into `out` (same length).

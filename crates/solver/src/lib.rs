@@ -60,12 +60,12 @@ pub mod ups;
 pub use assembly::{Assembly, AssemblyData, LimbsSolution};
 pub use bodies::{Inertial, Load, MassModel, Model, SolverKind};
 /// The `dominant` column's joint names (defined beside the clearance kinds).
-pub use clearance_model::joint_name;
+pub use clearance_model::{joint_label, joint_name};
 pub use equilibrium::JointReactions;
 pub use error_system::PoseError;
 pub use linalg::LuSolver;
 pub use pose::{
-    Blocks, DOMINANT_TIE, Isa, PoseResult, Status, Workspace, cap_isa, solve_batches, solve_in_blocks, solve_pose,
-    solve_poses, solve_reactions, solve_reactions_if_solvable,
+    Blocks, DOMINANT_TIE, Isa, PoseResult, Status, Workspace, cap_isa, dominant_joint, solve_batches, solve_in_blocks,
+    solve_pose, solve_poses, solve_reactions, solve_reactions_if_solvable,
 };
 pub use takeup::{Margins, TakeUp};

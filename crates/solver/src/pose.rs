@@ -103,14 +103,23 @@ impl PoseResult {
         if self.status != Status::Ok {
             return None;
         }
-        let candidates = || {
-            self.contribution.iter().enumerate().filter(|(k, _)| clearance[*k] != 0.0).flat_map(|(k, limbs)| {
-                limbs.iter().enumerate().filter(|(_, v)| v.is_finite()).map(move |(j, &v)| ((k, j), v))
-            })
-        };
-        let best = candidates().map(|(_, v)| v).fold(f64::NEG_INFINITY, f64::max);
-        candidates().find(|(_, v)| *v >= best - DOMINANT_TIE * best.abs()).map(|(at, _)| at)
+        dominant_joint(
+            self.contribution
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| clearance[*k] != 0.0)
+                .flat_map(|(k, limbs)| limbs.iter().enumerate().map(move |(j, &v)| ((k, j), v))),
+        )
     }
+}
+
+/// The first `(kind, limb)` whose contribution is within [`DOMINANT_TIE`] (relative) of
+/// the largest finite one, candidates in tie order (kind, then limb); `None` when there
+/// is no finite candidate.
+pub fn dominant_joint(candidates: impl Iterator<Item = ((usize, usize), f64)> + Clone) -> Option<(usize, usize)> {
+    let finite = candidates.filter(|(_, v)| v.is_finite());
+    let best = finite.clone().map(|(_, v)| v).fold(f64::NEG_INFINITY, f64::max);
+    finite.into_iter().find(|(_, v)| *v >= best - DOMINANT_TIE * best.abs()).map(|(at, _)| at)
 }
 
 impl Default for PoseResult {

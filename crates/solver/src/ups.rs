@@ -225,6 +225,23 @@ pub struct UpsResult {
     pub cond_jp: f64,
     /// Exact error `[Δα; Δp]` (with `UpsModel::exact`, on `ok` poses that converge).
     pub exact: Option<[f64; 6]>,
+    /// The worst case over every admissible take-up, per kind (docs/model.md §11): the
+    /// largest `|Δp_x|, |Δp_y|, |Δp_z|, |Δα_x|, |Δα_y|, |Δα_z|`, and bounds on `|Δp|`
+    /// and `|Δα|` (ok and indeterminate poses; NaN otherwise).
+    pub envelope: [[f64; 8]; 3],
+    /// Each joint's own contribution to `|Δp|` of the deterministic error, by kind and
+    /// limb (ok poses; NaN otherwise).
+    pub contribution: [[f64; 6]; 3],
+    /// The joint whose own take-up moves P most, `(kind index, limb index)`
+    /// ([`dominant_joint`](crate::dominant_joint)); `u_angular` never is one.
+    pub dominant: Option<(usize, usize)>,
+}
+
+impl UpsResult {
+    /// The envelope of all kinds together: each kind's bound summed.
+    pub fn envelope_total(&self) -> [f64; 8] {
+        std::array::from_fn(|c| self.envelope.iter().map(|k| k[c]).sum())
+    }
 }
 
 impl Default for UpsResult {
@@ -242,6 +259,9 @@ impl Default for UpsResult {
             cond_a: f64::NAN,
             cond_jp: f64::NAN,
             exact: None,
+            envelope: [[f64::NAN; 8]; 3],
+            contribution: [[f64::NAN; 6]; 3],
+            dominant: None,
         }
     }
 }
@@ -330,7 +350,8 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
     let Some((pose, posed)) = ups_posture(model, sample, mode) else { return out };
     out.q = pose.q;
     out.status = Status::NearSingular;
-    (out.cond_a, out.cond_jp) = ups_condition(&pose);
+    let screws = leg_screws(&pose);
+    (out.cond_a, out.cond_jp) = condition_of(&screws);
     // NaN is not within the limit.
     let within = |c: f64| c <= model.singular_cond;
     if pose.near_singular || !within(out.cond_a) || !within(out.cond_jp) {
@@ -350,6 +371,9 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
         out.kind_ok[k] = sol.kind_ok[k];
     }
     out.total = sol.total;
+    if let Some(inverse) = screws.try_inverse() {
+        set_envelope(model, &pose, &inverse, &sol, &mut out);
+    }
     if model.exact && out.status == Status::Ok {
         out.exact = ups_exact_error(model, &pose, &sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
     }
@@ -364,6 +388,11 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
 /// `G` is singular. Both are exact and need no U axis: a leg along its fixed axis still
 /// has them.
 pub fn ups_condition(pose: &UpsPosture) -> (f64, f64) {
+    condition_of(&leg_screws(pose))
+}
+
+/// `G`, whose column i is leg i's screw `[e_i; r_i × e_i]`, `r_i = A_i − P`.
+fn leg_screws(pose: &UpsPosture) -> SMatrix<f64, 6, 6> {
     let mut g = SMatrix::<f64, 6, 6>::zeros();
     for i in 0..6 {
         let e = pose.e[i];
@@ -373,11 +402,66 @@ pub fn ups_condition(pose: &UpsPosture) -> (f64, f64) {
             g[(3 + k, i)] = m[k];
         }
     }
+    g
+}
+
+/// `(κ₁(G), κ∞(G))` ([`ups_condition`]).
+fn condition_of(g: &SMatrix<f64, 6, 6>) -> (f64, f64) {
     let one = |m: &SMatrix<f64, 6, 6>| (0..6).map(|c| m.column(c).abs().sum()).fold(0.0, f64::max);
     let inf = |m: &SMatrix<f64, 6, 6>| (0..6).map(|r| m.row(r).abs().sum()).fold(0.0, f64::max);
     match g.try_inverse() {
-        Some(gi) if gi.iter().all(|v| v.is_finite()) => (one(&g) * one(&gi), inf(&g) * inf(&gi)),
+        Some(gi) if gi.iter().all(|v| v.is_finite()) => (one(g) * one(&gi), inf(g) * inf(&gi)),
         _ => (f64::INFINITY, f64::INFINITY),
+    }
+}
+
+/// The envelope, the joints' contributions and the dominant joint of a solved pose
+/// (docs/model.md §11 for this kind). A leg keeps its length, so only the part of a
+/// joint's displacement of `A_i` along `e_i` moves the platform: `Gᵀ·[Δp; Δα] = d` with
+/// `d_i = e_i·u` for a translation `u` of the leg at `B_i` or of the platform at `A_i`,
+/// and `d_i = ω·((A_i − B_i) × e_i)` for a rotation `ω` of the leg about `B_i`. So
+/// joint (k, i) moves the platform by `ν_i·d_i`, `ν_i` the column i of `G⁻ᵀ` (the row i
+/// of `inverse`), and its admissible set (a ball of translations, or the rotations
+/// about `n_i` for `u_angular`) bounds `|d_i|` by `c_k·|g|` (`c_k·|n_i·g|`), `g` the
+/// vector above. For `u_angular`, `n_i·((A_i − B_i) × e_i) = q_i·n_i·(e_i × e_i)` is
+/// zero up to round-off: computed, not written in.
+fn set_envelope(
+    model: &UpsModel,
+    pose: &UpsPosture,
+    inverse: &SMatrix<f64, 6, 6>,
+    sol: &LimbsSolution,
+    out: &mut UpsResult,
+) {
+    let kinds = model.assembly.kinds();
+    let mut envelope = [[0.0; 8]; 3];
+    let mut contribution = [[0.0; 6]; 3];
+    for i in 0..6 {
+        let nu = inverse.row(i);
+        let (np, na) = (nu.columns(0, 3).norm(), nu.columns(3, 3).norm());
+        for (k, kind) in kinds.iter().enumerate() {
+            let (g, reach) = if kind.rule.rotation() {
+                let g = (pose.a[i] - pose.b[i]).cross(&pose.e[i]);
+                (g, pose.n[i].dot(&g).abs())
+            } else {
+                (pose.e[i], pose.e[i].norm())
+            };
+            let bound = kind.magnitude * reach;
+            for c in 0..6 {
+                envelope[k][c] += bound * nu[c].abs();
+            }
+            envelope[k][6] += bound * np;
+            envelope[k][7] += bound * na;
+            contribution[k][i] = g.dot(&sol.take[k][i]).abs() * np;
+        }
+    }
+    out.envelope = envelope;
+    if out.status == Status::Ok {
+        out.contribution = contribution;
+        // u_angular cannot move the platform: its round-off must not name a joint.
+        let moving = |(_, kind): &(usize, &ClearanceSite)| kind.magnitude != 0.0 && kind.rule != Rule::AboutForbidden;
+        let candidates = kinds.iter().enumerate().filter(moving);
+        out.dominant =
+            crate::dominant_joint(candidates.flat_map(|(k, _)| (0..6).map(move |i| ((k, i), contribution[k][i]))));
     }
 }
 

@@ -6,11 +6,12 @@
 
 use clearance_kinematics::{UpsGeometry, UpsMotion, UpsParams, UpsPosture, ups_inverse_kinematics_motion};
 use clearance_model::Mode;
-use clearance_solver::Status;
+use clearance_solver::limbs::Posed;
 use clearance_solver::ups::{
     UpsMass, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_par, solve_ups_pose, solve_ups_poses,
     statics_sample, ups_exact_error, ups_posture,
 };
+use clearance_solver::{LimbsSolution, Status};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -355,4 +356,153 @@ fn parallel_batch_matches_serial() {
             assert_eq!(serial, par, "block {block}");
         }
     }
+}
+
+/// Unit vectors spread over a sphere (Fibonacci lattice).
+fn sphere(n: usize) -> Vec<Vector3<f64>> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            Vector3::new(r * (golden * i as f64).cos(), r * (golden * i as f64).sin(), z)
+        })
+        .collect()
+}
+
+/// `[Δp; Δα]` of kind `k` for a displacement `d` of limb `i`'s joint alone, through the
+/// assembled 30 × 30 error system (not the leg Jacobian the envelope is built from).
+fn joint_response(
+    model: &UpsModel,
+    posed: &Posed,
+    ws: &mut UpsWorkspace,
+    k: usize,
+    i: usize,
+    d: Vector3<f64>,
+) -> [f64; 6] {
+    let mut sol = LimbsSolution::default();
+    sol.take[k][i] = d;
+    assert!(model.assembly.solve_errors(posed, &mut sol, &mut ws.data));
+    let e = sol.errors[k];
+    [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z]
+}
+
+/// The envelope (docs/model.md §11 for the 6-UPS) against a brute-force maximum over
+/// sampled displacements of each joint (the ball's surface for `s_radial` and
+/// `u_radial`, the ends of the segment of rotations about `n_i` for `u_angular`), each
+/// joint's response solved through the assembled error system; the deterministic
+/// error lies inside it; each joint's contribution is its own response to its take-up,
+/// and the dominant joint is the largest of them (never `u_angular`).
+#[test]
+fn envelope_is_the_worst_case_and_names_the_joint() {
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    let directions = sphere(20_000);
+    let mut compared = 0;
+    while compared < 12 {
+        let clearance = [rng.random_range(1e-5..1e-3), rng.random_range(1e-5..1e-3), rng.random_range(1e-5..1e-3)];
+        let model = random_model(&mut rng, clearance);
+        let mut ws = UpsWorkspace::new(&model);
+        let sample = random_sample(&mut rng, false);
+        let r = solve_ups_pose(&model, &sample, Mode::Kinetostatic, &mut ws);
+        if r.status != Status::Ok {
+            continue;
+        }
+        let (_, posed) = ups_posture(&model, &sample, Mode::Kinetostatic).unwrap();
+        let sol = model.assembly.solve(&posed, &mut ws.data);
+        let total = r.envelope_total();
+        let scale = clearance.iter().fold(0.0f64, |m, &c| m.max(c));
+        let mut best = (f64::NEG_INFINITY, None);
+        for k in 0..3 {
+            let mut brute = [0.0f64; 8];
+            for i in 0..6 {
+                // The response is linear in the displacement: three solves give it all.
+                let map: [[f64; 6]; 3] =
+                    std::array::from_fn(|a| joint_response(&model, &posed, &mut ws, k, i, Vector3::ith(a, 1.0)));
+                let apply =
+                    |d: &Vector3<f64>| -> [f64; 6] { std::array::from_fn(|c| (0..3).map(|a| map[a][c] * d[a]).sum()) };
+                let set: Vec<Vector3<f64>> = if k == 2 {
+                    let n = ups_posture(&model, &sample, Mode::Kinetostatic).unwrap().0.n[i];
+                    vec![clearance[2] * n, -clearance[2] * n]
+                } else {
+                    directions.iter().map(|u| clearance[k] * u).collect()
+                };
+                let mut joint = [0.0f64; 8];
+                for d in &set {
+                    let v = apply(d);
+                    for c in 0..6 {
+                        joint[c] = joint[c].max(v[c].abs());
+                    }
+                    joint[6] = joint[6].max((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
+                    joint[7] = joint[7].max((v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt());
+                }
+                for c in 0..8 {
+                    brute[c] += joint[c];
+                }
+                let own = apply(&sol.take[k][i]);
+                let own_dp = (own[0] * own[0] + own[1] * own[1] + own[2] * own[2]).sqrt();
+                let got = r.contribution[k][i];
+                assert!((got - own_dp).abs() <= 1e-9 * own_dp + 1e-15 * scale, "kind {k} limb {i}: {got} vs {own_dp}");
+                if k < 2 && own_dp > best.0 * (1.0 + 1e-6) {
+                    best = (own_dp, Some((k, i)));
+                }
+            }
+            for c in 0..8 {
+                let env = r.envelope[k][c];
+                // The lattice's spacing (~0.025 rad) undershoots a maximum by < 1e-3.
+                assert!(
+                    env >= brute[c] * (1.0 - 1e-12) - 1e-12 * scale,
+                    "kind {k} part {c}: {env} < sampled {}",
+                    brute[c]
+                );
+                assert!(
+                    env <= brute[c] * (1.0 + 1e-3) + 1e-12 * scale,
+                    "kind {k} part {c}: {env} > sampled {}",
+                    brute[c]
+                );
+            }
+            if k == 2 {
+                assert!(r.envelope[2].iter().all(|v| v.abs() <= 1e-12 * clearance[2]), "{:?}", r.envelope[2]);
+            }
+            let err = r.errors[k];
+            let e = [
+                err.dp.x,
+                err.dp.y,
+                err.dp.z,
+                err.dalpha.x,
+                err.dalpha.y,
+                err.dalpha.z,
+                err.dp.norm(),
+                err.dalpha.norm(),
+            ];
+            for c in 0..8 {
+                assert!(e[c].abs() <= r.envelope[k][c] * (1.0 + 1e-9) + 1e-15 * scale, "kind {k} part {c} outside");
+            }
+        }
+        for c in 0..8 {
+            assert_eq!(total[c], r.envelope.iter().map(|k| k[c]).sum::<f64>());
+        }
+        // A joint clearly ahead of the others (not a near tie) is the dominant one.
+        let second = (0..2)
+            .flat_map(|k| (0..6).map(move |i| (k, i)))
+            .filter(|&ki| Some(ki) != best.1)
+            .map(|(k, i)| r.contribution[k][i])
+            .fold(0.0f64, f64::max);
+        if best.0 > second * (1.0 + 1e-6) {
+            assert_eq!(r.dominant, best.1);
+        }
+        compared += 1;
+    }
+}
+
+/// A 6-UPS whose only play is U-joint tilt has nothing that moves the platform, so no
+/// joint dominates; the envelope is round-off.
+#[test]
+fn tilt_play_alone_names_no_joint() {
+    let mut model = UpsModel::default();
+    model.set_clearance([0.0, 0.0, 1e-3]);
+    let mut ws = UpsWorkspace::new(&model);
+    let r = solve_ups_pose(&model, &statics_sample([0.01, -0.02, 0.72, 0.1, 0.05, -0.1]), Mode::Kinetostatic, &mut ws);
+    assert_eq!(r.status, Status::Ok);
+    assert_eq!(r.dominant, None);
+    assert!(r.envelope_total().iter().all(|v| v.abs() <= 1e-15), "{:?}", r.envelope_total());
 }
