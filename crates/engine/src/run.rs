@@ -689,11 +689,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
     // Once, here: the statistics file and the run's total both want it flushed.
     stats.flush();
     kept.add_stats(unit, &stats);
-    let params = &ctx.variants[unit.variant as usize].params;
-    let extra = vec![
-        ("clearance.variant".to_string(), unit.variant.to_string()),
-        ("clearance.params".to_string(), params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(",")),
-    ];
+    let extra = part_metadata(&ctx.variants[unit.variant as usize]);
     let layout = ctx.layout;
     let part = Part {
         path: layout.part(unit.variant, unit.mode, unit.chunk),
@@ -707,28 +703,42 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads
     (part, loads)
 }
 
-/// Runs `job` (read from `job_file`, named in messages) into `opts.out`, computing
-/// the units of `opts.shard` on the current rayon pool.
-pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
-    if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
-        return crate::ups::run_ups(job, job_file, opts);
-    }
+/// What a run of any kind starts from: its variants, the prepared output directory,
+/// the units (all, this shard's, those still to compute) with their pose counts, and
+/// the options of the files it writes.
+pub(crate) struct Setup {
+    pub variants: Vec<Variant>,
+    pub layout: Layout,
+    pub all: Vec<Unit>,
+    pub mine: Vec<Unit>,
+    pub todo: Vec<Unit>,
+    pub mine_poses: u64,
+    pub todo_poses: u64,
+    pub total: u64,
+    pub write_opts: WriteOptions,
+}
+
+/// Expands `job`'s variants, prepares `opts.out` and plans the units; `complete`
+/// says whether `--resume` can keep a unit's files.
+pub(crate) fn prepare_run(
+    job: &JobSpec,
+    job_file: &str,
+    opts: &RunOptions,
+    complete: fn(&Layout, &Unit) -> bool,
+) -> Result<Setup> {
     let variants: Vec<Variant> = job.variants(job_file)?;
     let job_toml = job.to_toml_string();
-    let layout = &Layout::new(&opts.out);
-    prepare_dir(layout, &job_toml, opts)?;
-
+    let layout = Layout::new(&opts.out);
+    prepare_dir(&layout, &job_toml, opts)?;
     let all = units(job, opts.chunk_size);
     let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
-    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && unit_complete(layout, u))).cloned().collect();
-    let mine_poses: u64 = mine.iter().map(|u| u.range.end - u.range.start).sum();
-    let todo_poses: u64 = todo.iter().map(|u| u.range.end - u.range.start).sum();
+    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && complete(&layout, u))).cloned().collect();
+    let poses = |units: &[Unit]| units.iter().map(|u| u.range.end - u.range.start).sum();
+    let (mine_poses, todo_poses) = (poses(&mine), poses(&todo));
     let total = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
-
-    let schema = PoseSchema::new(opts.columns, job.analysis.exact);
     let write_opts = WriteOptions {
         metadata: vec![
-            ("clearance.job".into(), job_toml.clone()),
+            ("clearance.job".into(), job_toml),
             ("clearance.version".into(), ENGINE_VERSION.into()),
             ("clearance.git_commit".into(), env!("CLEARANCE_GIT_COMMIT").into()),
             ("clearance.columns".into(), opts.columns.name().into()),
@@ -738,6 +748,43 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         durable: false,
         direct_io: opts.direct_io,
     };
+    Ok(Setup { variants, layout, all, mine, todo, mine_poses, todo_poses, total, write_opts })
+}
+
+/// Writes this shard's marker (with `--shard`) and tells whether every part of the run
+/// is done: the process that sees so finishes the run; with shards, at least the last
+/// one to write its marker does (two doing it write the same files).
+pub(crate) fn mark_shard_done(layout: &Layout, opts: &RunOptions) -> Result<bool> {
+    if let Some((i, n)) = opts.shard {
+        write_marker(&layout.shard_marker(i, n))?;
+    }
+    Ok(match opts.shard {
+        None => true,
+        Some((_, n)) => (0..n).all(|i| layout.shard_marker(i, n).exists()),
+    })
+}
+
+/// The `clearance.variant` and `clearance.params` metadata of a variant's part files.
+pub(crate) fn part_metadata(variant: &Variant) -> Vec<(String, String)> {
+    vec![
+        ("clearance.variant".to_string(), variant.index.to_string()),
+        (
+            "clearance.params".to_string(),
+            variant.params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(","),
+        ),
+    ]
+}
+
+/// Runs `job` (read from `job_file`, named in messages) into `opts.out`, computing
+/// the units of `opts.shard` on the current rayon pool.
+pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
+    if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
+        return crate::ups::run_ups(job, job_file, opts);
+    }
+    let Setup { variants, layout, all, mine, todo, mine_poses, todo_poses, total, write_opts } =
+        prepare_run(job, job_file, opts, unit_complete)?;
+    let layout = &layout;
+    let schema = PoseSchema::new(opts.columns, job.analysis.exact);
     let models: Vec<(Model, SampleSource)> = variants
         .iter()
         .map(|v| {
@@ -865,15 +912,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let syncing = Instant::now();
     sync_units(layout, &mine, &finals)?;
     stages.writing += syncing.elapsed().as_secs_f64();
-    if let Some((i, n)) = opts.shard {
-        write_marker(&layout.shard_marker(i, n))?;
-    }
-    // The process that sees every part done finishes the run; with shards, at least
-    // the last one to write its marker does (two doing it write the same files).
-    let complete = match opts.shard {
-        None => true,
-        Some((_, n)) => (0..n).all(|i| layout.shard_marker(i, n).exists()),
-    };
+    let complete = mark_shard_done(layout, opts)?;
     if complete {
         if !finalized {
             finalize(layout, job, &variants, &models, &all, opts, &durable, kept, &mut stages)?;

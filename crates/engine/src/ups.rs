@@ -17,7 +17,7 @@ use clearance_discontinuity::brent_min;
 use clearance_grid::SampleSource;
 use clearance_model::{InputSpec, JobSpec, Mode, RangeSpec, SamplesSpec, Variant};
 use clearance_parquet::{
-    ColumnSet, ENGINE_VERSION, UPS_INPUTS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch, WriteOptions,
+    ColumnSet, UPS_INPUTS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch, WriteOptions,
     ups_discontinuity_batch, ups_summary_batch, write_bytes, write_parquet,
 };
 use clearance_solver::Status;
@@ -26,7 +26,10 @@ use rayon::prelude::*;
 
 use crate::error::EngineError;
 use crate::layout::Layout;
-use crate::run::{RunOptions, RunReport, Unit, part_complete, prepare_dir, sync_units, units, write_marker};
+use crate::run::{
+    RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
+    sync_units, write_marker,
+};
 
 type Result<T, E = EngineError> = std::result::Result<T, E>;
 
@@ -88,31 +91,10 @@ fn unit_complete(layout: &Layout, u: &Unit) -> bool {
 
 /// Runs a 6-UPS `job` into `opts.out` (see [`run`](crate::run())).
 pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
-    let variants: Vec<Variant> = job.variants(job_file)?;
-    let job_toml = job.to_toml_string();
-    let layout = &Layout::new(&opts.out);
-    prepare_dir(layout, &job_toml, opts)?;
-
-    let all = units(job, opts.chunk_size);
-    let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
-    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && unit_complete(layout, u))).cloned().collect();
-    let mine_poses: u64 = mine.iter().map(|u| u.range.end - u.range.start).sum();
-    let todo_poses: u64 = todo.iter().map(|u| u.range.end - u.range.start).sum();
-    let total = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
-
+    let Setup { variants, layout, all, mine, todo, mine_poses, todo_poses, total, write_opts } =
+        prepare_run(job, job_file, opts, unit_complete)?;
+    let layout = &layout;
     let schema = UpsSchema::new(opts.columns, job.analysis.exact);
-    let write_opts = WriteOptions {
-        metadata: vec![
-            ("clearance.job".into(), job_toml.clone()),
-            ("clearance.version".into(), ENGINE_VERSION.into()),
-            ("clearance.git_commit".into(), env!("CLEARANCE_GIT_COMMIT").into()),
-            ("clearance.columns".into(), opts.columns.name().into()),
-        ],
-        row_group_rows: opts.chunk_size as usize,
-        codec: opts.compression,
-        durable: false,
-        direct_io: opts.direct_io,
-    };
     let models: Vec<(UpsModel, SampleSource)> =
         variants.iter().map(|v| (UpsModel::from_job(&v.job), SampleSource::new(&v.job))).collect();
 
@@ -120,8 +102,10 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     progress.start(mine_poses, mine_poses - todo_poses);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
+    let mut stages = StageTimes::default();
     for u in &todo {
         progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
+        let pose_pass = Instant::now();
         let (model, source) = &models[u.variant as usize];
         let (rows, samples) = samples(source, u.range.clone());
         let results = solve_rows(model, &samples, u.mode);
@@ -131,40 +115,29 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
             stats.push(r);
         }
         stats.flush();
+        stages.pose_pass += pose_pass.elapsed().as_secs_f64();
+        let writing = Instant::now();
         let (part, stats_path) = (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
         for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
             std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
         }
         write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
-        let params = &variants[u.variant as usize].params;
-        let extra = vec![
-            ("clearance.variant".to_string(), u.variant.to_string()),
-            (
-                "clearance.params".to_string(),
-                params.iter().map(|(p, v)| format!("{p}={v}")).collect::<Vec<_>>().join(","),
-            ),
-        ];
-        write_parquet(&part, batch.schema(), &[batch], &write_opts, &extra)?;
+        write_parquet(&part, batch.schema(), &[batch], &write_opts, &part_metadata(&variants[u.variant as usize]))?;
+        stages.writing += writing.elapsed().as_secs_f64();
         done += u.range.end - u.range.start;
         progress.advance(u.range.end - u.range.start, done);
     }
     progress.finish();
+    let syncing = Instant::now();
     sync_units(layout, &mine, &[])?;
-    if let Some((i, n)) = opts.shard {
-        write_marker(&layout.shard_marker(i, n))?;
-    }
-    let complete = match opts.shard {
-        None => true,
-        Some((_, n)) => (0..n).all(|i| layout.shard_marker(i, n).exists()),
-    };
+    stages.writing += syncing.elapsed().as_secs_f64();
+    let complete = mark_shard_done(layout, opts)?;
     if complete {
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        finalize(layout, job, &variants, &models, &all, &durable)?;
+        finalize(layout, job, &variants, &models, &all, &durable, &mut stages)?;
         write_marker(&layout.success())?;
     }
-    // The 6-UPS path does not time its stages yet: `stages` stays zero.
-    let stages = crate::run::StageTimes::default();
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
 }
 
@@ -176,6 +149,7 @@ fn finalize(
     models: &[(UpsModel, SampleSource)],
     all: &[Unit],
     write_opts: &WriteOptions,
+    stages: &mut StageTimes,
 ) -> Result<()> {
     let mut summary = Vec::new();
     let mut switches = Vec::new();
@@ -185,7 +159,9 @@ fn finalize(
             for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
                 stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
             }
+            let searching = Instant::now();
             let found = search(variant, model, source, mode);
+            stages.search += searching.elapsed().as_secs_f64();
             let mut counts = [0u64; 2];
             for s in &found {
                 counts[s.kind] += 1;
@@ -200,11 +176,13 @@ fn finalize(
             });
         }
     }
+    let writing = Instant::now();
     let batch = ups_discontinuity_batch(&switches);
     write_parquet(&layout.discontinuities(), batch.schema(), &[batch], write_opts, &[])?;
     let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
     let batch = ups_summary_batch(&names, &summary);
     write_parquet(&layout.summary(), batch.schema(), &[batch], write_opts, &[])?;
+    stages.writing += writing.elapsed().as_secs_f64();
     Ok(())
 }
 
