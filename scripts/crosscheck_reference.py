@@ -807,9 +807,10 @@ def compare(ref, eng, job_label, stats, P, notes=None, strict_dominant=False, ne
             scale[(m, c)] = max(mc[c], GROUP_FLOOR * mg[group_of(c)],
                                 PHYS_FLOOR * phys.get(group_of(c), 0.0))
             fam[(m, c)] = family_magnitude(group_of(c), mg, P["size"])
-            if P.get("kind") == ru.KIND and group_of(c) in FAMILIES and not group_of(c).startswith("env"):
-                # u_angular's error is zero, but the passive motions that cancel its
-                # take-up are of its size: that is the solution vector's magnitude.
+            if P.get("kind") == ru.KIND and group_of(c) in FAMILIES:
+                # u_angular's error and envelope are zero, but the passive motions that
+                # cancel its take-up are of its size: that is the solution vector's
+                # magnitude, and the reference's round-off on them.
                 fam[(m, c)] = max(fam[(m, c)], phys[group_of(c)])
     S_all = {c: np.array([scale[(m, c)] for m in modes]) for c in num_cols}
     R_all = {c: COND_ALLOWANCE * EPS * kap * np.array([fam[(m, c)] for m in modes])
