@@ -446,19 +446,10 @@ fn envelope_is_the_worst_case_and_names_the_joint() {
                     best = (own_dp, Some((k, i)));
                 }
             }
-            for c in 0..8 {
-                let env = r.envelope[k][c];
+            for (c, (&env, &brute)) in r.envelope[k].iter().zip(&brute).enumerate() {
                 // The lattice's spacing (~0.025 rad) undershoots a maximum by < 1e-3.
-                assert!(
-                    env >= brute[c] * (1.0 - 1e-12) - 1e-12 * scale,
-                    "kind {k} part {c}: {env} < sampled {}",
-                    brute[c]
-                );
-                assert!(
-                    env <= brute[c] * (1.0 + 1e-3) + 1e-12 * scale,
-                    "kind {k} part {c}: {env} > sampled {}",
-                    brute[c]
-                );
+                assert!(env >= brute * (1.0 - 1e-12) - 1e-12 * scale, "kind {k} part {c}: {env} < sampled {brute}");
+                assert!(env <= brute * (1.0 + 1e-3) + 1e-12 * scale, "kind {k} part {c}: {env} > sampled {brute}");
             }
             if k == 2 {
                 assert!(r.envelope[2].iter().all(|v| v.abs() <= 1e-12 * clearance[2]), "{:?}", r.envelope[2]);
@@ -474,8 +465,8 @@ fn envelope_is_the_worst_case_and_names_the_joint() {
                 err.dp.norm(),
                 err.dalpha.norm(),
             ];
-            for c in 0..8 {
-                assert!(e[c].abs() <= r.envelope[k][c] * (1.0 + 1e-9) + 1e-15 * scale, "kind {k} part {c} outside");
+            for (c, (v, env)) in e.iter().zip(&r.envelope[k]).enumerate() {
+                assert!(v.abs() <= env * (1.0 + 1e-9) + 1e-15 * scale, "kind {k} part {c} outside");
             }
         }
         for c in 0..8 {
