@@ -182,8 +182,9 @@ impl Layout {
                 _ => {
                     let names: Vec<&str> = swept.iter().map(|&k| INPUTS[k]).collect();
                     return Err(format!(
-                        "a map needs two swept inputs (ranges) and this grid sweeps {}; give two of {} as \
-                         {{ start, stop, n }}, or read the poses/ Parquet files with pyarrow, Polars or DuckDB",
+                        "a 6-UPS grid is drawn as maps over two swept inputs (ranges), and this one sweeps {}; \
+                         give two of {} as {{ start, stop, n }}, or read the poses/ Parquet files with \
+                         pyarrow, Polars or DuckDB",
                         if names.is_empty() { "none".to_string() } else { format!("only `{}`", names.join("`, `")) },
                         inputs.join(", "),
                     ));
