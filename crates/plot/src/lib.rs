@@ -12,6 +12,14 @@
 //! | trajectory | `parasitic_motion.png`: X, Y, Φ with velocities and accelerations against t | 1680 × 1000 | Fig. 14 |
 //! | trajectory | `total_trajectory.png`, `<kind>_trajectory.png`: the six errors against Θ (else the input that moves), kinetostatics black, dynamics blue, switches dashed | [`ERROR_SIZE`] 1680 × 1000 | Figs. 15–17 |
 //!
+//! A 6-UPS run (docs/model.md §10.3) gets the same figures over its own inputs,
+//! kinds and limbs: its grid maps lie on the plane of the first two swept inputs in
+//! the order `x, y, z, phi, psi, theta` at the first value of the others (a grid with
+//! fewer than two swept inputs is refused, [`PlotError::Unsupported`]), with only the
+//! switches on that plane; its 18 joints have their own [`dominant_colour`]s; along a
+//! trajectory its moving inputs are drawn with their rates, and its errors against t
+//! (it has no parasitic motion).
+//!
 //! Every figure has a 100-pixel header: the job's name and what is shown, then the
 //! variant's swept values, the clearances, and how nulls and switches are drawn.
 //! Grids finer than 800 lines per axis and trajectories longer than 20 000 samples
