@@ -14,9 +14,8 @@ use arrow::datatypes::{Field, Schema};
 use arrow::record_batch::RecordBatch;
 use clearance_model::Mode;
 use clearance_plot::{ERROR_SIZE, MAP_SIZE, PlotError, dominant_colour, plot_run};
-use common::{Png, files_under, floats, make_ups_run, strings, write_ups_switches};
+use common::{HEADER, Png, body_difference, files_under, floats, make_ups_run, strings, write_ups_switches};
 
-const HEADER: u32 = 100;
 /// An error figure's panels are 560 × 470 pixels below the header, the last 110
 /// pixels of each its colour bar.
 const PANEL: (u32, u32) = (560, 470);
@@ -49,12 +48,6 @@ const N_X: usize = 9;
 const N_PSI: usize = 7;
 const X: (f64, f64) = (-0.12, 0.12);
 const PSI: (f64, f64) = (-0.15, 0.15);
-
-/// The pixels that differ below the header (the subtitle counts the switches).
-fn body_difference(a: &Png, b: &Png) -> usize {
-    let skip = (HEADER * a.width) as usize;
-    a.pixels[skip..].iter().zip(&b.pixels[skip..]).filter(|(p, q)| p != q).count()
-}
 
 /// The envelope and dominant-joint columns (which the 6-UPS engine may or may not
 /// write): dropped, so that each test decides whether the run has them.

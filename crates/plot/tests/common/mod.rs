@@ -157,6 +157,15 @@ pub fn write_switches(dir: &Path, rows: &[SwitchRow]) -> PathBuf {
     path
 }
 
+/// Figures share a 100-pixel header (title, subtitle); the panels are below it.
+pub const HEADER: u32 = 100;
+
+/// The pixels that differ below the header (the subtitle counts the switches).
+pub fn body_difference(a: &Png, b: &Png) -> usize {
+    let skip = (HEADER * a.width) as usize;
+    a.pixels[skip..].iter().zip(&b.pixels[skip..]).filter(|(p, q)| p != q).count()
+}
+
 /// A decoded figure.
 pub struct Png {
     pub width: u32,
