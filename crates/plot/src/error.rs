@@ -24,7 +24,8 @@ pub enum PlotError {
     /// plotters or the PNG encoder failed.
     #[error("cannot draw {path}: {message}")]
     Draw { path: PathBuf, message: String },
-    /// The run's mechanism kind has no figures (the 6-UPS, for now).
+    /// The run holds nothing a figure can show: a 6-UPS grid with fewer than two
+    /// swept inputs (its maps need two).
     #[error("{dir}: {why}")]
     Unsupported { dir: PathBuf, why: String },
     /// The embedded font (data/fonts/DejaVuSans.ttf) is not a usable TrueType file.

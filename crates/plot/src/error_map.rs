@@ -1,8 +1,9 @@
 //! The paper's Figs. 6–12: six colour maps of the pose error over the Ψ–Θ
-//! workspace at one `z`, for one clearance kind or all of them, with the switch
-//! locus drawn over them.
+//! workspace at one `z` (a 6-UPS: over its [`Plane`] of two swept inputs), for one
+//! clearance kind or all of them, with the switch locus drawn over them.
 //!
-//! Ψ runs horizontally and Θ vertically, as in the paper. Each sample colours the
+//! Ψ runs horizontally and Θ vertically, as in the paper (the plane's first input
+//! across, its second up). Each sample colours the
 //! pixels nearest to it (no interpolation: a discontinuity stays a sharp edge).
 //! Each panel has its own colour bar; when a few poses near a singularity would
 //! stretch it over the whole map, the bar is clipped to the 1–99 % quantiles
@@ -17,13 +18,14 @@ use crate::figure::{
     Area, COMPONENTS, Component, DrawResult, ERROR_SCALE, NULL_GREY, font, header, max_abs, render, tick_label, turbo,
     value_range,
 };
+use crate::run_dir::Plane;
 
 /// Pixel size of an error-map figure.
 pub const MAP_SIZE: (u32, u32) = (1680, 1040);
 const HEADER: u32 = 100;
 const BAR_WIDTH: u32 = 110;
 
-/// One colour map: a component's values in display units, slot `i_ψ·n_θ + i_θ`.
+/// One colour map: a component's values in display units, slot `i_across·n_up + i_up`.
 pub(crate) struct MapPanel {
     pub component: Component,
     pub values: Vec<f64>,
@@ -33,10 +35,9 @@ pub(crate) struct MapPanel {
 pub(crate) struct ErrorMap<'a> {
     pub title: String,
     pub subtitle: String,
-    pub psi: &'a [f64],
-    pub theta: &'a [f64],
+    pub plane: &'a Plane,
     pub panels: Vec<MapPanel>,
-    /// Switch locations `(ψ, θ)`.
+    /// Switch locations `(across, up)`.
     pub switches: Vec<(f64, f64)>,
 }
 
@@ -97,16 +98,18 @@ fn extent(axis: &[f64]) -> (f64, f64) {
     }
 }
 
-/// A map over Ψ (across) and Θ (up) with its axes: each pixel takes `colour` of the
-/// slot `i_ψ·len(θ) + i_θ` of the nearest sample (no interpolation: a discontinuity
-/// stays a sharp edge), and the switch locations are drawn over it as black dots.
+/// A map over the plane's inputs (Ψ across, Θ up on a 3-limb grid): each pixel takes
+/// `colour` of the slot `i_across·len(up) + i_up` of the nearest sample (no
+/// interpolation: a discontinuity stays a sharp edge), and the switch locations are
+/// drawn over it as black dots.
 pub(crate) fn draw_map(
     area: &Area<'_>,
     caption: &str,
-    (psi, theta): (&[f64], &[f64]),
+    plane: &Plane,
     switches: &[(f64, f64)],
     colour: impl Fn(usize) -> RGBColor,
 ) -> DrawResult {
+    let (psi, theta) = (plane.across.values.as_slice(), plane.up.values.as_slice());
     let (x0, x1) = extent(psi);
     let (y0, y1) = extent(theta);
     let mut chart = ChartBuilder::on(area)
@@ -124,8 +127,8 @@ pub(crate) fn draw_map(
         .y_label_formatter(&|v| tick_label(*v, y1 - y0))
         .label_style(font(14.0))
         .axis_desc_style(font(16.0))
-        .x_desc("Ψ (rad)")
-        .y_desc("Θ (rad)")
+        .x_desc(plane.across.desc())
+        .y_desc(plane.up.desc())
         .draw()?;
     let plot = chart.plotting_area().strip_coord_spec();
     let (pw, ph) = plot.dim_in_pixel();
@@ -185,7 +188,7 @@ impl ErrorMap<'_> {
             let v = panel.values[slot];
             if v.is_finite() { turbo((v - lo) / (hi - lo)) } else { NULL_GREY }
         };
-        draw_map(&map_area, &caption, (self.psi, self.theta), &self.switches, colour)?;
+        draw_map(&map_area, &caption, self.plane, &self.switches, colour)?;
 
         // The colour bar, aligned with the map: same caption height and margins.
         let mut bar = ChartBuilder::on(&bar_area)

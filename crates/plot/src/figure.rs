@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use clearance_model::ClearanceKind;
+use clearance_model::ClearanceSpec;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -53,18 +53,19 @@ impl Component {
     }
 }
 
-/// Which error a figure shows: all kinds together, or one kind alone.
+/// Which error a figure shows: all kinds together, or one kind alone, named as in
+/// the job's `[clearance]` (`r_axial`, `u_radial`, …; the mechanism's `clearance_keys`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Source {
     Total,
-    Kind(ClearanceKind),
+    Kind(&'static str),
 }
 
 impl Source {
     pub fn column(self, c: Component) -> String {
         match self {
             Source::Total => format!("err_{}", c.suffix),
-            Source::Kind(k) => format!("err_{}_{}", k.name(), c.suffix),
+            Source::Kind(k) => format!("err_{k}_{}", c.suffix),
         }
     }
 
@@ -72,17 +73,20 @@ impl Source {
     pub fn stem(self) -> &'static str {
         match self {
             Source::Total => "total",
-            Source::Kind(k) => k.name(),
+            Source::Kind(k) => k,
         }
     }
 
     pub fn describe(self) -> &'static str {
         match self {
             Source::Total => "all clearances",
-            Source::Kind(ClearanceKind::SRadial) => "radial clearance at S joints",
-            Source::Kind(ClearanceKind::RRadial) => "radial clearance at R joints",
-            Source::Kind(ClearanceKind::RAxial) => "axial clearance at R joints",
-            Source::Kind(ClearanceKind::RAngular) => "angular clearance at R joints",
+            Source::Kind("s_radial") => "radial clearance at S joints",
+            Source::Kind("r_radial") => "radial clearance at R joints",
+            Source::Kind("r_axial") => "axial clearance at R joints",
+            Source::Kind("r_angular") => "angular clearance at R joints",
+            Source::Kind("u_radial") => "radial clearance at U joints",
+            Source::Kind("u_angular") => "angular clearance at U joints",
+            Source::Kind(k) => k,
         }
     }
 
@@ -90,9 +94,45 @@ impl Source {
     pub fn shows(self, kind: &str) -> bool {
         match self {
             Source::Total => true,
-            Source::Kind(k) => k.name() == kind,
+            Source::Kind(k) => k == kind,
         }
     }
+}
+
+/// The magnitude of the clearance kind `name` in a job (0 for a name it has not).
+pub(crate) fn clearance_of(c: &ClearanceSpec, name: &str) -> f64 {
+    match name {
+        "s_radial" => c.s_radial,
+        "r_radial" => c.r_radial,
+        "r_axial" => c.r_axial,
+        "r_angular" => c.r_angular,
+        "u_radial" => c.u_radial,
+        "u_angular" => c.u_angular,
+        _ => 0.0,
+    }
+}
+
+/// Every pose input, in the grids' row-major order (a 3-limb job's `x, y, phi` are
+/// single zeros there).
+pub(crate) const INPUTS: [&str; 6] = ["x", "y", "z", "phi", "psi", "theta"];
+
+/// The symbol and unit of an input (`psi` → Ψ, rad) or of time `t`.
+pub(crate) fn input_symbol(name: &str) -> (&'static str, &'static str) {
+    match name {
+        "x" => ("X", "m"),
+        "y" => ("Y", "m"),
+        "z" => ("Z", "m"),
+        "phi" => ("Φ", "rad"),
+        "psi" => ("Ψ", "rad"),
+        "theta" => ("Θ", "rad"),
+        _ => ("t", "s"),
+    }
+}
+
+/// An axis label: `Ψ (rad)`.
+pub(crate) fn input_desc(name: &str) -> String {
+    let (symbol, unit) = input_symbol(name);
+    format!("{symbol} ({unit})")
 }
 
 pub(crate) const FONT: &str = "sans-serif";

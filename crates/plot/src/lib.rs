@@ -12,6 +12,14 @@
 //! | trajectory | `parasitic_motion.png`: X, Y, Φ with velocities and accelerations against t | 1680 × 1000 | Fig. 14 |
 //! | trajectory | `total_trajectory.png`, `<kind>_trajectory.png`: the six errors against Θ (else the input that moves), kinetostatics black, dynamics blue, switches dashed | [`ERROR_SIZE`] 1680 × 1000 | Figs. 15–17 |
 //!
+//! A 6-UPS run (docs/model.md §10.3) gets the same figures over its own inputs,
+//! kinds and limbs: its grid maps lie on the plane of the first two swept inputs in
+//! the order `x, y, z, phi, psi, theta` at the first value of the others (a grid with
+//! fewer than two swept inputs is refused, [`PlotError::Unsupported`]), with only the
+//! switches on that plane; its 18 joints have their own [`dominant_colour`]s; along a
+//! trajectory its moving inputs are drawn with their rates, and its errors against t
+//! (it has no parasitic motion).
+//!
 //! Every figure has a 100-pixel header: the job's name and what is shown, then the
 //! variant's swept values, the clearances, and how nulls and switches are drawn.
 //! Grids finer than 800 lines per axis and trajectories longer than 20 000 samples
@@ -48,15 +56,15 @@ mod trajectory;
 use std::path::{Path, PathBuf};
 
 use clearance_grid::SampleSource;
-use clearance_model::{KINDS, Variant};
+use clearance_model::{MechanismKind, Variant};
 
 pub use dominant_map::dominant_colour;
 pub use error::PlotError;
 pub use error_map::MAP_SIZE;
 pub use trajectory::ERROR_SIZE;
 
-use figure::{COMPONENTS, ENVELOPE_COMPONENTS, Source};
-use run_dir::{Layout, ModeData, RunDir};
+use figure::{COMPONENTS, ENVELOPE_COMPONENTS, Source, clearance_of};
+use run_dir::{Layout, ModeData, Plane, RunDir};
 use switches::Switch;
 
 static FONT_BYTES: &[u8] = include_bytes!("../../../data/fonts/DejaVuSans.ttf");
@@ -86,16 +94,17 @@ pub fn plot_run(run_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, PlotErro
                 why: format!("{} is missing", poses.display()),
             });
         }
+        let source = SampleSource::new(&variant.job);
+        let layout = Layout::of(&source, variant.job.mechanism.kind)
+            .map_err(|why| PlotError::Unsupported { dir: run_dir.to_path_buf(), why })?;
         let dir = out_dir.join(format!("variant={}", variant.index));
         std::fs::create_dir_all(&dir).map_err(PlotError::io(&dir))?;
-        let source = SampleSource::new(&variant.job);
-        let layout = Layout::of(&source);
         let data = run_dir::read_variant(&run, variant.index, &layout)?;
         let mine: Option<Vec<&Switch>> =
             switches.as_ref().map(|all| all.iter().filter(|s| s.variant == variant.index).collect());
         let ctx = Context { run: &run, variant, dir: &dir, switches: mine.as_deref() };
         match &layout {
-            Layout::Grid { z0, psi, theta, .. } => ctx.grid_figures(&data, *z0, psi, theta, &mut written)?,
+            Layout::Grid(plane) => ctx.grid_figures(&data, plane, &mut written)?,
             Layout::Trajectory { samples, .. } => ctx.trajectory_figures(&source, samples, &data, &mut written)?,
         }
     }
@@ -112,15 +121,20 @@ struct Context<'a> {
 }
 
 impl Context<'_> {
+    /// The mechanism's clearance kinds (`s_radial`, `r_radial`, …).
+    fn kinds(&self) -> &'static [&'static str] {
+        self.variant.job.mechanism.kind.clearance_keys()
+    }
+
     /// Total first, then each enabled kind whose columns some mode holds.
     fn sources(&self, data: &[ModeData]) -> Vec<Source> {
         let has = |s: Source| data.iter().any(|d| COMPONENTS.iter().any(|&c| d.column(&s.column(c)).is_some()));
         let clearance = &self.variant.job.clearance;
         std::iter::once(Source::Total)
-            .chain(KINDS.into_iter().map(Source::Kind))
+            .chain(self.kinds().iter().map(|&k| Source::Kind(k)))
             .filter(|&s| match s {
                 Source::Total => has(s),
-                Source::Kind(k) => clearance.get(k) != 0.0 && has(s),
+                Source::Kind(k) => clearance_of(clearance, k) != 0.0 && has(s),
             })
             .collect()
     }
@@ -141,12 +155,13 @@ impl Context<'_> {
     /// The clearances a figure of `source` includes, as `r_radial = 100 µm, ...`.
     fn clearances(&self, source: Source) -> String {
         let c = &self.variant.job.clearance;
-        let list: Vec<String> = KINDS
-            .into_iter()
-            .filter(|&k| source.shows(k.name()) && c.get(k) != 0.0)
-            .map(|k| {
-                let unit = if k.name() == "r_angular" { "µrad" } else { "µm" };
-                format!("{} = {} {unit}", k.name(), short(c.get(k) * 1e6))
+        let list: Vec<String> = self
+            .kinds()
+            .iter()
+            .filter(|&&k| source.shows(k) && clearance_of(c, k) != 0.0)
+            .map(|&k| {
+                let unit = if k.ends_with("_angular") { "µrad" } else { "µm" };
+                format!("{k} = {} {unit}", short(clearance_of(c, k) * 1e6))
             })
             .collect();
         if list.is_empty() { "no clearance (rigid joints)".to_string() } else { list.join(", ") }
@@ -163,47 +178,42 @@ impl Context<'_> {
         (chosen, format!("{n} switch{}", if n == 1 { "" } else { "es" }))
     }
 
-    /// The switches of `mode` a map of `source` at `z0` marks, as `(ψ, θ)`, and the
-    /// subtitle's note on them.
-    fn switches_at(&self, source: Source, mode: &str, z0: f64) -> (Vec<(f64, f64)>, String) {
-        let z_tol = 1e-9 * z0.abs().max(1.0);
+    /// The switches of `mode` a map of `source` on `plane` marks, as `(across, up)`,
+    /// and the subtitle's note on them.
+    fn switches_on(&self, source: Source, mode: &str, plane: &Plane) -> (Vec<(f64, f64)>, String) {
         let (switches, note) = self.switches_for(source, Some(mode));
-        let at_z0: Vec<(f64, f64)> =
-            switches.iter().filter(|s| (s.z - z0).abs() <= z_tol).map(|s| (s.psi, s.theta)).collect();
+        let on_plane: Vec<(f64, f64)> = switches
+            .iter()
+            .filter(|s| s.on(plane))
+            .filter_map(|s| Some((s.coordinate(plane.across.input)?, s.coordinate(plane.up.input)?)))
+            .collect();
         let note = match self.switches {
-            Some(_) => format!("black dots: switch locus ({} at this Z)", at_z0.len()),
+            Some(_) => format!("black dots: switch locus ({} {})", on_plane.len(), plane.here()),
             None => note,
         };
-        (at_z0, note)
+        (on_plane, note)
     }
 
-    fn grid_figures(
-        &self,
-        data: &[ModeData],
-        z0: f64,
-        psi: &[f64],
-        theta: &[f64],
-        written: &mut Vec<PathBuf>,
-    ) -> Result<(), PlotError> {
+    fn grid_figures(&self, data: &[ModeData], plane: &Plane, written: &mut Vec<PathBuf>) -> Result<(), PlotError> {
+        let at = plane.fixed_desc();
+        let slots = plane.across.values.len() * plane.up.values.len();
         for source in self.sources(data) {
             for mode in data {
                 let columns = trajectory::error_columns(mode, source);
                 if columns.iter().all(Option::is_none) {
                     continue;
                 }
-                let (at_z0, note) = self.switches_at(source, &mode.mode, z0);
+                let (on_plane, note) = self.switches_on(source, &mode.mode, plane);
                 let map = error_map::ErrorMap {
                     title: format!("{} — {}, {}", self.title(), source.describe(), mode.mode),
                     subtitle: format!(
-                        "{}pose error at Z = {} m · {} · grey: no value (status ≠ ok) · {note}",
+                        "{}pose error at {at} · {} · grey: no value (status ≠ ok) · {note}",
                         self.variant_note(),
-                        short(z0),
                         self.clearances(source),
                     ),
-                    psi,
-                    theta,
-                    panels: error_map::panels(columns, psi.len() * theta.len()),
-                    switches: at_z0,
+                    plane,
+                    panels: error_map::panels(columns, slots),
+                    switches: on_plane,
                 };
                 let path = self.dir.join(format!("{}_{}.png", source.stem(), mode.mode));
                 map.write(&path)?;
@@ -219,41 +229,37 @@ impl Context<'_> {
             let map = error_map::ErrorMap {
                 title: format!("{} — worst case over every take-up, {}", self.title(), mode.mode),
                 subtitle: format!(
-                    "{}envelope at Z = {} m · {} · grey: no value (unreachable or near-singular)",
+                    "{}envelope at {at} · {} · grey: no value (unreachable or near-singular)",
                     self.variant_note(),
-                    short(z0),
                     self.clearances(Source::Total),
                 ),
-                psi,
-                theta,
-                panels: error_map::panels_of(&ENVELOPE_COMPONENTS, columns, psi.len() * theta.len()),
+                plane,
+                panels: error_map::panels_of(&ENVELOPE_COMPONENTS, columns, slots),
                 switches: Vec::new(),
             };
             let path = self.dir.join(format!("envelope_{}.png", mode.mode));
             map.write(&path)?;
             written.push(path);
         }
-        // The joint to tighten, with every switch of the mode at this Z.
-        let joints = run_dir::joints();
+        // The joint to tighten, with every switch of the mode on this plane.
+        let joints = run_dir::joints(self.variant.job.mechanism.kind);
         for mode in data {
             let Some(values) = mode.column(run_dir::DOMINANT) else { continue };
             if values.iter().all(|v| !v.is_finite()) {
                 continue;
             }
-            let (at_z0, note) = self.switches_at(Source::Total, &mode.mode, z0);
+            let (on_plane, note) = self.switches_on(Source::Total, &mode.mode, plane);
             let map = dominant_map::DominantMap {
                 title: format!("{} — the joint to tighten, {}", self.title(), mode.mode),
                 subtitle: format!(
-                    "{}largest contribution to |Δp| at Z = {} m · {} · grey: none (status ≠ ok) · {note}",
+                    "{}largest contribution to |Δp| at {at} · {} · grey: none (status ≠ ok) · {note}",
                     self.variant_note(),
-                    short(z0),
                     self.clearances(Source::Total),
                 ),
-                psi,
-                theta,
+                plane,
                 values,
                 names: &joints,
-                switches: at_z0,
+                switches: on_plane,
             };
             let path = self.dir.join(format!("dominant_{}.png", mode.mode));
             map.write(&path)?;
@@ -270,20 +276,27 @@ impl Context<'_> {
         written: &mut Vec<PathBuf>,
     ) -> Result<(), PlotError> {
         let title = self.title();
+        let kind = self.variant.job.mechanism.kind;
         let inputs = self.dir.join("inputs_motion.png");
-        let parasitic = self.dir.join("parasitic_motion.png");
+        // A 6-UPS has no parasitic motion.
+        let parasitic = (kind != MechanismKind::Ups6).then(|| self.dir.join("parasitic_motion.png"));
+        let rates = if parasitic.is_some() {
+            "nominal inverse kinematics, exact rates (automatic differentiation)"
+        } else {
+            "the inputs with the exact rates of their harmonics"
+        };
         trajectory::write_motions(
             &self.variant.job,
             samples,
             &title,
-            &format!("{}nominal inverse kinematics, exact rates (automatic differentiation)", self.variant_note()),
+            &format!("{}{rates}", self.variant_note()),
             &inputs,
-            &parasitic,
+            parasitic.as_deref(),
         )?;
         written.push(inputs);
-        written.push(parasitic);
+        written.extend(parasitic);
 
-        let (along, x_desc, x) = trajectory::abscissa(sample_source, samples);
+        let (along, x_desc, x) = trajectory::abscissa(sample_source, samples, kind);
         for source in self.sources(data) {
             let (switches, note) = self.switches_for(source, None);
             let modes: Vec<&str> = data.iter().map(|d| d.mode.as_str()).collect();

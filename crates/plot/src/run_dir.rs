@@ -4,7 +4,9 @@
 //! error columns (`err_<c>`, `err_<kind>_<c>`, `env_<c>`, `dominant`) that the files hold, projected at
 //! the Parquet level so a `full` run costs no more than a `minimal` one. Rows are
 //! placed by their `sample` number, so part files can come in any order; on a grid
-//! only the first `z` value is kept (the figures are maps over Ψ–Θ at one `z`).
+//! only the rows of one [`Plane`] are kept (the figures are maps over Ψ–Θ at the
+//! first `z`, or over a 6-UPS grid's first two swept inputs at the first value of
+//! the others).
 //! Grids finer than [`MAX_MAP_AXIS`] lines per axis and trajectories longer than
 //! [`MAX_TRAJECTORY_POINTS`] are decimated while reading: a figure cannot show more,
 //! and a 50-million-pose run must not need gigabytes to plot.
@@ -18,12 +20,12 @@ use arrow::compute::cast;
 use arrow::datatypes::DataType;
 use clearance_engine::Layout as RunLayout;
 use clearance_grid::SampleSource;
-use clearance_model::{JobSpec, KINDS, Variant, joint_name};
+use clearance_model::{JobSpec, MechanismKind, Variant};
 use parquet::arrow::ProjectionMask;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 use crate::PlotError;
-use crate::figure::COMPONENTS;
+use crate::figure::{COMPONENTS, INPUTS};
 
 /// A run directory with its job parsed and its sweeps expanded.
 pub(crate) struct RunDir {
@@ -47,14 +49,6 @@ impl RunDir {
         let text = std::fs::read_to_string(&job_path).map_err(PlotError::io(&job_path))?;
         let file = job_path.display().to_string();
         let job = JobSpec::from_toml_str(&text, &file)?;
-        if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
-            return Err(PlotError::Unsupported {
-                dir: dir.to_path_buf(),
-                why: "a 6-UPS run has no figures yet; its Parquet files (poses/, summary.parquet, \
-                      discontinuities.parquet) read with pyarrow, Polars or DuckDB"
-                    .to_string(),
-            });
-        }
         let variants = job.variants(&file)?;
         Ok(Self { layout, job, variants })
     }
@@ -87,53 +81,143 @@ fn stride(n: u64, max: u64) -> u64 {
     if n <= max { 1 } else { (n - 1).div_ceil(max - 1) }
 }
 
+/// One axis of a map: an input and the values of its kept grid lines.
+#[derive(Clone, Debug)]
+pub(crate) struct Axis {
+    /// The input's name (`psi`), one of [`INPUTS`].
+    pub input: &'static str,
+    pub values: Vec<f64>,
+    /// Its place in [`INPUTS`] and every `stride`-th grid line kept.
+    index: usize,
+    stride: u64,
+}
+
+impl Axis {
+    /// The axis label, `Ψ (rad)`.
+    pub fn desc(&self) -> String {
+        crate::figure::input_desc(self.input)
+    }
+}
+
+/// The plane a grid is mapped on: two swept inputs, `across` and `up`, at the first
+/// value of every other input (as the 3-limb maps show Ψ–Θ at the first `z`).
+#[derive(Clone, Debug)]
+pub(crate) struct Plane {
+    pub across: Axis,
+    pub up: Axis,
+    /// The mechanism's other inputs with the value the plane has: `[("z", 2.05)]`.
+    pub fixed: Vec<(&'static str, f64)>,
+    /// The grid's lengths over [`INPUTS`] (a 3-limb grid's `x, y, phi` are 1).
+    shape: [u64; 6],
+}
+
+impl Plane {
+    /// The slot of each grid sample `(i_across/s)·len(up) + i_up/s`; `None` off the
+    /// plane or between kept lines.
+    fn slot(&self, sample: u64) -> Option<usize> {
+        let mut rest = sample;
+        let mut index = [0u64; 6];
+        for k in (0..6).rev() {
+            index[k] = rest % self.shape[k];
+            rest /= self.shape[k];
+        }
+        if rest != 0 {
+            return None;
+        }
+        let on_plane = (0..6).all(|k| k == self.across.index || k == self.up.index || index[k] == 0);
+        let (a, u) = (&self.across, &self.up);
+        let (ia, iu) = (index[a.index], index[u.index]);
+        let kept = ia.is_multiple_of(a.stride) && iu.is_multiple_of(u.stride);
+        (on_plane && kept).then(|| (ia / a.stride) as usize * u.values.len() + (iu / u.stride) as usize)
+    }
+
+    /// `Z = 2.05 m, Φ = 0 rad`: where the plane lies.
+    pub fn fixed_desc(&self) -> String {
+        let at: Vec<String> = self
+            .fixed
+            .iter()
+            .map(|&(name, v)| {
+                let (symbol, unit) = crate::figure::input_symbol(name);
+                format!("{symbol} = {} {unit}", crate::short(v))
+            })
+            .collect();
+        at.join(", ")
+    }
+
+    /// `at this Z` for one fixed input, else `on this plane`.
+    pub fn here(&self) -> String {
+        match self.fixed.as_slice() {
+            [(name, _)] => format!("at this {}", crate::figure::input_symbol(name).0),
+            _ => "on this plane".to_string(),
+        }
+    }
+}
+
 /// Where a sample's row goes in the per-mode arrays.
 #[derive(Clone, Debug)]
 pub(crate) enum Layout {
-    /// The Ψ–Θ plane at the first `z`, every `strides`-th grid line:
-    /// slot `(i_ψ/s_ψ)·len(theta) + i_θ/s_θ`. `psi`, `theta` hold the kept values.
-    Grid { z0: f64, psi: Vec<f64>, theta: Vec<f64>, n_theta: u64, strides: [u64; 2] },
+    /// A map over a [`Plane`]: slot `(i_across/s)·len(up) + i_up/s`.
+    Grid(Plane),
     /// Every `stride`-th sample of the trajectory: slot `sample/stride`.
     Trajectory { samples: Vec<u64>, stride: u64 },
 }
 
 impl Layout {
-    pub fn of(source: &SampleSource) -> Self {
-        match source.grid_shape() {
-            Some([_, n_psi, n_theta]) => {
-                let strides = [stride(n_psi, MAX_MAP_AXIS), stride(n_theta, MAX_MAP_AXIS)];
-                Layout::Grid {
-                    z0: source.sample(0).z[0],
-                    psi: (0..n_psi).step_by(strides[0] as usize).map(|i| source.sample(i * n_theta).psi[0]).collect(),
-                    theta: (0..n_theta).step_by(strides[1] as usize).map(|i| source.sample(i).theta[0]).collect(),
-                    n_theta,
-                    strides,
+    /// The layout of `source`'s samples for a mechanism of `kind`. A 3-limb grid is
+    /// mapped over Ψ–Θ (the paper's maps); a 6-UPS grid over its first two swept
+    /// inputs, in the order of [`INPUTS`]. `Err` says why a grid has no such plane.
+    pub fn of(source: &SampleSource, kind: MechanismKind) -> Result<Self, String> {
+        let SampleSource::Grid(grid) = source else {
+            let stride = stride(source.len(), MAX_TRAJECTORY_POINTS);
+            return Ok(Layout::Trajectory { samples: (0..source.len()).step_by(stride as usize).collect(), stride });
+        };
+        let ranges = grid.axes6();
+        let shape = ranges.map(|r| r.len());
+        let inputs = kind.inputs();
+        let index_of = |name: &str| INPUTS.iter().position(|i| *i == name).expect("an input");
+        let (a, u) = if kind == MechanismKind::Ups6 {
+            let swept: Vec<usize> = (0..6).filter(|&k| shape[k] > 1).collect();
+            match swept[..] {
+                [a, u, ..] => (a, u),
+                _ => {
+                    let names: Vec<&str> = swept.iter().map(|&k| INPUTS[k]).collect();
+                    return Err(format!(
+                        "a 6-UPS grid is drawn as maps over two swept inputs (ranges), and this one sweeps {}; \
+                         give two of {} as {{ start, stop, n }}, or read the poses/ Parquet files with \
+                         pyarrow, Polars or DuckDB",
+                        if names.is_empty() { "none".to_string() } else { format!("only `{}`", names.join("`, `")) },
+                        inputs.join(", "),
+                    ));
                 }
             }
-            None => {
-                let stride = stride(source.len(), MAX_TRAJECTORY_POINTS);
-                Layout::Trajectory { samples: (0..source.len()).step_by(stride as usize).collect(), stride }
-            }
-        }
+        } else {
+            (index_of("psi"), index_of("theta"))
+        };
+        let axis = |k: usize| {
+            let stride = stride(shape[k], MAX_MAP_AXIS);
+            let values = (0..shape[k]).step_by(stride as usize).map(|i| ranges[k].value(i)).collect();
+            Axis { input: INPUTS[k], values, index: k, stride }
+        };
+        let fixed = inputs
+            .iter()
+            .map(|&name| index_of(name))
+            .filter(|&k| k != a && k != u)
+            .map(|k| (INPUTS[k], ranges[k].value(0)))
+            .collect();
+        Ok(Layout::Grid(Plane { across: axis(a), up: axis(u), fixed, shape }))
     }
 
     pub fn slots(&self) -> usize {
         match self {
-            Layout::Grid { psi, theta, .. } => psi.len() * theta.len(),
+            Layout::Grid(p) => p.across.values.len() * p.up.values.len(),
             Layout::Trajectory { samples, .. } => samples.len(),
         }
     }
 
-    /// The slot of `sample`; `None` for samples at another `z` or between kept lines.
+    /// The slot of `sample`; `None` for samples off the plane or between kept lines.
     fn slot(&self, sample: u64) -> Option<usize> {
         match self {
-            Layout::Grid { psi, theta, n_theta, strides, .. } => {
-                let (i_psi, i_theta) = (sample / n_theta, sample % n_theta);
-                let (j_psi, j_theta) = (i_psi / strides[0], i_theta / strides[1]);
-                let kept = i_psi % strides[0] == 0 && i_theta % strides[1] == 0;
-                // Rows past the first z plane have j_psi ≥ len(psi).
-                (kept && j_psi < psi.len() as u64).then(|| (j_psi as usize) * theta.len() + j_theta as usize)
-            }
+            Layout::Grid(plane) => plane.slot(sample),
             Layout::Trajectory { stride, .. } => sample.is_multiple_of(*stride).then_some((sample / stride) as usize),
         }
     }
@@ -154,12 +238,12 @@ impl ModeData {
     }
 }
 
-/// Every error column a figure may draw.
-fn wanted_columns() -> Vec<String> {
+/// Every error column a figure may draw, for the clearance `kinds` of the mechanism.
+fn wanted_columns(kinds: &[&str]) -> Vec<String> {
     let mut names: Vec<String> = COMPONENTS.iter().map(|c| format!("err_{}", c.suffix)).collect();
-    for kind in KINDS {
+    for kind in kinds {
         for c in COMPONENTS {
-            names.push(format!("err_{}_{}", kind.name(), c.suffix));
+            names.push(format!("err_{kind}_{}", c.suffix));
         }
     }
     names.extend(crate::figure::ENVELOPE_COMPONENTS.iter().map(|c| format!("env_{}", c.suffix)));
@@ -172,14 +256,18 @@ fn wanted_columns() -> Vec<String> {
 /// engine does not write).
 pub(crate) const DOMINANT: &str = "dominant";
 
-/// Every joint the `dominant` column can name, kind by kind, limb by limb: a
-/// category keeps its place (and its colour) whichever joints a run holds.
-pub(crate) fn joints() -> Vec<String> {
-    (0..KINDS.len()).flat_map(|k| (0..3).map(move |j| joint_name(k, j))).collect()
+/// Every joint the `dominant` column of a `kind` run can name, clearance kind by
+/// clearance kind, limb by limb (`s1_radial`, …, `r3_angular`; `s1_radial`, …,
+/// `u6_angular`): a category keeps its place whichever joints a run holds.
+pub(crate) fn joints(kind: MechanismKind) -> Vec<String> {
+    kind.clearance_keys()
+        .iter()
+        .flat_map(|name| (1..=kind.limbs()).map(move |limb| format!("{}{limb}{}", &name[..1], &name[1..])))
+        .collect()
 }
 
 /// A column of `batch` as `f64` values: numbers cast, the `dominant` names as
-/// their place in [`joints`].
+/// their place in `joints`.
 fn values_of(path: &Path, name: &str, a: &ArrayRef, joints: &[String]) -> Result<Float64Array, PlotError> {
     if name != DOMINANT {
         return to_f64(path, name, a);
@@ -193,10 +281,12 @@ fn values_of(path: &Path, name: &str, a: &ArrayRef, joints: &[String]) -> Result
 
 /// Reads the poses of variant `k`, one [`ModeData`] per mode, in the job's mode order.
 pub(crate) fn read_variant(run: &RunDir, k: u64, layout: &Layout) -> Result<Vec<ModeData>, PlotError> {
-    let wanted = wanted_columns();
+    let kind = run.job.mechanism.kind;
+    let wanted = wanted_columns(kind.clearance_keys());
+    let joints = joints(kind);
     let mut modes: BTreeMap<String, ModeData> = BTreeMap::new();
     for path in run.part_files(k)? {
-        read_part(&path, layout, &wanted, &mut modes)?;
+        read_part(&path, layout, &wanted, &joints, &mut modes)?;
     }
     let order: Vec<&str> = run.job.analysis.modes.iter().map(|m| m.name()).collect();
     let mut out: Vec<ModeData> = modes.into_values().collect();
@@ -208,6 +298,7 @@ fn read_part(
     path: &Path,
     layout: &Layout,
     wanted: &[String],
+    joints: &[String],
     modes: &mut BTreeMap<String, ModeData>,
 ) -> Result<(), PlotError> {
     let pq = |source| PlotError::Parquet { path: path.to_path_buf(), source };
@@ -234,7 +325,6 @@ fn read_part(
         .unwrap_or("kinetostatic")
         .to_string();
     let slots = layout.slots();
-    let joints = joints();
     for batch in reader {
         let batch = batch.map_err(|source| PlotError::Arrow { path: path.to_path_buf(), source })?;
         let sample = batch.column_by_name("sample").ok_or_else(|| column_error(path, "sample", "missing"))?;
@@ -249,7 +339,7 @@ fn read_part(
             .iter()
             .zip(batch.columns())
             .filter(|(f, _)| wanted.iter().any(|w| w == f.name()))
-            .map(|(f, a)| Ok((f.name().as_str(), values_of(path, f.name(), a, &joints)?)))
+            .map(|(f, a)| Ok((f.name().as_str(), values_of(path, f.name(), a, joints)?)))
             .collect::<Result<_, PlotError>>()?;
         let mode_of = |row: usize| match &mode {
             Some(m) if m.is_valid(row) => m.value(row),
@@ -327,8 +417,11 @@ mod tests {
     fn fine_grids_keep_every_kth_line_including_the_last() {
         assert_eq!(stride(201, 800), 1);
         assert_eq!(stride(2001, 800), 3);
-        let layout = Layout::Grid { z0: 0.0, psi: vec![0.0; 4], theta: vec![0.0; 3], n_theta: 5, strides: [2, 2] };
-        // 7 × 5 plane: ψ lines 0, 2, 4, 6; θ lines 0, 2, 4.
+        let axis = |input: &'static str, index: usize, n: usize| Axis { input, values: vec![0.0; n], index, stride: 2 };
+        // A 3-limb grid of 2 z × 7 Ψ × 5 Θ: ψ lines 0, 2, 4, 6; θ lines 0, 2, 4.
+        let plane =
+            Plane { across: axis("psi", 4, 4), up: axis("theta", 5, 3), fixed: vec![], shape: [1, 1, 2, 1, 7, 5] };
+        let layout = Layout::Grid(plane);
         assert_eq!(layout.slot(0), Some(0));
         assert_eq!(layout.slot(4), Some(2));
         assert_eq!(layout.slot(2 * 5 + 2), Some(4));
@@ -336,6 +429,12 @@ mod tests {
         assert_eq!(layout.slot(1), None);
         assert_eq!(layout.slot(5), None);
         assert_eq!(layout.slot(7 * 5), None, "the next z plane");
+        // A 6-UPS grid of 3 x × 2 y × 4 ψ mapped over x–ψ: y's second value is off the plane.
+        let plane = Plane { across: axis("x", 0, 2), up: axis("psi", 4, 2), fixed: vec![], shape: [3, 2, 1, 1, 4, 1] };
+        let layout = Layout::Grid(plane);
+        assert_eq!(layout.slot(2 * 8 + 2), Some(3), "x line 2, ψ line 2");
+        assert_eq!(layout.slot(2 * 8 + 4 + 2), None, "y line 1");
+        assert_eq!(layout.slot(8 + 2), None, "x line 1 is not kept");
         let t = Layout::Trajectory { samples: vec![0, 3, 6], stride: 3 };
         assert_eq!((t.slot(6), t.slot(4)), (Some(2), None));
     }

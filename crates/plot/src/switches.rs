@@ -6,11 +6,12 @@
 use std::fs::File;
 use std::path::Path;
 
-use arrow::array::Array;
+use arrow::array::{Array, Float64Array};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 use crate::PlotError;
-use crate::run_dir::{column_error, to_f64, to_u64, to_utf8};
+use crate::figure::INPUTS;
+use crate::run_dir::{Plane, column_error, to_f64, to_u64, to_utf8};
 
 /// One switch: where the take-up of `kind` at `limb` flips.
 #[derive(Clone, Debug, PartialEq)]
@@ -19,22 +20,27 @@ pub(crate) struct Switch {
     pub mode: String,
     pub kind: String,
     pub t: Option<f64>,
-    pub z: f64,
-    pub psi: f64,
-    pub theta: f64,
+    /// The inputs of [`INPUTS`] where the file has them (a 3-limb run's switches have
+    /// no `x`, `y`, `phi`), NaN for a null.
+    pub inputs: [Option<f64>; 6],
 }
 
 impl Switch {
-    /// The switch's coordinate along an input (`t`, `z`, `psi`, `theta`).
+    /// The switch's coordinate along an input (`t`, `z`, `psi`, …).
     pub fn coordinate(&self, input: &str) -> Option<f64> {
         match input {
             "t" => self.t,
-            "z" => Some(self.z),
-            "psi" => Some(self.psi),
-            "theta" => Some(self.theta),
-            _ => None,
+            _ => INPUTS.iter().position(|i| *i == input).and_then(|k| self.inputs[k]),
         }
         .filter(|v| v.is_finite())
+    }
+
+    /// Is the switch on `plane`: at its value of every fixed input the file gives?
+    pub fn on(&self, plane: &Plane) -> bool {
+        plane.fixed.iter().all(|&(name, v0)| {
+            let k = INPUTS.iter().position(|i| *i == name).expect("an input");
+            self.inputs[k].is_none_or(|v| (v - v0).abs() <= 1e-9 * v0.abs().max(1.0))
+        })
     }
 }
 
@@ -53,14 +59,17 @@ pub(crate) fn read_switches(path: &Path) -> Result<Option<Vec<Switch>>, PlotErro
         let variant = to_u64(path, "variant", col("variant")?)?;
         let mode = to_utf8(path, "mode", col("mode")?)?;
         let kind = to_utf8(path, "kind", col("kind")?)?;
-        let z = to_f64(path, "z", col("z")?)?;
-        let psi = to_f64(path, "psi", col("psi")?)?;
-        let theta = to_f64(path, "theta", col("theta")?)?;
+        // Every input the file has: z, psi, theta always, x, y, phi on a 6-UPS.
+        let inputs = INPUTS.map(|name| batch.column_by_name(name).map(|a| to_f64(path, name, a)));
+        let inputs: Vec<Option<Float64Array>> = inputs.into_iter().map(Option::transpose).collect::<Result<_, _>>()?;
+        for name in ["z", "psi", "theta"] {
+            col(name)?;
+        }
         let t = match batch.column_by_name("t") {
             Some(a) => Some(to_f64(path, "t", a)?),
             None => None,
         };
-        let f = |a: &arrow::array::Float64Array, i: usize| {
+        let f = |a: &Float64Array, i: usize| {
             if a.is_valid(i) { a.value(i) } else { f64::NAN }
         };
         for i in 0..batch.num_rows() {
@@ -72,9 +81,7 @@ pub(crate) fn read_switches(path: &Path) -> Result<Option<Vec<Switch>>, PlotErro
                 mode: mode.value(i).to_string(),
                 kind: kind.value(i).to_string(),
                 t: t.as_ref().filter(|t| t.is_valid(i)).map(|t| t.value(i)),
-                z: f(&z, i),
-                psi: f(&psi, i),
-                theta: f(&theta, i),
+                inputs: std::array::from_fn(|k| inputs[k].as_ref().map(|a| f(a, i))),
             });
         }
     }

@@ -3,22 +3,23 @@
 //! - Figs. 13–14: the inputs and the parasitic motions X, Y, Φ with their velocities
 //!   and accelerations against time. The run does not store rates, so they are
 //!   recomputed here from the job with the engine's own kinematics (exact jets,
-//!   `clearance_kinematics::inverse_kinematics_motion`).
-//! - Figs. 15–17: the six error components against Θ (or whichever input moves),
-//!   kinetostatics in black and dynamics in blue, each switch a dashed vertical line
-//!   in its mode's colour.
+//!   `clearance_kinematics::inverse_kinematics_motion`). A 6-UPS has no parasitic
+//!   motion: only its inputs are drawn, up to six, with the rates of their harmonics.
+//! - Figs. 15–17: the six error components against Θ (or whichever input moves; on a
+//!   6-UPS, against t), kinetostatics in black and dynamics in blue, each switch a
+//!   dashed vertical line in its mode's colour.
 
 use std::path::Path;
 
 use clearance_grid::SampleSource;
 use clearance_kinematics::{Geometry, inverse_kinematics_motion};
-use clearance_model::JobSpec;
+use clearance_model::{JobSpec, MechanismKind};
 use plotters::prelude::*;
 
 use crate::PlotError;
 use crate::figure::{
-    COMPONENTS, Curve, ERROR_SCALE, LinePanel, Marker, font, header, max_abs, mode_colour, padded, render, si_prefix,
-    value_range,
+    COMPONENTS, Curve, ERROR_SCALE, LinePanel, Marker, font, header, input_symbol, max_abs, mode_colour, padded,
+    render, si_prefix, value_range,
 };
 use crate::run_dir::ModeData;
 use crate::switches::Switch;
@@ -32,8 +33,16 @@ const MOTION_ROW: u32 = 300;
 const MOTION_WIDTH: u32 = 1680;
 
 /// The input the errors are drawn against: Θ as in the paper, else the first
-/// input that moves, else time. `(column name, axis label, values per sample)`.
-pub(crate) fn abscissa(source: &SampleSource, kept: &[u64]) -> (&'static str, &'static str, Vec<f64>) {
+/// input that moves, else time; time on a 6-UPS, whose inputs all move together.
+/// `(column name, axis label, values per sample)`.
+pub(crate) fn abscissa(
+    source: &SampleSource,
+    kept: &[u64],
+    kind: MechanismKind,
+) -> (&'static str, &'static str, Vec<f64>) {
+    if kind == MechanismKind::Ups6 {
+        return ("t", "t (s)", kept.iter().map(|&i| source.sample6(i).0.unwrap_or(i as f64)).collect());
+    }
     let samples: Vec<_> = kept.iter().map(|&i| source.sample(i)).collect();
     let moves = |f: fn(&clearance_grid::Sample) -> f64| {
         let (lo, hi) = value_range(samples.iter().map(f), 0.0);
@@ -166,33 +175,44 @@ struct MotionRow {
     values: [Vec<f64>; 3],
 }
 
-/// Writes the inputs figure (Fig. 13) and the parasitic-motion figure (Fig. 14)
-/// for `job`'s trajectory, at its samples `kept`.
+/// Writes the inputs figure (Fig. 13) and, when `parasitic_path` is given (the
+/// 3-limb kinds), the parasitic-motion figure (Fig. 14) for `job`'s trajectory, at
+/// its samples `kept`.
 pub(crate) fn write_motions(
     job: &JobSpec,
     kept: &[u64],
     title: &str,
     subtitle: &str,
     inputs_path: &Path,
-    parasitic_path: &Path,
+    parasitic_path: Option<&Path>,
 ) -> Result<(), PlotError> {
     let source = SampleSource::new(job);
-    let geom = Geometry::from_spec(&job.mechanism);
+    let kind = job.mechanism.kind;
     let n = kept.len();
     let mut t = Vec::with_capacity(n);
     let nan3 = || [vec![f64::NAN; n], vec![f64::NAN; n], vec![f64::NAN; n]];
-    let (mut zs, mut psis, mut thetas) = (nan3(), nan3(), nan3());
+    let names = kind.inputs();
+    let mut values: Vec<[Vec<f64>; 3]> = names.iter().map(|_| nan3()).collect();
     let (mut xs, mut ys, mut phis) = (nan3(), nan3(), nan3());
+    let geom = parasitic_path.map(|_| Geometry::from_spec(&job.mechanism));
     for (i, &k) in kept.iter().enumerate() {
-        let s = source.sample(k);
-        t.push(s.t.unwrap_or(k as f64));
-        for d in 0..3 {
-            zs[d][i] = s.z[d];
-            psis[d][i] = s.psi[d];
-            thetas[d][i] = s.theta[d];
+        // Each input as [value, rate, acceleration], in the order of `names`.
+        let (time, inputs) = if kind == MechanismKind::Ups6 {
+            let (time, inputs) = source.sample6(k);
+            (time, inputs.to_vec())
+        } else {
+            let s = source.sample(k);
+            (s.t, vec![s.z, s.psi, s.theta])
+        };
+        t.push(time.unwrap_or(k as f64));
+        for (row, input) in values.iter_mut().zip(&inputs) {
+            for d in 0..3 {
+                row[d][i] = input[d];
+            }
         }
         // An unreachable pose has no parasitic motion: left NaN, a gap in the curve.
-        if let Ok((posture, motion)) = inverse_kinematics_motion(&geom, s.z, s.psi, s.theta) {
+        let Some(geom) = &geom else { continue };
+        if let Ok((posture, motion)) = inverse_kinematics_motion(geom, inputs[0], inputs[1], inputs[2]) {
             let value = [posture.x, posture.y, posture.phi];
             for (q, row) in [&mut xs, &mut ys, &mut phis].into_iter().enumerate() {
                 row[0][i] = value[q];
@@ -203,16 +223,12 @@ pub(crate) fn write_motions(
     }
     let moving = |v: &[Vec<f64>; 3]| max_abs(v[1].iter().copied()) > 0.0;
     let mut inputs = Vec::new();
-    for (name, unit, v) in [("Z", "m", zs), ("Ψ", "rad", psis), ("Θ", "rad", thetas)] {
+    for (&name, v) in names.iter().zip(values) {
+        let (name, unit) = input_symbol(name);
         if moving(&v) || name == "Θ" && inputs.is_empty() {
             inputs.push(MotionRow { name, unit, values: v });
         }
     }
-    let parasitic = vec![
-        MotionRow { name: "X", unit: "m", values: xs },
-        MotionRow { name: "Y", unit: "m", values: ys },
-        MotionRow { name: "Φ", unit: "rad", values: phis },
-    ];
     let names = |rows: &[MotionRow]| rows.iter().map(|r| r.name).collect::<Vec<_>>().join(", ");
     write_motion(
         inputs_path,
@@ -221,6 +237,12 @@ pub(crate) fn write_motions(
         &t,
         &inputs,
     )?;
+    let Some(parasitic_path) = parasitic_path else { return Ok(()) };
+    let parasitic = vec![
+        MotionRow { name: "X", unit: "m", values: xs },
+        MotionRow { name: "Y", unit: "m", values: ys },
+        MotionRow { name: "Φ", unit: "rad", values: phis },
+    ];
     write_motion(
         parasitic_path,
         &format!("{title} — parasitic motions {} along the trajectory", names(&parasitic)),

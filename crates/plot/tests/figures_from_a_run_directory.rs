@@ -7,15 +7,7 @@ mod common;
 use clearance_model::Mode;
 use clearance_parquet::ColumnSet;
 use clearance_plot::{ERROR_SIZE, MAP_SIZE, PlotError, plot_run};
-use common::{Png, SwitchRow, files_under, make_run, write_switches};
-
-/// Figures share a 100-pixel header (title, subtitle); the panels are below it.
-const HEADER: u32 = 100;
-
-fn body_difference(a: &Png, b: &Png) -> usize {
-    let skip = (HEADER * a.width) as usize;
-    a.pixels[skip..].iter().zip(&b.pixels[skip..]).filter(|(p, q)| p != q).count()
-}
+use common::{HEADER, Png, SwitchRow, body_difference, files_under, make_run, write_switches};
 
 const GRID_JOB: &str = r#"
 name = "small_grid"

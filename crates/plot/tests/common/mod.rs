@@ -46,6 +46,67 @@ pub fn make_run(dir: &Path, job_text: &str, columns: ColumnSet) -> JobSpec {
     job
 }
 
+/// Writes the 6-UPS `job_text` as a complete run under `dir`, its poses solved by the
+/// engine's [`clearance_engine::solve`] (the rows of a run's part files): job.toml,
+/// one part file per (variant, mode), each batch passed through `edit` first, and
+/// _SUCCESS. Returns the job and the batches written.
+pub fn make_ups_run(
+    dir: &Path,
+    job_text: &str,
+    edit: impl Fn(RecordBatch) -> RecordBatch,
+) -> (JobSpec, Vec<RecordBatch>) {
+    let job = JobSpec::from_toml_str(job_text, "test.toml").expect("test job is valid");
+    assert_eq!(job.mechanism.kind, clearance_model::MechanismKind::Ups6);
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join("job.toml"), job.to_toml_string()).unwrap();
+    let mut written = Vec::new();
+    for batch in clearance_engine::solve(&job, "test.toml", &clearance_engine::SolveOptions::default()).unwrap() {
+        let variant = batch.column(0).as_any().downcast_ref::<UInt64Array>().unwrap().value(0);
+        let part = edit(batch.project(&(1..batch.num_columns()).collect::<Vec<_>>()).unwrap());
+        let mode = strings(&part, "mode").value(0).to_string();
+        let path = dir.join("poses").join(format!("variant={variant}")).join(format!("part-{mode}-000000.parquet"));
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        write_parquet(&path, part.schema(), std::slice::from_ref(&part), &WriteOptions::default(), &[]).unwrap();
+        written.push(part);
+    }
+    std::fs::write(dir.join("_SUCCESS"), b"").unwrap();
+    (job, written)
+}
+
+/// A float column of `batch` by name.
+pub fn floats<'a>(batch: &'a RecordBatch, name: &str) -> &'a Float64Array {
+    batch.column_by_name(name).unwrap_or_else(|| panic!("no column {name}")).as_any().downcast_ref().unwrap()
+}
+
+/// A string column of `batch` by name.
+pub fn strings<'a>(batch: &'a RecordBatch, name: &str) -> &'a StringArray {
+    batch.column_by_name(name).unwrap_or_else(|| panic!("no column {name}")).as_any().downcast_ref().unwrap()
+}
+
+/// A 6-UPS `discontinuities.parquet` with the engine's own table
+/// ([`clearance_parquet::ups_discontinuity_batch`]): one switch per `(mode, kind,
+/// t, inputs x, y, z, phi, psi, theta)`, `kind` 0 for `s_radial`, 1 for `u_radial`.
+pub fn write_ups_switches(dir: &Path, rows: &[(clearance_model::Mode, usize, Option<f64>, [f64; 6])]) -> PathBuf {
+    let rows: Vec<clearance_parquet::UpsSwitch> = rows
+        .iter()
+        .map(|&(mode, kind, t, inputs)| clearance_parquet::UpsSwitch {
+            variant: 0,
+            mode,
+            limb: 2,
+            kind,
+            along: if t.is_some() { "t" } else { "x" },
+            t,
+            inputs,
+            margin: 1.0,
+            jump: [1e-5; 6],
+        })
+        .collect();
+    let batch = clearance_parquet::ups_discontinuity_batch(&rows);
+    let path = dir.join("discontinuities.parquet");
+    write_parquet(&path, batch.schema(), &[batch], &WriteOptions::default(), &[]).unwrap();
+    path
+}
+
 /// One row of `discontinuities.parquet` (the columns of docs/interface.md).
 pub struct SwitchRow {
     pub variant: u64,
@@ -96,6 +157,15 @@ pub fn write_switches(dir: &Path, rows: &[SwitchRow]) -> PathBuf {
     path
 }
 
+/// Figures share a 100-pixel header (title, subtitle); the panels are below it.
+pub const HEADER: u32 = 100;
+
+/// The pixels that differ below the header (the subtitle counts the switches).
+pub fn body_difference(a: &Png, b: &Png) -> usize {
+    let skip = (HEADER * a.width) as usize;
+    a.pixels[skip..].iter().zip(&b.pixels[skip..]).filter(|(p, q)| p != q).count()
+}
+
 /// A decoded figure.
 pub struct Png {
     pub width: u32,
@@ -119,6 +189,10 @@ impl Png {
     /// The fraction of pixels that are not the white background.
     pub fn ink(&self) -> f64 {
         self.pixels.iter().filter(|p| **p != [255, 255, 255]).count() as f64 / self.pixels.len() as f64
+    }
+
+    pub fn at(&self, x: u32, y: u32) -> [u8; 3] {
+        self.pixels[(y * self.width + x) as usize]
     }
 
     pub fn count(&self, colour: [u8; 3]) -> usize {
