@@ -6,7 +6,8 @@ use std::time::Instant;
 
 use anyhow::Result;
 use clearance_engine::{
-    Codec, ColumnSet, Isa, JobSpec, RunOptions, RunReport, SolverKind, Writer, bench_job, kernel_rate, run,
+    Codec, ColumnSet, Isa, JobSpec, MechanismKind, RunOptions, RunReport, SolveOptions, SolverKind, Writer, bench_job,
+    kernel_rate, run, solve,
 };
 use clearance_model::{Mode, RangeSpec};
 
@@ -30,11 +31,30 @@ fn best(rates: &[f64]) -> (f64, String) {
     (rates.iter().copied().fold(0.0, f64::max), format!("[{list}]"))
 }
 
+/// Poses/s of `job`'s poses without I/O. The 3-limb kinds: the batched kernel
+/// ([`kernel_rate`]). A 6-UPS, which `kernel_rate` cannot pose and which has one
+/// solver (the assembled 42 × 42 and 30 × 30 systems, whatever `solver` says): its
+/// samples solved in memory on the pool into the minimal columns
+/// ([`clearance_engine::solve`], the pose pass of `clearance run` without the parts,
+/// the search or the summary).
+fn kernel_of(job: &JobSpec, solver: SolverKind) -> Result<f64> {
+    if job.mechanism.kind != MechanismKind::Ups6 {
+        return Ok(kernel_rate(job, solver));
+    }
+    let opts = SolveOptions { columns: ColumnSet::Minimal, solver, ..Default::default() };
+    let start = Instant::now();
+    let batches = solve(job, "bench job", &opts)?;
+    let secs = start.elapsed().as_secs_f64();
+    let rows: usize = std::hint::black_box(&batches).iter().map(|b| b.num_rows()).sum();
+    Ok(rows as f64 / secs)
+}
+
 /// Each measurement is made `repeat` times; the fastest is reported, and every
 /// run is listed in the JSON (`*_runs`).
 ///
 /// `job` replaces the prototype's grid: its first variant, as written, kinetostatic
-/// (a robot of the family, say).
+/// (a robot of the family, say; for a 6-UPS the kernel is its pose pass in memory,
+/// [`kernel_of`]).
 #[allow(clippy::too_many_arguments)]
 pub fn bench(
     poses: u64,
@@ -58,8 +78,8 @@ pub fn bench(
     let n = job.sample_count();
     let threads = rayon::current_num_threads();
     kernel_rate(&bench_job(10_000), SolverKind::Fast); // warm up
-    let kernels: Vec<f64> = (0..repeat).map(|_| kernel_rate(&job, SolverKind::Fast)).collect();
-    let kernel_general = kernel_rate(&general_job, SolverKind::General);
+    let kernels: Vec<f64> = (0..repeat).map(|_| kernel_of(&job, SolverKind::Fast)).collect::<Result<_>>()?;
+    let kernel_general = kernel_of(&general_job, SolverKind::General)?;
     let dir = std::env::temp_dir().join(format!("clearance-bench-{}", std::process::id()));
     let opts = RunOptions {
         out: dir.clone(),
@@ -102,7 +122,11 @@ pub fn bench(
     } else {
         println!("job: {} ({})", job.name(), job.mechanism.kind.name());
         println!("poses per measurement: {n}, threads: {threads}, vector instructions: {isa}, best of {repeat}");
-        println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
+        if job.mechanism.kind == MechanismKind::Ups6 {
+            println!("pose pass in memory (minimal columns, no I/O): {kernel:>12.0} poses/s");
+        } else {
+            println!("kernel (kinetostatic, 4 kinds, no I/O): {kernel:>12.0} poses/s");
+        }
         println!("kernel, general faer path:              {kernel_general:>12.0} poses/s");
         println!("end to end (grid -> Parquet, standard):  {e2e:>12.0} poses/s (writer: {})", writer.name());
         println!("Parquet written ({}):                {bytes_per_pose:>12.1} bytes/pose", compression.name());
@@ -144,6 +168,7 @@ pub const SUITE: &[SuiteJob] = &[
     suite_job!("trajectory_dynamic", "trajectory_dynamic.toml", Standard),
     suite_job!("prs_inclined", "prs_inclined.toml", Standard),
     suite_job!("rps_grid", "rps_grid.toml", Standard),
+    suite_job!("ups_grid", "ups_grid.toml", Standard),
 ];
 
 impl SuiteJob {
@@ -154,19 +179,22 @@ impl SuiteJob {
 }
 
 /// `job` with about `scale` times its samples: each range of a grid gets
-/// `scale^(1/d)` times its values (d the ranges), a trajectory `scale` times its
+/// `scale^(1/d)` times its values (d the ranges, among all six inputs: a 6-UPS
+/// grid ranges over `x`, `y` and `phi` too), a trajectory `scale` times its
 /// times; at least 2 values a range, the shortest ranges first so that what one
 /// cannot lose the others do. Variants and modes are kept.
 pub fn scaled(mut job: JobSpec, scale: f64) -> JobSpec {
     let resize = |n: &mut u64, f: f64| *n = ((*n as f64 * f).round() as u64).max(2);
     if let Some(g) = &mut job.grid {
-        let mut ranges: Vec<&mut u64> = [&mut g.z, &mut g.psi, &mut g.theta]
-            .into_iter()
-            .filter_map(|r| match r {
-                RangeSpec::Range { n, .. } => Some(n),
-                RangeSpec::Value(_) => None,
-            })
-            .collect();
+        let mut ranges: Vec<&mut u64> =
+            [g.x.as_mut(), g.y.as_mut(), Some(&mut g.z), g.phi.as_mut(), Some(&mut g.psi), Some(&mut g.theta)]
+                .into_iter()
+                .flatten()
+                .filter_map(|r| match r {
+                    RangeSpec::Range { n, .. } => Some(n),
+                    RangeSpec::Value(_) => None,
+                })
+                .collect();
         ranges.sort_by_key(|n| **n);
         let (mut left, d) = (scale, ranges.len());
         for (i, n) in ranges.into_iter().enumerate() {
@@ -214,6 +242,13 @@ impl Measured {
     /// A stage's busy time against the fastest run's wall time.
     fn share(&self, seconds: f64) -> f64 {
         if self.best.seconds > 0.0 { seconds / self.best.seconds } else { 0.0 }
+    }
+
+    /// Whether the run timed its stages: the 6-UPS path does not yet (its
+    /// `RunReport::stages` stay zero), and its shares then say nothing.
+    fn stages_timed(&self) -> bool {
+        let st = &self.best.stages;
+        st.pose_pass > 0.0 || st.search > 0.0 || st.writing > 0.0
     }
 }
 
@@ -284,7 +319,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             .map(|m| {
                 let st = &m.best.stages;
                 format!(
-                    "{{\"job\": \"{}\", \"file\": \"{}\", \"mechanism\": \"{}\", \"columns\": \"{}\", \"poses\": {}, \"variants\": {}, \"modes\": {}, \"poses_per_s\": {:.1}, \"seconds\": {:.4}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_writing\": {:.4}, \"bytes_per_pose\": {:.1}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"runs\": {}}}",
+                    "{{\"job\": \"{}\", \"file\": \"{}\", \"mechanism\": \"{}\", \"columns\": \"{}\", \"poses\": {}, \"variants\": {}, \"modes\": {}, \"poses_per_s\": {:.1}, \"seconds\": {:.4}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_writing\": {:.4}, \"stages_timed\": {}, \"bytes_per_pose\": {:.1}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"runs\": {}}}",
                     m.job.name,
                     m.job.file,
                     m.mechanism,
@@ -297,6 +332,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
                     m.share(st.pose_pass),
                     m.share(st.search),
                     m.share(st.writing),
+                    m.stages_timed(),
                     m.bytes_per_pose,
                     o.writer.name(),
                     best(&m.rates).1,
@@ -327,9 +363,9 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             "{:<20} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>8} {:>11}",
             "job", "kind", "columns", "poses", "poses/s", "pose pass", "search", "writing", "bytes/pose"
         );
-        let pct = |x: f64| format!("{:.0} %", 100.0 * x);
         for m in &measured {
             let st = &m.best.stages;
+            let pct = |x: f64| if m.stages_timed() { format!("{:.0} %", 100.0 * x) } else { "-".into() };
             println!(
                 "{:<20} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>8} {:>11.1}",
                 m.job.name,
@@ -347,6 +383,9 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
         println!(
             "shares: each stage's busy time against the run's wall time; the stages overlap, so they may add up to more than 100 %"
         );
+        if measured.iter().any(|m| !m.stages_timed()) {
+            println!("-: the run does not time its stages (the 6-UPS path, as yet)");
+        }
     }
     Ok(())
 }
@@ -387,6 +426,9 @@ mod tests {
         assert!(t.trajectory.is_some() && t.analysis.modes.contains(&Mode::Dynamic));
         assert_eq!(job("prs_inclined").mechanism.rail_angle_deg(), 30.0);
         assert_eq!(job("rps_grid").mechanism.kind.name(), "3-RPS");
+        let ups = job("ups_grid");
+        assert_eq!(ups.mechanism.kind.name(), "6-UPS");
+        assert!((100_000..=200_000).contains(&ups.sample_count()), "{}", ups.sample_count());
         let sets: Vec<ColumnSet> =
             SUITE.iter().filter(|s| s.file.ends_with("grid_2d.toml")).map(|s| s.columns).collect();
         assert_eq!(sets, [ColumnSet::Standard, ColumnSet::Minimal, ColumnSet::Full]);
@@ -409,5 +451,71 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `clearance bench --job` on a 6-UPS job measures the 6-UPS pose pass (the
+    /// 3-limb kernel cannot pose it: it panicked).
+    #[test]
+    fn the_kernel_of_a_6ups_job_is_its_pose_pass() {
+        let job =
+            JobSpec::from_toml_str(SUITE.iter().find(|s| s.name == "ups_grid").unwrap().text, "ups_grid.toml").unwrap();
+        let small = scaled(job, 1e-3);
+        assert!(small.sample_count() < 1000);
+        for solver in [SolverKind::Fast, SolverKind::General] {
+            let rate = kernel_of(&small, solver).unwrap();
+            assert!(rate.is_finite() && rate > 0.0, "{rate}");
+        }
+    }
+
+    /// A grid over all six inputs (a 6-UPS grid) scales in each of them: `x`, `y`
+    /// and `phi` count as ranges like `z`, `psi` and `theta`, so a quarter of the
+    /// samples is a quarter, not the three 3-PRS ranges' share of it.
+    #[test]
+    fn scaling_a_six_input_grid_scales_every_range() {
+        let text = r#"
+            name = "six_inputs"
+            [mechanism]
+            kind = "6-UPS"
+            [grid]
+            x = { start = -0.1, stop = 0.1, n = 20 }
+            y = { start = -0.1, stop = 0.1, n = 20 }
+            z = { start = 0.6, stop = 0.8, n = 20 }
+            phi = { start = -0.1, stop = 0.1, n = 20 }
+            psi = { start = -0.1, stop = 0.1, n = 20 }
+            theta = { start = -0.1, stop = 0.1, n = 20 }
+        "#;
+        let full = JobSpec::from_toml_str(text, "six_inputs.toml").unwrap();
+        assert_eq!(full.sample_count(), 20u64.pow(6));
+        for scale in [0.5, 0.1, 0.01] {
+            let job = scaled(full.clone(), scale);
+            let (n, want) = (job.sample_count() as f64, full.sample_count() as f64 * scale);
+            assert!((n / want - 1.0).abs() < 0.25, "{n} samples at {scale}, about {want} wanted");
+            let g = job.grid.as_ref().unwrap();
+            for r in [g.x.as_ref().unwrap(), &g.z, g.phi.as_ref().unwrap()] {
+                let RangeSpec::Range { n, .. } = r else { panic!("a range became a value") };
+                assert!(*n < 20, "every range shrinks at {scale}: {n}");
+            }
+        }
+        // x, y, z over a fixed orientation (the suite's ups_grid): only the three ranges scale.
+        let xyz = r#"
+            name = "xyz"
+            [mechanism]
+            kind = "6-UPS"
+            [grid]
+            x = { start = -0.1, stop = 0.1, n = 20 }
+            y = { start = -0.1, stop = 0.1, n = 20 }
+            z = { start = 0.6, stop = 0.8, n = 20 }
+            phi = 0.05
+            psi = 0.1
+            theta = -0.1
+        "#;
+        let full = JobSpec::from_toml_str(xyz, "xyz.toml").unwrap();
+        assert_eq!(full.sample_count(), 8000);
+        let job = scaled(full, 0.25);
+        let n = job.sample_count() as f64;
+        assert!((n / 2000.0 - 1.0).abs() < 0.25, "{n} samples at 0.25, about 2000 wanted");
+        let g = job.grid.as_ref().unwrap();
+        let sizes: Vec<u64> = [g.x.as_ref().unwrap(), g.y.as_ref().unwrap(), &g.z].iter().map(|r| r.len()).collect();
+        assert!(sizes.iter().all(|&n| (12..=13).contains(&n)), "x, y, z shrink alike: {sizes:?}");
     }
 }
