@@ -21,7 +21,9 @@ use clearance_parquet::{
     ups_discontinuity_batch, ups_summary_batch, write_bytes, write_parquet,
 };
 use clearance_solver::Status;
-use clearance_solver::ups::{UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_par, solve_ups_pose};
+use clearance_solver::ups::{
+    UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_loads, solve_ups_par, solve_ups_pose,
+};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
@@ -311,16 +313,15 @@ fn search(variant: &Variant, model: &UpsModel, source: &SampleSource, mode: Mode
         .map_init(
             || UpsWorkspace::new(model),
             |ws, path| {
-                let solve = |ws: &mut UpsWorkspace, p: f64| {
-                    let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
-                    (t, s, solve_ups_pose(model, &s, mode, ws))
+                // The loads decide everything but the jumps: the error system is solved
+                // only at the two samples a switch's jump is read from.
+                let loads_at = |ws: &mut UpsWorkspace, p: f64| {
+                    let (_, s) = path.sample_at(source, trajectory.as_ref(), p);
+                    solve_ups_loads(model, &s, mode, ws)
                 };
-                let results: Vec<UpsResult> = (0..path.len)
-                    .map(|k| {
-                        let (_, s) = source.sample6(path.index(k));
-                        solve_ups_pose(model, &s, mode, ws)
-                    })
-                    .collect();
+                let sample = |k: usize| source.sample6(path.index(k)).1;
+                let results: Vec<UpsResult> =
+                    (0..path.len).map(|k| solve_ups_loads(model, &sample(k), mode, ws)).collect();
                 let mut out = Vec::new();
                 for &kind in &kinds {
                     for l in 0..6 {
@@ -331,11 +332,9 @@ fn search(variant: &Variant, model: &UpsModel, source: &SampleSource, mode: Mode
                         // Each interval refined on its own, then the minima kept (`select`).
                         let refined: Vec<Refined> = minima(&mags)
                             .into_iter()
+                            .filter(|&(lo, _)| can_flip(&mags, lo as usize))
                             .map(|(lo, hi)| {
-                                let mut f = |p: f64| {
-                                    let (_, _, r) = solve(ws, p);
-                                    load(&r, kind, l).map_or(f64::MAX, |v| v.norm())
-                                };
+                                let mut f = |p: f64| load(&loads_at(ws, p), kind, l).map_or(f64::MAX, |v| v.norm());
                                 let (x, m) = brent_min(lo, hi, LOCATE_TOL, &mut f);
                                 Refined { lo, hi, x, m }
                             })
@@ -350,11 +349,12 @@ fn search(variant: &Variant, model: &UpsModel, source: &SampleSource, mode: Mode
                             if db.dot(&da) >= 0.0 {
                                 continue; // a dip that does not turn the direction by more than 90°
                             }
-                            let jump = match (kind_error(&results[before], kind), kind_error(&results[after], kind)) {
+                            let mut error = |k: usize| kind_error(&solve_ups_pose(model, &sample(k), mode, ws), kind);
+                            let jump = match (error(before), error(after)) {
                                 (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
                                 _ => [f64::NAN; 6],
                             };
-                            let (t, s, _) = solve(ws, x);
+                            let (t, s) = path.sample_at(source, trajectory.as_ref(), x);
                             out.push(UpsSwitch {
                                 variant: variant.index,
                                 mode,
@@ -435,6 +435,39 @@ fn minima(mags: &Mags) -> Vec<(f64, f64)> {
         }
     }
     out
+}
+
+/// Whether a minimum refined anywhere in `[k, k + 1]` can pass the direction test:
+/// [`sides`] starts at `k − 1` or `k` on the left and at `k + 1` or `k + 2` on the right
+/// (wherever in the interval the minimum lies) and stops at one of the samples its walk
+/// passes (wherever `reach` puts it). When no pair of those turns by more than 90°, the
+/// interval's refined minimum gives no switch whatever its value, so it is not refined:
+/// the switches found are the same, without the load solves of the refinement.
+fn can_flip(mags: &Mags, k: usize) -> bool {
+    let last = mags.len() - 1;
+    let mut left = Vec::new();
+    let mut right = Vec::new();
+    for start in [k.saturating_sub(1), k] {
+        walked(mags, start, -1, &mut left);
+    }
+    for start in [k + 1, (k + 2).min(last)] {
+        walked(mags, start, 1, &mut right);
+    }
+    left.iter().any(|b| right.iter().any(|a| b.dot(a) < 0.0))
+}
+
+/// The directions at every sample [`sides`]' walk from `start` by `step` passes: the
+/// start, then on while the magnitude does not fall (nothing from an indeterminate start).
+fn walked(mags: &Mags, start: usize, step: isize, out: &mut Vec<nalgebra::Vector3<f64>>) {
+    let mut k = start;
+    while let Some((m, d)) = mags[k] {
+        out.push(d);
+        let next = k as isize + step;
+        match usize::try_from(next).ok().and_then(|n| mags.get(n).copied().flatten()) {
+            Some((n, _)) if n >= m => k = next as usize,
+            _ => return,
+        }
+    }
 }
 
 /// The samples where the direction is read on either side of a minimum at `x`: the

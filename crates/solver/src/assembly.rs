@@ -75,7 +75,8 @@ pub struct LimbsSolution {
     pub kind_ok: [bool; MAX_KINDS],
     pub errors: [PoseError; MAX_KINDS],
     pub total: PoseError,
-    /// `κ₁` of `A` and of `J_P`, estimated (NaN where not reached).
+    /// `κ₁` of `A` and of `J_P`, estimated (NaN where not reached, or with no
+    /// `singular_cond` to test).
     pub cond_a: f64,
     pub cond_jp: f64,
 }
@@ -183,6 +184,18 @@ impl Assembly {
     }
 
     /// `κ₁` within the limit (NaN is not).
+    /// Whether the matrix `m` just factored in `lu` is within `singular_cond`, its
+    /// estimated `κ₁` put in `cond`. With no limit (infinite, as the 6-UPS, whose
+    /// reduced systems decide) any factored matrix is, and nothing is estimated: the
+    /// estimate costs as much as the factorisation.
+    fn within_limit(&self, lu: &mut LuSolver, m: MatRef<'_, f64>, cond: &mut f64) -> bool {
+        if self.singular_cond == f64::INFINITY {
+            return true;
+        }
+        *cond = lu.cond_one_estimate(m);
+        self.conditioned(*cond)
+    }
+
     fn conditioned(&self, cond: f64) -> bool {
         matches!(cond.partial_cmp(&self.singular_cond), Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal))
     }
@@ -381,23 +394,44 @@ impl Assembly {
     /// ill-conditioned `A` or `J_P` gives `near_singular` with what was reached.
     pub fn solve(&self, posed: &Posed, data: &mut AssemblyData) -> LimbsSolution {
         let mut out = LimbsSolution::default();
+        if self.solve_reactions(posed, data, &mut out) && self.solve_errors(posed, &mut out, data) {
+            out.status = self.determinacy(&out);
+        }
+        out
+    }
+
+    /// Reactions and take-up of one pose, without the error system: what a search for
+    /// switches evaluates between samples. The status is [`Assembly::solve`]'s except
+    /// where only `J_P` fails to factor (an exact singularity of the passive joints).
+    pub fn solve_loads(&self, posed: &Posed, data: &mut AssemblyData) -> LimbsSolution {
+        let mut out = LimbsSolution::default();
+        if self.solve_reactions(posed, data, &mut out) {
+            out.status = self.determinacy(&out);
+        }
+        out
+    }
+
+    /// `ok` when every kind's take-up is determinate, else `indeterminate_contact`.
+    fn determinacy(&self, out: &LimbsSolution) -> Status {
+        let determinate = out.kind_ok.iter().take(self.kinds.len()).all(|&ok| ok);
+        if determinate { Status::Ok } else { Status::IndeterminateContact }
+    }
+
+    /// Factors and solves `A·w = b`, then the reactions and take-up into `out`; false
+    /// (status `near_singular`) where `A` is singular or ill-conditioned.
+    fn solve_reactions(&self, posed: &Posed, data: &mut AssemblyData, out: &mut LimbsSolution) -> bool {
         self.assemble_equilibrium(posed, data.a.as_mut(), data.w.as_mut());
         if !data.lu_a.factor(data.a.as_ref()) {
             out.cond_a = f64::INFINITY;
-            return out;
+            return false;
         }
-        out.cond_a = data.lu_a.cond_one_estimate(data.a.as_ref());
-        if !self.conditioned(out.cond_a) {
-            return out;
+        if !self.within_limit(&mut data.lu_a, data.a.as_ref(), &mut out.cond_a) {
+            return false;
         }
         data.lu_a.solve_factored(data.w.as_mut());
-        self.reactions_into(posed, &data.w, &mut out);
-        self.take_up(posed, &mut out);
-        if self.solve_errors(posed, &mut out, data) {
-            let determinate = out.kind_ok.iter().take(self.kinds.len()).all(|&ok| ok);
-            out.status = if determinate { Status::Ok } else { Status::IndeterminateContact };
-        }
-        out
+        self.reactions_into(posed, &data.w, out);
+        self.take_up(posed, out);
+        true
     }
 
     /// The per-kind and total errors of the take-ups in `out.take` (docs/model.md §6),
@@ -410,8 +444,7 @@ impl Assembly {
             out.cond_jp = f64::INFINITY;
             return false;
         }
-        out.cond_jp = data.lu_jp.cond_one_estimate(data.jp.as_ref());
-        if !self.conditioned(out.cond_jp) {
+        if !self.within_limit(&mut data.lu_jp, data.jp.as_ref(), &mut out.cond_jp) {
             return false;
         }
         data.lu_jp.solve_factored(data.dq.as_mut());

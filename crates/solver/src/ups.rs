@@ -346,6 +346,17 @@ pub fn ups_posture(model: &UpsModel, sample: &UpsSample, mode: Mode) -> Option<(
 
 /// One sample in one mode. Never panics on a bad pose: it becomes a status.
 pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace) -> UpsResult {
+    solve_ups(model, sample, mode, ws, true)
+}
+
+/// The status, reactions, margins and take-up determinacy of a sample as
+/// [`solve_ups_pose`] gives them, without the error system, the envelope or the exact
+/// error: what the switch search evaluates between samples ([`Assembly::solve_loads`]).
+pub fn solve_ups_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace) -> UpsResult {
+    solve_ups(model, sample, mode, ws, false)
+}
+
+fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace, errors: bool) -> UpsResult {
     let mut out = UpsResult::default();
     let Some((pose, posed)) = ups_posture(model, sample, mode) else { return out };
     out.q = pose.q;
@@ -357,7 +368,11 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
     if pose.near_singular || !within(out.cond_a) || !within(out.cond_jp) {
         return out;
     }
-    let sol = model.assembly.solve(&posed, &mut ws.data);
+    let sol = if errors {
+        model.assembly.solve(&posed, &mut ws.data)
+    } else {
+        model.assembly.solve_loads(&posed, &mut ws.data)
+    };
     if sol.status == Status::NearSingular {
         return out;
     }
@@ -369,6 +384,9 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
         out.margins[k] = std::array::from_fn(|i| sol.margins[k][i]);
         out.errors[k] = sol.errors[k];
         out.kind_ok[k] = sol.kind_ok[k];
+    }
+    if !errors {
+        return out;
     }
     out.total = sol.total;
     if let Some(inverse) = screws.try_inverse() {
