@@ -362,18 +362,15 @@ fn bench_suite_reports_every_job_and_cleans_up() {
             let runs: Vec<f64> = j["runs"].as_array().unwrap().iter().map(|r| r.as_f64().unwrap()).collect();
             assert_eq!(runs.len(), 2, "{j}");
             assert!(rate > 0.0 && (rate - runs.iter().copied().fold(0.0, f64::max)).abs() <= 0.1, "{j}");
-            for key in ["share_pose_pass", "share_search", "share_writing"] {
+            // The pose pass and the search run on the calling thread, each at most the
+            // whole run; writing is the writer thread's busy time plus the final files the
+            // calling thread writes meanwhile, so up to twice it (StageTimes::writing).
+            for (key, most) in [("share_pose_pass", 1.001), ("share_search", 1.001), ("share_writing", 2.001)] {
                 let share = j[key].as_f64().unwrap();
-                // Stages overlap, each at most the whole run.
-                assert!((0.0..=1.001).contains(&share), "{key} {share}: {j}");
+                assert!((0.0..=most).contains(&share), "{key} {share}: {j}");
             }
-            if j["stages_timed"] == true {
-                assert!(j["share_pose_pass"].as_f64().unwrap() > 0.0 && j["share_writing"].as_f64().unwrap() > 0.0);
-            } else {
-                // Only the 6-UPS path leaves its stages untimed (zero shares), as yet.
-                assert_eq!(j["mechanism"], "6-UPS", "{j}");
-                assert_eq!(j["stages_timed"], false, "{j}");
-            }
+            assert_eq!(j["stages_timed"], true, "every kind times its stages: {j}");
+            assert!(j["share_pose_pass"].as_f64().unwrap() > 0.0 && j["share_writing"].as_f64().unwrap() > 0.0);
             assert!(j["poses"].as_u64().unwrap() > 0 && j["bytes_per_pose"].as_f64().unwrap() > 10.0, "{j}");
             assert_eq!(j["threads"], 1);
             assert_eq!(j["writer"], writer);

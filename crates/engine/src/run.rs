@@ -84,7 +84,9 @@ pub struct StageTimes {
     pub search: f64,
     /// The writer thread (part files, statistics and trace files; with
     /// [`Writer::Arrow`] the part's encoding too), `discontinuities.parquet` and
-    /// `summary.parquet`, and the sync of every file before `_SUCCESS`.
+    /// `summary.parquet`, and the sync of every file before `_SUCCESS`. The last two
+    /// may be written while the writer thread finishes the last part, so this busy
+    /// time can exceed the run's wall time (at most twice it).
     pub writing: f64,
 }
 
