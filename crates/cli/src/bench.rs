@@ -7,9 +7,9 @@ use std::time::Instant;
 use anyhow::Result;
 use clearance_engine::{
     Codec, ColumnSet, Isa, JobSpec, MechanismKind, RunOptions, RunReport, SolveOptions, SolverKind, Writer, bench_job,
-    kernel_rate, run, solve,
+    kernel_rate, run, scaled, solve,
 };
-use clearance_model::{Mode, RangeSpec};
+use clearance_model::Mode;
 
 /// Bytes of the files under `dir`, recursively (0 if it is missing).
 fn dir_size(dir: &std::path::Path) -> u64 {
@@ -176,39 +176,6 @@ impl SuiteJob {
     pub fn job(&self, scale: f64) -> Result<JobSpec> {
         Ok(scaled(JobSpec::from_toml_str(self.text, self.file)?, scale))
     }
-}
-
-/// `job` with about `scale` times its samples: each range of a grid gets
-/// `scale^(1/d)` times its values (d the ranges, among all six inputs: a 6-UPS
-/// grid ranges over `x`, `y` and `phi` too), a trajectory `scale` times its
-/// times; at least 2 values a range, the shortest ranges first so that what one
-/// cannot lose the others do. Variants and modes are kept.
-pub fn scaled(mut job: JobSpec, scale: f64) -> JobSpec {
-    let resize = |n: &mut u64, f: f64| *n = ((*n as f64 * f).round() as u64).max(2);
-    if let Some(g) = &mut job.grid {
-        let mut ranges: Vec<&mut u64> =
-            [g.x.as_mut(), g.y.as_mut(), Some(&mut g.z), g.phi.as_mut(), Some(&mut g.psi), Some(&mut g.theta)]
-                .into_iter()
-                .flatten()
-                .filter_map(|r| match r {
-                    RangeSpec::Range { n, .. } => Some(n),
-                    RangeSpec::Value(_) => None,
-                })
-                .collect();
-        ranges.sort_by_key(|n| **n);
-        let (mut left, d) = (scale, ranges.len());
-        for (i, n) in ranges.into_iter().enumerate() {
-            let before = *n as f64;
-            resize(n, left.powf(1.0 / (d - i) as f64));
-            left /= *n as f64 / before;
-        }
-    }
-    if let Some(t) = &mut job.trajectory
-        && let RangeSpec::Range { n, .. } = &mut t.time
-    {
-        resize(n, scale);
-    }
-    job
 }
 
 /// A directory removed when dropped, whatever happened in between.
@@ -393,6 +360,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use clearance_model::RangeSpec;
 
     /// Every file of `benches/suite/` is a valid job (so `clearance run` takes it)
     /// and in the suite, and the suite's texts are those files.

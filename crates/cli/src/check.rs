@@ -1,9 +1,11 @@
 //! `clearance check JOB`: validate and print the expanded plan.
 
 use anyhow::Result;
-use clearance_engine::{JobSpec, Samples, SolverKind, bench_job, kernel_rate, plan, ups_kernel_rate};
+use clearance_engine::{JobSpec, RunOptions, Samples, estimate, plan};
 
-pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
+/// Validates `job` and prints its plan; with `timing`, the run options of the run to
+/// estimate (its output directory the calibration runs' scratch).
+pub fn check(job: &JobSpec, file: &str, timing: Option<&RunOptions>) -> Result<()> {
     let plan = plan(job, file)?;
     println!("job {} ({file}): valid", plan.name);
     println!("mechanism: {}", plan.mechanism);
@@ -28,21 +30,34 @@ pub fn check(job: &JobSpec, file: &str, timing: bool) -> Result<()> {
     for c in &plan.columns {
         println!("  --columns {:<8}: {:>3} columns, at most ~{}", c.set, c.columns, human_bytes(c.bytes as f64));
     }
-    if timing {
-        let rate = if job.mechanism.kind == clearance_engine::MechanismKind::Ups6 {
-            ups_kernel_rate(2_000)
+    if let Some(opts) = timing {
+        let est = estimate(job, file, opts, CALIBRATION_SECONDS)?;
+        let (rows, secs) = est.runs.iter().fold((0, 0.0), |(r, t), c| (r + c.rows, t + c.seconds));
+        let what = if est.runs.last().is_some_and(|c| c.rows >= est.rows) {
+            "measured: the whole job ran".to_string()
         } else {
-            kernel_rate(&bench_job(20_000), SolverKind::Fast)
+            format!("from {} calibration runs of this job's own poses, {rows} rows in {secs:.2} s", est.runs.len())
         };
-        let dynamic = if plan.modes.contains(&"dynamic") { " (dynamic poses cost somewhat more)" } else { "" };
         println!(
-            "estimated compute time: {:.1} s at {:.0} poses/s measured now on {} threads{dynamic}",
-            plan.rows as f64 / rate,
-            rate,
-            rayon::current_num_threads()
+            "estimated wall time: {} ({what}; solve, switch search and writing, {} columns, {} threads)",
+            human_seconds(est.seconds),
+            opts.columns.name(),
+            est.threads
         );
     }
     Ok(())
+}
+
+/// Seconds the calibration runs of `check` grow to (the last one's wall time).
+const CALIBRATION_SECONDS: f64 = 0.5;
+
+fn human_seconds(s: f64) -> String {
+    match s {
+        s if s < 10.0 => format!("{s:.3} s"),
+        s if s < 120.0 => format!("{s:.1} s"),
+        s if s < 7200.0 => format!("{:.1} min", s / 60.0),
+        s => format!("{:.1} h", s / 3600.0),
+    }
 }
 
 fn human_bytes(b: f64) -> String {

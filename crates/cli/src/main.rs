@@ -67,9 +67,18 @@ enum Command {
     /// Validate a job and print the expanded plan.
     Check {
         job: PathBuf,
-        /// Skip the short timing run behind the time estimate.
+        /// Skip the short calibration runs behind the time estimate.
         #[arg(long)]
         no_timing: bool,
+        /// The column set of the run to estimate.
+        #[arg(long, default_value = "standard", value_parser = parse_columns)]
+        columns: ColumnSet,
+        /// Worker threads of the run to estimate (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// The solver of the run to estimate.
+        #[arg(long, default_value = "fast", value_parser = parse_solver)]
+        solver: SolverKind,
     },
     /// PNG error maps and trajectory plots from a finished run.
     Plot {
@@ -284,8 +293,25 @@ fn main() -> ExitCode {
                 }
             })
         }
-        Command::Check { job, no_timing } => match load_job(&job) {
-            Ok(spec) => check::check(&spec, &job.display().to_string(), !no_timing),
+        Command::Check { job, no_timing, columns, threads, solver } => match load_job(&job) {
+            Ok(spec) => {
+                // The calibration runs are real runs of the job, scaled down, into scratch.
+                let opts = RunOptions {
+                    out: clearance_engine::calibration_dir(&std::env::temp_dir()),
+                    columns,
+                    shard: None,
+                    resume: false,
+                    overwrite: true,
+                    chunk_size: 65536,
+                    solver,
+                    compression: Codec::default(),
+                    writer: Writer::default(),
+                    progress: Reporter::default(),
+                    direct_io: buffered_io_not_asked(),
+                };
+                let timing = (!no_timing).then_some(&opts);
+                init_threads(threads).and_then(|()| check::check(&spec, &job.display().to_string(), timing))
+            }
             Err(e) => return usage(e),
         },
         Command::Status { dir } => return status::status(&dir),

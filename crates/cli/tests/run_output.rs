@@ -404,3 +404,40 @@ fn bad_writer_or_suite_flags_exit_2() {
     let o = run(&["bench", "--scale", "0.5"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// `check` estimates the wall time from real runs of the job: a small job runs whole
+/// (and the estimate is that run), a larger one from two or more scaled-down runs
+/// whose rows grow; either way nothing is left in the scratch directory.
+#[test]
+fn check_estimates_from_calibration_runs_and_leaves_no_scratch() {
+    let dir = tempfile::tempdir().unwrap();
+    let scratch = tempfile::tempdir().unwrap();
+    let grid = |n: u32| {
+        format!(
+            "[clearance]\nr_radial = 1e-4\n[grid]\nz = {{ start = 1.95, stop = 2.05, n = 4 }}\n\
+             psi = {{ start = -0.3, stop = 0.3, n = {n} }}\ntheta = {{ start = -0.3, stop = 0.3, n = {n} }}\n"
+        )
+    };
+    for (name, n) in [("small.toml", 10), ("large.toml", 400)] {
+        let job = write_job(dir.path(), name, &grid(n));
+        let o = bin()
+            .args(["check", job.to_str().unwrap(), "--threads", "1"])
+            .env("TMPDIR", scratch.path())
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout);
+        let line = out.lines().find(|l| l.starts_with("estimated wall time: ")).expect("an estimate");
+        assert!(line.contains("1 threads") && line.contains("standard columns"), "{line}");
+        if n == 10 {
+            assert!(line.contains("the whole job ran"), "{line}");
+        } else {
+            let runs: usize = line.split("from ").nth(1).and_then(|r| r.split(' ').next()).unwrap().parse().unwrap();
+            let rows: u64 = line.split("poses, ").nth(1).and_then(|r| r.split(' ').next()).unwrap().parse().unwrap();
+            assert!(runs >= 2 && rows < 4 * 400 * 400, "{line}");
+        }
+        let seconds: f64 = line["estimated wall time: ".len()..].split(' ').next().unwrap().parse().unwrap();
+        assert!(seconds > 0.0 && seconds.is_finite(), "{line}");
+        assert_eq!(std::fs::read_dir(scratch.path()).unwrap().count(), 0, "calibration runs left files");
+    }
+}

@@ -28,6 +28,7 @@
 //! ```
 
 mod error;
+mod estimate;
 mod kernel;
 mod layout;
 mod plan;
@@ -38,6 +39,7 @@ mod status;
 mod ups;
 
 pub use error::EngineError;
+pub use estimate::{Calibration, Estimate, calibration_dir, estimate, scaled};
 pub use kernel::{bench_job, kernel_rate, ups_kernel_rate};
 pub use layout::Layout;
 pub use plan::{ColumnSize, Plan, PlannedVariant, Samples, plan};
