@@ -36,24 +36,3 @@ pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
     std::hint::black_box(checksum);
     n as f64 / secs
 }
-
-/// Kinetostatic 6-UPS poses per second on the current rayon pool: the default
-/// platform over a small box of positions and orientations, all three kinds, the
-/// estimate `clearance check` gives for a 6-UPS job.
-pub fn ups_kernel_rate(poses: usize) -> f64 {
-    use clearance_solver::ups::{UpsModel, UpsResult, solve_ups_par, statics_sample};
-    let mut model = UpsModel::default();
-    model.set_clearance([1e-4, 1e-4, 1e-4]);
-    let samples: Vec<_> = (0..poses.max(1))
-        .map(|i| {
-            let f = i as f64 / poses.max(1) as f64;
-            statics_sample([0.02 * f, -0.01 * f, 0.7 + 0.05 * f, 0.1 * f, 0.05 * f, -0.05 * f])
-        })
-        .collect();
-    let mut out = vec![UpsResult::default(); samples.len()];
-    let start = Instant::now();
-    solve_ups_par(&model, &samples, Mode::Kinetostatic, 64, &mut out);
-    let secs = start.elapsed().as_secs_f64();
-    std::hint::black_box(&out);
-    samples.len() as f64 / secs
-}

@@ -40,7 +40,7 @@ mod ups;
 
 pub use error::EngineError;
 pub use estimate::{Calibration, Estimate, calibration_dir, estimate, scaled};
-pub use kernel::{bench_job, kernel_rate, ups_kernel_rate};
+pub use kernel::{bench_job, kernel_rate};
 pub use layout::Layout;
 pub use plan::{ColumnSize, Plan, PlannedVariant, Samples, plan};
 pub use progress::{Progress, Reporter};
