@@ -30,25 +30,13 @@ fn response(geom: &Geometry, pose: &Posture, k: usize, j: usize, d: Vector3<f64>
     [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z]
 }
 
-/// Unit vectors spread over a sphere (Fibonacci lattice).
-fn sphere(n: usize) -> Vec<Vector3<f64>> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            Vector3::new(r * (golden * i as f64).cos(), r * (golden * i as f64).sin(), z)
-        })
-        .collect()
-}
-
 /// Each joint's admissible displacements, sampled: the ball's surface, the circle
 /// `⟂ y_j`, the segment's ends along `y_j` (the maxima of a linear map lie on them).
 fn samples(geom: &Geometry, k: usize, j: usize, size: f64) -> Vec<Vector3<f64>> {
     let y = geom.y[j];
     let (a, b) = (geom.x[j], Vector3::z());
     match k {
-        0 => sphere(20_000).into_iter().map(|u| size * u).collect(),
+        0 => common::sphere(20_000).into_iter().map(|u| size * u).collect(),
         2 => vec![size * y, -size * y],
         _ => (0..4000)
             .map(|i| {

@@ -4,6 +4,8 @@
 //! `u_angular` error and the couples `μ_i` at round-off, and the batch over threads
 //! against one thread.
 
+mod common;
+
 use clearance_kinematics::{UpsGeometry, UpsMotion, UpsParams, UpsPosture, ups_inverse_kinematics_motion};
 use clearance_model::Mode;
 use clearance_solver::limbs::Posed;
@@ -358,18 +360,6 @@ fn parallel_batch_matches_serial() {
     }
 }
 
-/// Unit vectors spread over a sphere (Fibonacci lattice).
-fn sphere(n: usize) -> Vec<Vector3<f64>> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            Vector3::new(r * (golden * i as f64).cos(), r * (golden * i as f64).sin(), z)
-        })
-        .collect()
-}
-
 /// `[Δp; Δα]` of kind `k` for a displacement `d` of limb `i`'s joint alone, through the
 /// assembled 30 × 30 error system (not the leg Jacobian the envelope is built from).
 fn joint_response(
@@ -396,7 +386,7 @@ fn joint_response(
 #[test]
 fn envelope_is_the_worst_case_and_names_the_joint() {
     let mut rng = ChaCha8Rng::seed_from_u64(31);
-    let directions = sphere(20_000);
+    let directions = common::sphere(20_000);
     let mut compared = 0;
     while compared < 12 {
         let clearance = [rng.random_range(1e-5..1e-3), rng.random_range(1e-5..1e-3), rng.random_range(1e-5..1e-3)];

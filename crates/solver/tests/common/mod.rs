@@ -85,3 +85,15 @@ pub fn family_job(rng: &mut impl Rng, case: usize, clearance: [f64; 4]) -> (JobS
     }
     (JobSpec::from_toml_str(&toml::to_string(&table).unwrap(), "family.toml").unwrap(), z)
 }
+
+/// Unit vectors spread over a sphere (Fibonacci lattice).
+pub fn sphere(n: usize) -> Vec<nalgebra::Vector3<f64>> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            nalgebra::Vector3::new(r * (golden * i as f64).cos(), r * (golden * i as f64).sin(), z)
+        })
+        .collect()
+}
