@@ -78,7 +78,8 @@ pub struct Estimate {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Calibration {
     pub rows: u64,
-    /// The paths its switch search followed ([`paths`]).
+    /// The paths its switch search followed: each grid line of each swept input, or
+    /// the trajectory, over variants and modes.
     pub paths: u64,
     /// Wall time, and the part of it the search took (s).
     pub seconds: f64,
@@ -95,9 +96,9 @@ const MOST_RUNS: usize = 8;
 /// Runs `job` (named `file` in messages) scaled down ([`scaled`]: the whole extent
 /// of every range, fewer samples) into `opts.out`, with `opts`' column set, solver,
 /// compression and writer on the current rayon pool, at sizes growing
-/// [`GROWTH`]-fold as long as the next is expected within `budget` seconds (two runs
-/// at least), or up to the whole job. The estimate ([`extrapolate`]) scales the
-/// search by the paths it follows and the rest by the rows. A calibration run that is
+/// fourfold as long as the next is expected within `budget` seconds (two runs
+/// at least), or up to the whole job. The estimate scales the search by the rows and
+/// the paths it follows, and the rest by the rows. A calibration run that is
 /// the whole job is the estimate. `opts.out` is replaced by each run and removed at
 /// the end; `opts.shard` and `opts.resume` are ignored.
 pub fn estimate(job: &JobSpec, file: &str, opts: &RunOptions, budget: f64) -> Result<Estimate, EngineError> {
