@@ -440,34 +440,31 @@ fn minima(mags: &Mags) -> Vec<(f64, f64)> {
 /// Whether a minimum refined anywhere in `[k, k + 1]` can pass the direction test:
 /// [`sides`] starts at `k − 1` or `k` on the left and at `k + 1` or `k + 2` on the right
 /// (wherever in the interval the minimum lies) and stops at one of the samples its walk
-/// passes (wherever `reach` puts it). When no pair of those turns by more than 90°, the
+/// passes ([`rising`], wherever `reach` puts it). When no pair of those turns by more than 90°, the
 /// interval's refined minimum gives no switch whatever its value, so it is not refined:
 /// the switches found are the same, without the load solves of the refinement.
 fn can_flip(mags: &Mags, k: usize) -> bool {
     let last = mags.len() - 1;
-    let mut left = Vec::new();
-    let mut right = Vec::new();
-    for start in [k.saturating_sub(1), k] {
-        walked(mags, start, -1, &mut left);
-    }
-    for start in [k + 1, (k + 2).min(last)] {
-        walked(mags, start, 1, &mut right);
-    }
+    let direction = |k: usize| mags[k].expect("a walk passes determinate samples").1;
+    let walked = |starts: [usize; 2], step: isize| -> Vec<nalgebra::Vector3<f64>> {
+        starts.into_iter().flat_map(|start| rising(mags, start, step)).map(direction).collect()
+    };
+    let (left, right) = (walked([k.saturating_sub(1), k], -1), walked([k + 1, (k + 2).min(last)], 1));
     left.iter().any(|b| right.iter().any(|a| b.dot(a) < 0.0))
 }
 
-/// The directions at every sample [`sides`]' walk from `start` by `step` passes: the
-/// start, then on while the magnitude does not fall (nothing from an indeterminate start).
-fn walked(mags: &Mags, start: usize, step: isize, out: &mut Vec<nalgebra::Vector3<f64>>) {
-    let mut k = start;
-    while let Some((m, d)) = mags[k] {
-        out.push(d);
-        let next = k as isize + step;
-        match usize::try_from(next).ok().and_then(|n| mags.get(n).copied().flatten()) {
-            Some((n, _)) if n >= m => k = next as usize,
-            _ => return,
+/// The samples a walk from `start` by `step` passes: the start, then on while the
+/// magnitude does not fall (the next dip's begins where it falls), up to a gap or the
+/// path's end; nothing from an indeterminate start. [`sides`] stops on one of them.
+fn rising(mags: &Mags, start: usize, step: isize) -> impl Iterator<Item = usize> + '_ {
+    std::iter::successors(mags[start].map(|_| start), move |&k| {
+        let m = mags[k]?.0;
+        let next = usize::try_from(k as isize + step).ok()?;
+        match mags.get(next).copied().flatten() {
+            Some((n, _)) if n >= m => Some(next),
+            _ => None,
         }
-    }
+    })
 }
 
 /// The samples where the direction is read on either side of a minimum at `x`: the
@@ -475,23 +472,16 @@ fn walked(mags: &Mags, start: usize, step: isize, out: &mut Vec<nalgebra::Vector
 /// the magnitude falls again, else the last determinate sample before a gap or the
 /// path's end. `None` if a side has no determinate sample.
 fn sides(mags: &Mags, x: f64, reach: f64) -> Option<(usize, usize)> {
-    let walk = |mut k: usize, step: isize| -> Option<usize> {
-        mags[k]?;
-        loop {
-            let m = mags[k]?.0;
-            if m >= reach {
-                return Some(k);
-            }
-            let next = k as isize + step;
-            if next < 0 || next as usize >= mags.len() {
-                return Some(k);
-            }
-            match mags[next as usize] {
-                Some((n, _)) if n >= m => k = next as usize,
-                Some(_) => return Some(k), // the magnitude falls again: the next dip's
-                None => return Some(k),
+    // The first sample of the walk whose magnitude has risen to `reach`, else its last.
+    let walk = |start: usize, step: isize| -> Option<usize> {
+        let mut last = None;
+        for k in rising(mags, start, step) {
+            last = Some(k);
+            if mags[k].is_some_and(|(m, _)| m >= reach) {
+                break;
             }
         }
+        last
     };
     let below = x.floor() as usize;
     let above = (x.ceil() as usize).min(mags.len() - 1);
