@@ -183,7 +183,6 @@ impl Assembly {
         out
     }
 
-    /// `κ₁` within the limit (NaN is not).
     /// Whether the matrix `m` just factored in `lu` is within `singular_cond`, its
     /// estimated `κ₁` put in `cond`. With no limit (infinite, as the 6-UPS, whose
     /// reduced systems decide) any factored matrix is, and nothing is estimated: the
@@ -196,6 +195,7 @@ impl Assembly {
         self.conditioned(*cond)
     }
 
+    /// `κ₁` within the limit (NaN is not).
     fn conditioned(&self, cond: f64) -> bool {
         matches!(cond.partial_cmp(&self.singular_cond), Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal))
     }

@@ -361,8 +361,8 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
     let Some((pose, posed)) = ups_posture(model, sample, mode) else { return out };
     out.q = pose.q;
     out.status = Status::NearSingular;
-    let screws = leg_screws(&pose);
-    (out.cond_a, out.cond_jp) = condition_of(&screws);
+    let inverse;
+    (out.cond_a, out.cond_jp, inverse) = condition_of(&leg_screws(&pose));
     // NaN is not within the limit.
     let within = |c: f64| c <= model.singular_cond;
     if pose.near_singular || !within(out.cond_a) || !within(out.cond_jp) {
@@ -389,8 +389,8 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
         return out;
     }
     out.total = sol.total;
-    if let Some(inverse) = screws.try_inverse() {
-        set_envelope(model, &pose, &inverse, &sol, &mut out);
+    if let Some(inverse) = &inverse {
+        set_envelope(model, &pose, inverse, &sol, &mut out);
     }
     if model.exact && out.status == Status::Ok {
         out.exact = ups_exact_error(model, &pose, &sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
@@ -406,7 +406,8 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
 /// `G` is singular. Both are exact and need no U axis: a leg along its fixed axis still
 /// has them.
 pub fn ups_condition(pose: &UpsPosture) -> (f64, f64) {
-    condition_of(&leg_screws(pose))
+    let (cond_a, cond_jp, _) = condition_of(&leg_screws(pose));
+    (cond_a, cond_jp)
 }
 
 /// `G`, whose column i is leg i's screw `[e_i; r_i × e_i]`, `r_i = A_i − P`.
@@ -423,13 +424,14 @@ fn leg_screws(pose: &UpsPosture) -> SMatrix<f64, 6, 6> {
     g
 }
 
-/// `(κ₁(G), κ∞(G))` ([`ups_condition`]).
-fn condition_of(g: &SMatrix<f64, 6, 6>) -> (f64, f64) {
+/// `(κ₁(G), κ∞(G))` ([`ups_condition`]) and `G⁻¹`, which the envelope uses too.
+fn condition_of(g: &SMatrix<f64, 6, 6>) -> (f64, f64, Option<SMatrix<f64, 6, 6>>) {
     let one = |m: &SMatrix<f64, 6, 6>| (0..6).map(|c| m.column(c).abs().sum()).fold(0.0, f64::max);
     let inf = |m: &SMatrix<f64, 6, 6>| (0..6).map(|r| m.row(r).abs().sum()).fold(0.0, f64::max);
-    match g.try_inverse() {
-        Some(gi) if gi.iter().all(|v| v.is_finite()) => (one(g) * one(&gi), inf(g) * inf(&gi)),
-        _ => (f64::INFINITY, f64::INFINITY),
+    let inverse = g.try_inverse();
+    match &inverse {
+        Some(gi) if gi.iter().all(|v| v.is_finite()) => (one(g) * one(gi), inf(g) * inf(gi), inverse),
+        _ => (f64::INFINITY, f64::INFINITY, inverse),
     }
 }
 
