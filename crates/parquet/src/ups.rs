@@ -51,8 +51,9 @@ type Fill = Box<dyn Fn(&UpsRow, &UpsResult) -> Option<f64> + Send + Sync>;
 pub struct UpsSchema {
     schema: SchemaRef,
     floats: Vec<Fill>,
-    /// Whether the `dominant` column (after `status`) is in the set.
-    dominant: bool,
+    /// The `dominant` column's values, by `6·kind + limb`, when the set has the column
+    /// (after `status`).
+    dominant: Option<Vec<String>>,
 }
 
 /// The `dominant` column's values, by `6·kind + limb`.
@@ -160,8 +161,8 @@ impl UpsSchema {
             Field::new("t", DataType::Float64, true).with_metadata(unit("s")),
             Field::new("status", DataType::Utf8, false).with_metadata(unit("")),
         ];
-        let dominant = set >= ColumnSet::Standard;
-        if dominant {
+        let dominant = (set >= ColumnSet::Standard).then(joint_names);
+        if dominant.is_some() {
             fields.push(Field::new("dominant", DataType::Utf8, true).with_metadata(unit("")));
         }
         fields.extend(names.iter().map(|(n, u)| Field::new(n, DataType::Float64, true).with_metadata(unit(u))));
@@ -187,8 +188,7 @@ impl UpsSchema {
             Arc::new(Float64Array::from_iter(rows.iter().map(|s| s.t.filter(|t| t.is_finite())))),
             Arc::new(StringArray::from_iter_values(results.iter().map(|r| r.status.name()))),
         ];
-        if self.dominant {
-            let names = joint_names();
+        if let Some(names) = &self.dominant {
             out.push(Arc::new(StringArray::from_iter(
                 results.iter().map(|r| r.dominant.map(|(k, l)| names[6 * k + l].as_str())),
             )));
