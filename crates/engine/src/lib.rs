@@ -29,6 +29,7 @@
 
 mod error;
 mod estimate;
+mod groups;
 mod kernel;
 mod layout;
 mod plan;

@@ -1,13 +1,15 @@
 //! A run: a job → a directory of Parquet files ([`Layout`]).
 //!
-//! The work is cut into units (variant, mode, chunk of samples), numbered in that
-//! order. A unit is one part file, `poses/variant=K/part-<mode>-<chunk>.parquet`,
-//! written under a temporary name and renamed when complete, so a unit either
-//! exists whole or not at all: `--resume` skips the units that exist and a shard
-//! `I/N` computes the units whose number is `I` modulo `N`. Within a unit, poses
-//! are spread over the rayon pool; each unit's part goes to a writer thread as soon
-//! as it is concluded, and the grid lines it completes are searched for
-//! discontinuities ([`Search`]) while the next unit computes.
+//! The work is cut into units (variant, mode, chunk of samples). A unit is one part
+//! file, `poses/variant=K/part-<mode>-<chunk>.parquet`, written under a temporary
+//! name and renamed when complete, so a unit either exists whole or not at all:
+//! `--resume` skips the units that exist. Variants that differ only in their
+//! clearance magnitudes form a [`Group`] solved once ([`crate::groups`]): the units
+//! of a group for one (mode, chunk) are one [`Work`], and a shard `I/N` computes the
+//! work whose number is `I` modulo `N`. Within a work, poses are spread over the
+//! rayon pool; each unit's part goes to a writer thread as soon as it is concluded,
+//! and the grid lines the work completes are searched for discontinuities
+//! ([`Search`]), once for its group, while the next work computes.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
@@ -28,6 +30,7 @@ use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
+use crate::groups::{Group, groups};
 use crate::layout::Layout;
 use crate::progress::Reporter;
 
@@ -93,20 +96,49 @@ pub struct StageTimes {
 /// One part file's worth of work.
 #[derive(Clone, Debug)]
 pub(crate) struct Unit {
-    pub(crate) number: u64,
     pub(crate) variant: u64,
     pub(crate) mode: Mode,
     pub(crate) chunk: u64,
     pub(crate) range: std::ops::Range<u64>,
 }
 
-pub(crate) fn units(job: &JobSpec, chunk_size: u64) -> Vec<Unit> {
+/// The units that share one solve: the parts of a [`Group`]'s variants (or of as
+/// many of them as [`SHARED_ROWS`] and [`SHARED_PARTS`] allow) for one (mode, chunk). Work is numbered in the order (group, mode, chunk), and shard
+/// `I/N` computes the work whose number is `I` modulo `N`; a job whose variants are
+/// all alone numbers its units as (variant, mode, chunk).
+#[derive(Clone, Debug)]
+pub(crate) struct Work {
+    pub(crate) number: u64,
+    /// Index of its group among the run's.
+    pub(crate) group: usize,
+    /// The units to compute, in member order (with `--resume`, those not complete).
+    pub(crate) units: Vec<Unit>,
+    /// Each unit's member index in its group.
+    pub(crate) members: Vec<usize>,
+}
+
+/// The most rows of parts, and the most parts, one [`Work`] holds: a group with
+/// more members than fit is solved once per batch of members. A work's parts are in
+/// memory until written (encoded, about 60 % of 8 bytes a value, in page buffers of
+/// their own), and two works are in flight at once.
+const SHARED_ROWS: u64 = 1 << 18;
+const SHARED_PARTS: u64 = 16;
+
+pub(crate) fn works(job: &JobSpec, groups: &[Group], chunk_size: u64) -> Vec<Work> {
     let n = job.sample_count();
+    let per_work = (SHARED_ROWS / chunk_size.min(n).max(1)).clamp(1, SHARED_PARTS) as usize;
     let mut out = Vec::new();
-    for variant in 0..job.variant_count() {
+    for (g, group) in groups.iter().enumerate() {
         for &mode in &job.analysis.modes {
             for (chunk, range) in chunks(n, chunk_size).enumerate() {
-                out.push(Unit { number: out.len() as u64, variant, mode, chunk: chunk as u64, range });
+                let all: Vec<usize> = (0..group.members.len()).collect();
+                for members in all.chunks(per_work) {
+                    let units = members
+                        .iter()
+                        .map(|&m| Unit { variant: group.members[m], mode, chunk: chunk as u64, range: range.clone() })
+                        .collect();
+                    out.push(Work { number: out.len() as u64, group: g, units, members: members.to_vec() });
+                }
             }
         }
     }
@@ -321,11 +353,11 @@ struct Kept<'a> {
     stats: std::collections::HashMap<(u64, Mode), (SummaryStats, usize)>,
     /// How traces are kept.
     keep: KeepTraces,
-    /// Per (variant, mode), with [`KeepTraces::Search`]: its search so far.
-    searches: std::collections::HashMap<(u64, Mode), Search<'a>>,
-    /// Per (variant, mode), with [`KeepTraces::Search`]: its switches, once all its
-    /// units are in.
-    found: std::collections::HashMap<(u64, Mode), Vec<Discontinuity>>,
+    /// Per (group, mode), with [`KeepTraces::Search`]: its search so far.
+    searches: std::collections::HashMap<(usize, Mode), Search<'a>>,
+    /// Per (group, mode), with [`KeepTraces::Search`]: its switches, once all its
+    /// work is in.
+    found: std::collections::HashMap<(usize, Mode), Vec<Discontinuity>>,
 }
 
 /// What [`Kept`] does with the traces of the units it is given.
@@ -334,8 +366,8 @@ enum KeepTraces {
     /// Nothing: the search at the end reads them back from the parts' trace files.
     #[default]
     No,
-    /// Searches the paths they complete at once. Units must come in order, each
-    /// (variant, mode) whole.
+    /// Searches the paths they complete at once. Work must come in order, each
+    /// (group, mode) whole.
     Search,
 }
 
@@ -348,9 +380,10 @@ impl<'a> Kept<'a> {
         *count += 1;
     }
 
+    /// The traces of a work's samples, which its group's variants share.
     fn add_traces(
         &mut self,
-        unit: &Unit,
+        key: (usize, Mode),
         traces: &[Trace],
         model: &'a Model,
         source: &'a SampleSource,
@@ -359,8 +392,7 @@ impl<'a> Kept<'a> {
         match self.keep {
             KeepTraces::No => {}
             KeepTraces::Search => {
-                let key = (unit.variant, unit.mode);
-                let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, unit.mode, opts));
+                let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, key.1, opts));
                 search.extend(traces);
                 if search.is_complete() {
                     let search = self.searches.remove(&key).expect("just used");
@@ -373,12 +405,14 @@ impl<'a> Kept<'a> {
 
 /// The discontinuity search and the summary, then `discontinuities.parquet` and
 /// `summary.parquet`. What this invocation computed comes from `kept`, the rest
-/// from the files of the parts, which must then all be written.
+/// from the files of the parts, which must then all be written. Each group is
+/// searched once (`models` are the groups'), its switches scaled to each member.
 #[allow(clippy::too_many_arguments)]
 fn finalize(
     layout: &Layout,
     job: &JobSpec,
     variants: &[Variant],
+    groups: &[Group],
     models: &[(Model, SampleSource)],
     all: &[Unit],
     opts: &RunOptions,
@@ -387,10 +421,32 @@ fn finalize(
     stages: &mut StageTimes,
 ) -> Result<()> {
     opts.progress.get().searching();
+    let mut found_by_group = std::mem::take(&mut kept.found);
+    for (g, (group, (model, source))) in groups.iter().zip(models).enumerate() {
+        let search = search_options(&variants[group.first() as usize]);
+        for &mode in &job.analysis.modes {
+            if found_by_group.contains_key(&(g, mode)) {
+                continue;
+            }
+            let first = group.first();
+            let units: Vec<&Unit> = all.iter().filter(|u| u.variant == first && u.mode == mode).collect();
+            let start = Instant::now();
+            let found = search_after(layout, model, source, mode, &search, &units, opts)?;
+            stages.search += start.elapsed().as_secs_f64();
+            found_by_group.insert((g, mode), found);
+        }
+    }
+    let mut member_of = vec![(0, 0); variants.len()];
+    for (g, group) in groups.iter().enumerate() {
+        for (m, &v) in group.members.iter().enumerate() {
+            member_of[v as usize] = (g, m);
+        }
+    }
     let mut switches = Vec::new();
     let mut summary = Vec::new();
-    for (variant, (model, source)) in variants.iter().zip(models) {
-        let search = search_options(variant);
+    for variant in variants {
+        let (g, m) = member_of[variant.index as usize];
+        let group = &groups[g];
         for &mode in &job.analysis.modes {
             let units: Vec<&Unit> = all.iter().filter(|u| u.variant == variant.index && u.mode == mode).collect();
             // Merged in unit order, as `Kept::add_stats` does, so both give the same sums.
@@ -404,14 +460,10 @@ fn finalize(
                     stats
                 }
             };
-            let found = match kept.found.remove(&(variant.index, mode)) {
-                Some(found) => found,
-                None => {
-                    let start = Instant::now();
-                    let found = search_after(layout, model, source, mode, &search, &units, opts)?;
-                    stages.search += start.elapsed().as_secs_f64();
-                    found
-                }
+            let found = if group.alone() {
+                found_by_group.remove(&(g, mode)).expect("every group searched")
+            } else {
+                group.switches(m, &found_by_group[&(g, mode)])
             };
             let mut counts = [0u64; 4];
             for d in &found {
@@ -511,10 +563,12 @@ impl TraceFiles {
     }
 }
 
-/// What computing a unit needs besides the unit.
+/// What computing a work needs besides the work.
 struct Ctx<'a> {
     schema: &'a PoseSchema,
+    /// Per group, the model it is solved with and its samples.
     models: &'a [(Model, SampleSource)],
+    groups: &'a [Group],
     variants: &'a [Variant],
     opts: &'a RunOptions,
     layout: &'a Layout,
@@ -526,30 +580,43 @@ struct Ctx<'a> {
     workers: &'a std::sync::Mutex<Vec<(Blocks, PageBuffer)>>,
 }
 
-/// A unit computed, its pages encoded, before its traces are pruned and its
+impl Ctx<'_> {
+    fn take_worker(&self) -> (Blocks, PageBuffer) {
+        let worker = self.workers.lock().expect("no panic while held").pop();
+        worker.unwrap_or_else(|| (Blocks::default(), self.schema.page_buffer()))
+    }
+
+    fn put_worker(&self, worker: (Blocks, PageBuffer)) {
+        self.workers.lock().expect("no panic while held").push(worker);
+    }
+}
+
+/// A work computed, its pages encoded, before its traces are pruned and its
 /// statistics merged ([`conclude`]).
 struct Computed<'a> {
-    unit: &'a Unit,
-    body: Body,
+    work: &'a Work,
+    /// Per unit, its rows.
+    bodies: Vec<Body>,
+    /// The samples' traces, which every unit of the work shares.
     traces: Vec<Trace>,
     /// The load magnitudes of each pose.
     loads: Vec<Loads>,
-    /// Per page, the statistics of each of its blocks.
-    block_stats: Vec<Vec<SummaryStats>>,
+    /// Per unit, per page, the statistics of each of its blocks.
+    block_stats: Vec<Vec<Vec<SummaryStats>>>,
 }
 
-/// Solves the poses of `unit` on the pool into the rows its writer takes.
+/// Solves the poses of `work` on the pool into the rows its writer takes.
 /// `loads` is a buffer to reuse.
-fn compute<'a>(ctx: &Ctx<'_>, unit: &'a Unit, loads: Vec<Loads>) -> Result<Computed<'a>> {
+fn compute<'a>(ctx: &Ctx<'_>, work: &'a Work, loads: Vec<Loads>) -> Result<Computed<'a>> {
     match ctx.opts.writer {
-        Writer::Engine => compute_pages(ctx, unit, loads),
-        Writer::Arrow => compute_batch(ctx, unit, loads),
+        Writer::Engine => compute_pages(ctx, work, loads),
+        Writer::Arrow => compute_batch(ctx, work, loads),
     }
 }
 
 /// Solves one block of samples, from sample `first`, into rows `row..` of `sink`,
 /// with each pose's trace and load magnitudes (`traces` and `loads` are the
-/// block's); the block's statistics.
+/// block's); the block's statistics. For a variant solved as itself.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn solve_block(
@@ -578,163 +645,304 @@ fn solve_block(
     stats
 }
 
+/// Solves the samples from `first` (as many as `traces`) once for a group, with
+/// their traces and load magnitudes; a [`Shared`] solve to write each member from.
+#[allow(clippy::too_many_arguments)]
+fn solve_shared<'b>(
+    blocks: &'b mut Blocks,
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    first: u64,
+    traces: &mut [Trace],
+    loads: &mut [Loads],
+) -> Shared<'b> {
+    let (samples, results) = blocks.solve(model, source, first..first + traces.len() as u64, mode);
+    for ((r, t), l) in results.iter().zip(traces).zip(loads) {
+        *t = trace_into(r, model, l);
+    }
+    Shared { samples, results }
+}
+
+/// A group's solve of consecutive samples.
+struct Shared<'b> {
+    samples: &'b [clearance_grid::Sample],
+    results: &'b [clearance_solver::PoseResult],
+}
+
+impl Shared<'_> {
+    /// Member `m` of `group`: rows `row..` of `sink` from samples `from..to` of the
+    /// solve, scaled to the member's clearances; their statistics.
+    fn put(
+        &self,
+        group: &Group,
+        m: usize,
+        sink: &mut BlockSink<'_>,
+        row: usize,
+        from: usize,
+        to: usize,
+    ) -> SummaryStats {
+        let (scale, clearance) = (&group.scales[m], &group.clearances[m]);
+        let mut stats = SummaryStats::with_capacity(to - from);
+        for (i, (s, r)) in self.samples[from..to].iter().zip(&self.results[from..to]).enumerate() {
+            let r = r.scaled(scale, clearance);
+            sink.put(row + i, s, &r);
+            stats.push(&r);
+        }
+        stats
+    }
+}
+
 /// [`compute`] for the engine's writer: a page at a time, each page encoded as
-/// soon as its rows are in.
-fn compute_pages<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
-    let (model, source) = &ctx.models[unit.variant as usize];
-    let n = (unit.range.end - unit.range.start) as usize;
-    let mut pages = ctx.schema.part(unit.mode, n);
+/// soon as its rows are in. A group's page is solved once and written for each
+/// member.
+fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
+    let (model, source) = &ctx.models[work.group];
+    let group = &ctx.groups[work.group];
+    let (mode, range) = (work.units[0].mode, work.units[0].range.clone());
+    let n = (range.end - range.start) as usize;
+    let mut parts: Vec<PartPages> = work.units.iter().map(|_| ctx.schema.part(mode, n)).collect();
     let mut traces: Vec<Trace> = vec![0; n];
     loads.resize(n, Loads::default());
-    // Each page with its rows' traces and loads.
+    // Each page with its rows' traces and loads: per page, every unit's writer of it.
+    let mut writers: Vec<std::vec::IntoIter<PageWriter<'_>>> =
+        parts.iter_mut().map(|p| p.pages(ctx.schema).into_iter()).collect();
     let (mut rest_traces, mut rest_loads) = (&mut traces[..], &mut loads[..n]);
-    let work: Vec<_> = pages
-        .pages(ctx.schema)
-        .into_iter()
-        .enumerate()
-        .map(|(p, page)| {
-            let (page_traces, more) = std::mem::take(&mut rest_traces).split_at_mut(page.rows());
-            rest_traces = more;
-            let (page_loads, more) = std::mem::take(&mut rest_loads).split_at_mut(page.rows());
-            rest_loads = more;
-            (p, page, page_traces, page_loads)
-        })
-        .collect();
+    let mut work_pages = Vec::new();
+    while let Some(pages) = writers.iter_mut().map(|w| w.next()).collect::<Option<Vec<_>>>() {
+        let rows = pages[0].rows();
+        let (page_traces, more) = std::mem::take(&mut rest_traces).split_at_mut(rows);
+        rest_traces = more;
+        let (page_loads, more) = std::mem::take(&mut rest_loads).split_at_mut(rows);
+        rest_loads = more;
+        work_pages.push((work_pages.len(), pages, page_traces, page_loads));
+    }
     // Pages are handed out in order, each to the next thread free, so that the
     // short pages at the end go last (`page_spans`): rayon's halving of a list of
     // pages let one thread finish a whole page before the other.
-    let queue = std::sync::Mutex::new(work.into_iter());
+    let queue = std::sync::Mutex::new(work_pages.into_iter());
     let next_page = || queue.lock().expect("no panic while held").next();
-    let compute_page = |page: PageWriter<'_>, page_traces: &mut [Trace], page_loads: &mut [Loads]| {
-        let worker = ctx.workers.lock().expect("no panic while held").pop();
-        let (mut blocks, mut buf) = worker.unwrap_or_else(|| (Blocks::default(), ctx.schema.page_buffer()));
-        let first = unit.range.start + page.first() as u64;
-        let bytes = ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
-        let written = page.write(&mut buf, ctx.opts.compression, bytes, |sink| {
-            let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
-            let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
-            for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
-                let (row, mode) = (b * BLOCK, unit.mode);
-                let start = first + row as u64;
-                all.push(solve_block(&mut blocks, model, source, mode, start, sink, row, block_traces, block_loads));
-            }
-            all
-        });
-        ctx.workers.lock().expect("no panic while held").push((blocks, buf));
+    let compute_page = |pages: Vec<PageWriter<'_>>, page_traces: &mut [Trace], page_loads: &mut [Loads]| {
+        let (mut blocks, mut buf) = ctx.take_worker();
+        let first = range.start + pages[0].first() as u64;
+        let spare = || ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
+        let codec = ctx.opts.compression;
+        let written: Vec<_> = if group.alone() {
+            let page = pages.into_iter().next().expect("a page per unit");
+            vec![page.write(&mut buf, codec, spare(), |sink| {
+                let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
+                let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
+                for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
+                    let row = b * BLOCK;
+                    let start = first + row as u64;
+                    all.push(solve_block(
+                        &mut blocks,
+                        model,
+                        source,
+                        mode,
+                        start,
+                        sink,
+                        row,
+                        block_traces,
+                        block_loads,
+                    ));
+                }
+                all
+            })]
+        } else {
+            let rows = page_traces.len();
+            let shared = solve_shared(&mut blocks, model, source, mode, first, page_traces, page_loads);
+            pages
+                .into_iter()
+                .zip(&work.members)
+                .map(|(page, &m)| {
+                    page.write(&mut buf, codec, spare(), |sink| {
+                        (0..rows)
+                            .step_by(BLOCK)
+                            .map(|row| shared.put(group, m, sink, row, row, rows.min(row + BLOCK)))
+                            .collect()
+                    })
+                })
+                .collect()
+        };
+        ctx.put_worker((blocks, buf));
         written
     };
     let by_thread: Vec<Vec<_>> = (0..rayon::current_num_threads())
         .into_par_iter()
         .map(|_| {
             let mut done = Vec::new();
-            while let Some((p, page, page_traces, page_loads)) = next_page() {
-                done.push((p, compute_page(page, page_traces, page_loads)));
+            while let Some((p, pages, page_traces, page_loads)) = next_page() {
+                done.push((p, compute_page(pages, page_traces, page_loads)));
             }
             done
         })
         .collect();
     let mut done: Vec<_> = by_thread.into_iter().flatten().collect();
     done.sort_unstable_by_key(|(p, _)| *p);
-    let block_stats: Vec<Vec<SummaryStats>> =
-        done.into_iter().map(|(_, stats)| stats).collect::<Result<_, _>>().map_err(|source| {
-            clearance_parquet::ParquetError::Encode {
+    // Per unit, per page.
+    let mut block_stats: Vec<Vec<Vec<SummaryStats>>> = work.units.iter().map(|_| Vec::new()).collect();
+    for (_, per_unit) in done {
+        for ((stats, unit), out) in per_unit.into_iter().zip(&work.units).zip(&mut block_stats) {
+            let stats = stats.map_err(|source| clearance_parquet::ParquetError::Encode {
                 path: ctx.layout.part(unit.variant, unit.mode, unit.chunk),
                 source,
-            }
-        })?;
-    Ok(Computed { unit, body: Body::Pages(pages), traces, loads, block_stats })
+            })?;
+            out.push(stats);
+        }
+    }
+    let bodies = parts.into_iter().map(Body::Pages).collect();
+    Ok(Computed { work, bodies, traces, loads, block_stats })
 }
 
 /// [`compute`] for `ArrowWriter`: blocks of rows into column buffers on the pool,
-/// then one record batch of the unit.
-fn compute_batch<'a>(ctx: &Ctx<'_>, unit: &'a Unit, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
-    let (model, source) = &ctx.models[unit.variant as usize];
-    let n = (unit.range.end - unit.range.start) as usize;
-    let mut columns = ctx.schema.columns(n);
+/// then one record batch per unit. A group's block is solved once and written for
+/// each member.
+fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
+    let (model, source) = &ctx.models[work.group];
+    let group = &ctx.groups[work.group];
+    let (mode, range) = (work.units[0].mode, work.units[0].range.clone());
+    let n = (range.end - range.start) as usize;
+    let mut columns: Vec<_> = work.units.iter().map(|_| ctx.schema.columns(n)).collect();
     let mut traces: Vec<Trace> = vec![0; n];
     loads.resize(n, Loads::default());
-    let work: Vec<_> = columns
-        .blocks(ctx.schema, BLOCK)
-        .into_iter()
-        .zip(traces.chunks_mut(BLOCK).zip(loads[..n].chunks_mut(BLOCK)))
-        .enumerate()
-        .collect();
-    // One block's statistics per entry, in block order, as `compute_pages` gives them.
-    let block_stats: Vec<Vec<SummaryStats>> = work
+    let mut sinks: Vec<std::vec::IntoIter<BlockSink<'_>>> =
+        columns.iter_mut().map(|c| c.blocks(ctx.schema, BLOCK).into_iter()).collect();
+    let mut per_block = Vec::new();
+    while let Some(block_sinks) = sinks.iter_mut().map(|s| s.next()).collect::<Option<Vec<_>>>() {
+        per_block.push(block_sinks);
+    }
+    drop(sinks);
+    let work_blocks: Vec<_> =
+        per_block.into_iter().zip(traces.chunks_mut(BLOCK).zip(loads[..n].chunks_mut(BLOCK))).enumerate().collect();
+    // Per block, each unit's statistics.
+    let stats: Vec<Vec<SummaryStats>> = work_blocks
         .into_par_iter()
-        .map(|(b, (mut sink, (block_traces, block_loads)))| {
-            let worker = ctx.workers.lock().expect("no panic while held").pop();
-            let (mut blocks, buf) = worker.unwrap_or_else(|| (Blocks::default(), ctx.schema.page_buffer()));
-            let first = unit.range.start + (b * BLOCK) as u64;
-            let stats =
-                solve_block(&mut blocks, model, source, unit.mode, first, &mut sink, 0, block_traces, block_loads);
-            ctx.workers.lock().expect("no panic while held").push((blocks, buf));
-            vec![stats]
+        .map(|(b, (mut block_sinks, (block_traces, block_loads)))| {
+            let (mut blocks, buf) = ctx.take_worker();
+            let first = range.start + (b * BLOCK) as u64;
+            let stats = if group.alone() {
+                vec![solve_block(
+                    &mut blocks,
+                    model,
+                    source,
+                    mode,
+                    first,
+                    &mut block_sinks[0],
+                    0,
+                    block_traces,
+                    block_loads,
+                )]
+            } else {
+                let rows = block_traces.len();
+                let shared = solve_shared(&mut blocks, model, source, mode, first, block_traces, block_loads);
+                block_sinks
+                    .iter_mut()
+                    .zip(&work.members)
+                    .map(|(sink, &m)| shared.put(group, m, sink, 0, 0, rows))
+                    .collect()
+            };
+            ctx.put_worker((blocks, buf));
+            stats
         })
         .collect();
-    let batch = ctx.schema.finish(unit.mode, columns);
-    Ok(Computed { unit, body: Body::Batch(batch), traces, loads, block_stats })
+    // One block's statistics per page entry, in block order, as `compute_pages` gives them.
+    let mut block_stats: Vec<Vec<Vec<SummaryStats>>> = work.units.iter().map(|_| Vec::new()).collect();
+    for per_unit in stats {
+        for (s, out) in per_unit.into_iter().zip(&mut block_stats) {
+            out.push(vec![s]);
+        }
+    }
+    let bodies = columns.into_iter().map(|c| Body::Batch(ctx.schema.finish(mode, c))).collect();
+    Ok(Computed { work, bodies, traces, loads, block_stats })
 }
 
-/// A computed unit's part, for the writer, with its traces pruned and its
-/// statistics merged (and kept in `kept`); and its load buffer, to reuse.
-fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Part, Vec<Loads>) {
-    let Computed { unit, body, traces, loads, block_stats } = c;
-    let (_, source) = &ctx.models[unit.variant as usize];
+/// A computed work's parts, for the writer, with its traces pruned and each unit's
+/// statistics merged (and kept in `kept`); the pruned traces; and its load buffer,
+/// to reuse.
+fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<Trace>, Vec<Loads>) {
+    let Computed { work, bodies, traces, loads, block_stats } = c;
+    let (_, source) = &ctx.models[work.group];
     // With the whole unit in hand, most samples are seen not to be load
     // minima, so the search solves only the others.
-    let traces = keep_local_minima(&axes(source), unit.range.start, &traces, &loads[..traces.len()]);
-    let mut stats = SummaryStats::with_capacity(traces.len());
-    for b in block_stats.iter().flatten() {
-        stats.merge(b);
-    }
-    // Once, here: the statistics file and the run's total both want it flushed.
-    stats.flush();
-    kept.add_stats(unit, &stats);
-    let extra = part_metadata(&ctx.variants[unit.variant as usize]);
+    let start = work.units[0].range.start;
+    let traces = keep_local_minima(&axes(source), start, &traces, &loads[..traces.len()]);
     let layout = ctx.layout;
-    let part = Part {
-        path: layout.part(unit.variant, unit.mode, unit.chunk),
-        stats_path: layout.stats(unit.variant, unit.mode, unit.chunk),
-        trace_path: layout.trace(unit.variant, unit.mode, unit.chunk),
-        traces,
-        body,
-        stats,
-        extra,
-    };
-    (part, loads)
+    let parts = work
+        .units
+        .iter()
+        .zip(bodies)
+        .zip(block_stats)
+        .map(|((unit, body), block_stats)| {
+            let mut stats = SummaryStats::with_capacity(traces.len());
+            for b in block_stats.iter().flatten() {
+                stats.merge(b);
+            }
+            // Once, here: the statistics file and the run's total both want it flushed.
+            stats.flush();
+            kept.add_stats(unit, &stats);
+            Part {
+                path: layout.part(unit.variant, unit.mode, unit.chunk),
+                stats_path: layout.stats(unit.variant, unit.mode, unit.chunk),
+                trace_path: layout.trace(unit.variant, unit.mode, unit.chunk),
+                traces: traces.clone(),
+                body,
+                stats,
+                extra: part_metadata(&ctx.variants[unit.variant as usize]),
+            }
+        })
+        .collect();
+    (parts, traces, loads)
 }
 
-/// What a run of any kind starts from: its variants, the prepared output directory,
-/// the units (all, this shard's, those still to compute) with their pose counts, and
-/// the options of the files it writes.
+/// What a run of any kind starts from: its variants and their groups, the prepared
+/// output directory, the units (all, this shard's) and the work still to compute, with their pose counts, and the options of the files it
+/// writes.
 pub(crate) struct Setup {
     pub variants: Vec<Variant>,
+    pub groups: Vec<Group>,
     pub layout: Layout,
     pub all: Vec<Unit>,
     pub mine: Vec<Unit>,
-    pub todo: Vec<Unit>,
+    /// This shard's work still to compute, each with its units still to compute.
+    pub todo_work: Vec<Work>,
     pub mine_poses: u64,
     pub todo_poses: u64,
     pub total: u64,
     pub write_opts: WriteOptions,
 }
 
-/// Expands `job`'s variants, prepares `opts.out` and plans the units; `complete`
-/// says whether `--resume` can keep a unit's files.
+/// Expands `job`'s variants and groups them (`share`: whether variants that differ
+/// only in clearances share a solve), prepares `opts.out` and plans the work;
+/// `complete` says whether `--resume` can keep a unit's files.
 pub(crate) fn prepare_run(
     job: &JobSpec,
     job_file: &str,
     opts: &RunOptions,
     complete: fn(&Layout, &Unit) -> bool,
+    share: bool,
 ) -> Result<Setup> {
     let variants: Vec<Variant> = job.variants(job_file)?;
+    let groups = groups(&variants, share);
     let job_toml = job.to_toml_string();
     let layout = Layout::new(&opts.out);
     prepare_dir(&layout, &job_toml, opts)?;
-    let all = units(job, opts.chunk_size);
-    let mine: Vec<Unit> = all.iter().filter(|u| opts.shard.is_none_or(|(i, n)| u.number % n == i)).cloned().collect();
-    let todo: Vec<Unit> = mine.iter().filter(|u| !(opts.resume && complete(&layout, u))).cloned().collect();
+    let work = works(job, &groups, opts.chunk_size);
+    let all: Vec<Unit> = work.iter().flat_map(|w| w.units.iter().cloned()).collect();
+    let mine_work: Vec<Work> = work.into_iter().filter(|w| opts.shard.is_none_or(|(i, n)| w.number % n == i)).collect();
+    let mine: Vec<Unit> = mine_work.iter().flat_map(|w| w.units.iter().cloned()).collect();
+    let todo_work: Vec<Work> = mine_work
+        .into_iter()
+        .filter_map(|mut w| {
+            let keep: Vec<bool> = w.units.iter().map(|u| !(opts.resume && complete(&layout, u))).collect();
+            let mut k = keep.iter();
+            w.units.retain(|_| *k.next().expect("one flag per unit"));
+            let mut k = keep.iter();
+            w.members.retain(|_| *k.next().expect("one flag per member"));
+            (!w.units.is_empty()).then_some(w)
+        })
+        .collect();
+    let todo: Vec<Unit> = todo_work.iter().flat_map(|w| w.units.iter().cloned()).collect();
     let poses = |units: &[Unit]| units.iter().map(|u| u.range.end - u.range.start).sum();
     let (mine_poses, todo_poses) = (poses(&mine), poses(&todo));
     let total = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
@@ -750,7 +958,7 @@ pub(crate) fn prepare_run(
         durable: false,
         direct_io: opts.direct_io,
     };
-    Ok(Setup { variants, layout, all, mine, todo, mine_poses, todo_poses, total, write_opts })
+    Ok(Setup { variants, groups, layout, all, mine, todo_work, mine_poses, todo_poses, total, write_opts })
 }
 
 /// Writes this shard's marker (with `--shard`) and tells whether every part of the run
@@ -783,14 +991,17 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
         return crate::ups::run_ups(job, job_file, opts);
     }
-    let Setup { variants, layout, all, mine, todo, mine_poses, todo_poses, total, write_opts } =
-        prepare_run(job, job_file, opts, unit_complete)?;
+    let Setup { variants, groups, layout, all, mine, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
+        prepare_run(job, job_file, opts, unit_complete, true)?;
     let layout = &layout;
     let schema = PoseSchema::new(opts.columns, job.analysis.exact);
-    let models: Vec<(Model, SampleSource)> = variants
+    // Per group: its first variant's job with the group's clearances.
+    let models: Vec<(Model, SampleSource)> = groups
         .iter()
-        .map(|v| {
+        .map(|g| {
+            let v = &variants[g.first() as usize];
             let mut model = Model::from_job(&v.job);
+            model.clearance = g.clearance;
             model.solver = opts.solver;
             // The envelope and the dominant joint are columns of the standard set.
             model.envelope = opts.columns >= ColumnSet::Standard;
@@ -806,7 +1017,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     // follows the computation and has everything it needs in memory: the rest runs
     // while the writer finishes the last parts. Otherwise it reads the trace files
     // at the end.
-    let keep = if opts.shard.is_none() && todo.len() == all.len() && job.sample_count() <= KEEP_TRACES {
+    let computes_all = todo_work.iter().map(|w| w.units.len()).sum::<usize>() == all.len();
+    let keep = if opts.shard.is_none() && computes_all && job.sample_count() <= KEEP_TRACES {
         KeepTraces::Search
     } else {
         KeepTraces::No
@@ -847,14 +1059,19 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             Ok(busy)
         });
         let workers = &std::sync::Mutex::new(Vec::new());
-        let ctx = Ctx { schema, models: &models, variants: &variants, opts, layout, spare, workers };
+        let ctx = Ctx { schema, models: &models, groups: &groups, variants: &variants, opts, layout, spare, workers };
         // Load magnitudes of units, reused from unit to unit.
         let mut spare_loads: Vec<Vec<Loads>> = Vec::new();
         let mut previous: Option<Computed> = None;
         let mut writer_failed = false;
-        for unit in todo.iter().map(Some).chain([None]) {
-            if let Some(u) = unit {
-                progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
+        for work in todo_work.iter().map(Some).chain([None]) {
+            if let Some(w) = work {
+                let u = &w.units[0];
+                let shared = match w.units.len() {
+                    1 => String::new(),
+                    n => format!(" (and {} more sharing its solve)", n - 1),
+                };
+                progress.stage(&format!("variant {} {}{shared}", u.variant, u.mode.name()));
             }
             let loads = spare_loads.pop().unwrap_or_default();
             // The previous unit is concluded on the pool while this one computes
@@ -865,24 +1082,24 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let (concluded, computed) = rayon::join(
                 || {
                     previous.take().map(|c| {
-                        let unit = c.unit;
-                        let (part, loads) = conclude(&ctx, c, &mut kept);
-                        let n = part.traces.len() as u64;
-                        let traces = (kept.keep != KeepTraces::No).then(|| part.traces.clone());
-                        let sent = tx.send(part).is_ok();
-                        // Searched after the part is on its way: the writer need not wait.
+                        let work = c.work;
+                        let (parts, traces, loads) = conclude(&ctx, c, &mut kept);
+                        let n = (traces.len() * parts.len()) as u64;
+                        let sent = parts.into_iter().all(|part| tx.send(part).is_ok());
+                        // Searched after the parts are on their way: the writer need not wait.
                         let start = Instant::now();
-                        if let Some(traces) = traces {
-                            let (model, source) = &models[unit.variant as usize];
-                            let opts = search_options(&variants[unit.variant as usize]);
-                            kept.add_traces(unit, &traces, model, source, &opts);
+                        // A group's traces once, from the work of its first member.
+                        if kept.keep != KeepTraces::No && work.members[0] == 0 {
+                            let (model, source) = &models[work.group];
+                            let opts = search_options(&variants[groups[work.group].first() as usize]);
+                            kept.add_traces((work.group, work.units[0].mode), &traces, model, source, &opts);
                         }
                         (n, loads, sent, start.elapsed().as_secs_f64())
                     })
                 },
                 || {
                     let start = Instant::now();
-                    (unit.map(|u| compute(&ctx, u, loads)).transpose(), start.elapsed().as_secs_f64())
+                    (work.map(|w| compute(&ctx, w, loads)).transpose(), start.elapsed().as_secs_f64())
                 },
             );
             let (computed, pose_pass) = computed;
@@ -902,7 +1119,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         drop(tx);
         let finalized = (kept.keep == KeepTraces::Search && !writer_failed).then(|| {
             progress.finish();
-            finalize(layout, job, &variants, &models, &all, opts, write_opts, std::mem::take(&mut kept), &mut stages)
+            let kept = std::mem::take(&mut kept);
+            finalize(layout, job, &variants, &groups, &models, &all, opts, write_opts, kept, &mut stages)
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
         stages.writing += writer.join().expect("the writer thread does not panic")?;
@@ -917,7 +1135,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let complete = mark_shard_done(layout, opts)?;
     if complete {
         if !finalized {
-            finalize(layout, job, &variants, &models, &all, opts, &durable, kept, &mut stages)?;
+            finalize(layout, job, &variants, &groups, &models, &all, opts, &durable, kept, &mut stages)?;
         }
         write_marker(&layout.success())?;
     }

@@ -27,6 +27,7 @@ use clearance_solver::ups::{
 use rayon::prelude::*;
 
 use crate::error::EngineError;
+use crate::groups::Group;
 use crate::layout::Layout;
 use crate::run::{
     RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
@@ -93,41 +94,65 @@ fn unit_complete(layout: &Layout, u: &Unit) -> bool {
 
 /// Runs a 6-UPS `job` into `opts.out` (see [`run`](crate::run())).
 pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
-    let Setup { variants, layout, all, mine, todo, mine_poses, todo_poses, total, write_opts } =
-        prepare_run(job, job_file, opts, unit_complete)?;
+    let Setup { variants, groups, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
+        prepare_run(job, job_file, opts, unit_complete, true)?;
     let layout = &layout;
     let schema = UpsSchema::new(opts.columns, job.analysis.exact);
-    let models: Vec<(UpsModel, SampleSource)> =
-        variants.iter().map(|v| (UpsModel::from_job(&v.job), SampleSource::new(&v.job))).collect();
+    // Per group: its first variant's job with the group's magnitudes.
+    let models: Vec<(UpsModel, SampleSource)> = groups
+        .iter()
+        .map(|g| {
+            let mut job = variants[g.first() as usize].job.clone();
+            [job.clearance.s_radial, job.clearance.u_radial, job.clearance.u_angular] =
+                [g.clearance[0], g.clearance[1], g.clearance[2]];
+            (UpsModel::from_job(&job), SampleSource::new(&job))
+        })
+        .collect();
 
     let progress = opts.progress.get();
     progress.start(mine_poses, mine_poses - todo_poses);
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
     let mut stages = StageTimes::default();
-    for u in &todo {
-        progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
+    for w in &todo_work {
+        let u0 = &w.units[0];
+        progress.stage(&format!("variant {} {}", u0.variant, u0.mode.name()));
         let pose_pass = Instant::now();
-        let (model, source) = &models[u.variant as usize];
-        let (rows, samples) = samples(source, u.range.clone());
-        let results = solve_rows(model, &samples, u.mode);
-        let batch = schema.batch(u.mode, &rows, &results);
-        let mut stats = UpsStats::default();
-        for r in &results {
-            stats.push(r);
-        }
-        stats.flush();
+        let (group, (model, source)) = (&groups[w.group], &models[w.group]);
+        let (rows, samples) = samples(source, u0.range.clone());
+        let solved = solve_rows(model, &samples, u0.mode);
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-        let writing = Instant::now();
-        let (part, stats_path) = (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
-        for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
-            std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
+        for (u, &m) in w.units.iter().zip(&w.members) {
+            let pose_pass = Instant::now();
+            let scaled: Vec<UpsResult>;
+            let results = if group.alone() {
+                &solved
+            } else {
+                let [s0, s1, s2, _] = group.scales[m];
+                let [c0, c1, c2, _] = group.clearances[m];
+                scaled = solved.iter().map(|r| r.scaled(&[s0, s1, s2], &[c0, c1, c2])).collect();
+                &scaled
+            };
+            let batch = schema.batch(u.mode, &rows, results);
+            let mut stats = UpsStats::default();
+            for r in results {
+                stats.push(r);
+            }
+            stats.flush();
+            stages.pose_pass += pose_pass.elapsed().as_secs_f64();
+            let writing = Instant::now();
+            let (part, stats_path) =
+                (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
+            for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
+                std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
+            }
+            write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
+            let meta = part_metadata(&variants[u.variant as usize]);
+            write_parquet(&part, batch.schema(), &[batch], &write_opts, &meta)?;
+            stages.writing += writing.elapsed().as_secs_f64();
+            done += u.range.end - u.range.start;
+            progress.advance(u.range.end - u.range.start, done);
         }
-        write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
-        write_parquet(&part, batch.schema(), &[batch], &write_opts, &part_metadata(&variants[u.variant as usize]))?;
-        stages.writing += writing.elapsed().as_secs_f64();
-        done += u.range.end - u.range.start;
-        progress.advance(u.range.end - u.range.start, done);
     }
     progress.finish();
     let syncing = Instant::now();
@@ -137,17 +162,21 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     if complete {
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        finalize(layout, job, &variants, &models, &all, &durable, &mut stages)?;
+        finalize(layout, job, &variants, &groups, &models, &all, &durable, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
 }
 
-/// The summary and the discontinuities of a run whose units are all written.
+/// The summary and the discontinuities of a run whose units are all written. Each
+/// group is searched once (`models` are the groups') and its switches scaled to
+/// each member.
+#[allow(clippy::too_many_arguments)]
 fn finalize(
     layout: &Layout,
     job: &JobSpec,
     variants: &[Variant],
+    groups: &[Group],
     models: &[(UpsModel, SampleSource)],
     all: &[Unit],
     write_opts: &WriteOptions,
@@ -155,15 +184,35 @@ fn finalize(
 ) -> Result<()> {
     let mut summary = Vec::new();
     let mut switches = Vec::new();
-    for (variant, (model, source)) in variants.iter().zip(models) {
+    let mut found_by_group = std::collections::HashMap::new();
+    let mut member_of = vec![(0, 0); variants.len()];
+    for (g, group) in groups.iter().enumerate() {
+        for (m, &v) in group.members.iter().enumerate() {
+            member_of[v as usize] = (g, m);
+        }
+    }
+    for variant in variants {
+        let (g, m) = member_of[variant.index as usize];
+        let (group, (model, source)) = (&groups[g], &models[g]);
         for &mode in &job.analysis.modes {
             let mut stats = UpsStats::default();
             for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
                 stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
             }
-            let searching = Instant::now();
-            let found = search(variant, model, source, mode);
-            stages.search += searching.elapsed().as_secs_f64();
+            let found: &Vec<UpsSwitch> = found_by_group.entry((g, mode)).or_insert_with(|| {
+                let searching = Instant::now();
+                let first = &variants[group.first() as usize];
+                let found = search(&first.job, group.clearance, model, source, mode);
+                stages.search += searching.elapsed().as_secs_f64();
+                found
+            });
+            // The member's kinds, jumps scaled (`UpsSwitch::kind` is s_radial or u_radial).
+            let scale = group.scales[m];
+            let found: Vec<UpsSwitch> = found
+                .iter()
+                .filter(|s| scale[s.kind] != 0.0)
+                .map(|s| UpsSwitch { variant: variant.index, jump: s.jump.map(|v| v * scale[s.kind]), ..s.clone() })
+                .collect();
             let mut counts = [0u64; 2];
             for s in &found {
                 counts[s.kind] += 1;
@@ -296,10 +345,9 @@ const SAME: f64 = 1e-6;
 /// The location tolerance in the path parameter (sample steps).
 const LOCATE_TOL: f64 = 1e-10;
 
-/// The switches of one (variant, mode): every path, in order, on the rayon pool.
-fn search(variant: &Variant, model: &UpsModel, source: &SampleSource, mode: Mode) -> Vec<UpsSwitch> {
-    let job = &variant.job;
-    let clearance = job.clearance.ups_array();
+/// The switches of one (group, mode) with the group's magnitudes (`clearance`, as
+/// [`crate::groups::magnitudes`] orders them): every path, in order, on the rayon pool.
+fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleSource, mode: Mode) -> Vec<UpsSwitch> {
     let kinds: Vec<usize> = (0..2).filter(|&k| clearance[k] > 0.0).collect();
     if kinds.is_empty() {
         return Vec::new();
@@ -356,7 +404,7 @@ fn search(variant: &Variant, model: &UpsModel, source: &SampleSource, mode: Mode
                             };
                             let (t, s) = path.sample_at(source, trajectory.as_ref(), x);
                             out.push(UpsSwitch {
-                                variant: variant.index,
+                                variant: 0, // set per member by `finalize`
                                 mode,
                                 limb: l + 1,
                                 kind,

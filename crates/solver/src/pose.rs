@@ -88,6 +88,41 @@ impl PoseResult {
         self.dominant = self.dominant_of(clearance);
     }
 
+    /// This result as if solved with each kind's clearance magnitude multiplied by
+    /// `scale` (order of `KINDS`), `clearance` being the magnitudes that gives.
+    ///
+    /// The reactions, margins and conditioning do not depend on the magnitudes
+    /// (docs/model.md §§4–5); each kind's error (§6), its envelope and its joints'
+    /// contributions are proportional to its own magnitude; a kind scaled to zero is
+    /// determinate and moves nothing, as a zero clearance is. So the status and the
+    /// dominant joint follow from the scaled parts. A variant of a sweep that changes
+    /// only `[clearance]` is its group's solve, scaled: the same numbers as solving it
+    /// alone, to round-off. The exact error (§7) is not linear in the magnitudes: a
+    /// result that carries one is not to be scaled.
+    #[track_caller]
+    pub fn scaled(&self, scale: &[f64; 4], clearance: &[f64; 4]) -> PoseResult {
+        assert!(self.exact.is_none(), "an exact error does not scale with the clearances");
+        let mut r = *self;
+        if !matches!(self.status, Status::Ok | Status::IndeterminateContact) {
+            return r;
+        }
+        for (k, &s) in scale.iter().enumerate() {
+            let e = &mut r.errors[k];
+            e.dalpha *= s;
+            e.dp *= s;
+            e.euler = e.euler.map(|v| v * s);
+            r.envelope[k] = r.envelope[k].map(|v| v * s);
+            r.contribution[k] = r.contribution[k].map(|v| v * s);
+            if s == 0.0 {
+                r.kind_ok[k] = true;
+            }
+        }
+        r.total = crate::error_system::total(&r.errors);
+        r.status = if r.kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
+        r.dominant = r.dominant_of(clearance);
+        r
+    }
+
     /// The envelope of all kinds together: each kind's bound summed.
     pub fn envelope_total(&self) -> [f64; 8] {
         std::array::from_fn(|c| self.envelope.iter().map(|k| k[c]).sum())

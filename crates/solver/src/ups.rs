@@ -40,6 +40,9 @@ use crate::pose::Status;
 /// The clearance kinds of the 6-UPS, in the order of every per-kind array here.
 pub const UPS_KINDS: [&str; 3] = ["s_radial", "u_radial", "u_angular"];
 
+/// The index of `u_angular` in [`UPS_KINDS`]: the play that cannot move the platform.
+const U_ANGULAR: usize = 2;
+
 /// The moving bodies of a 6-UPS: the platform as one composite body, and each leg's
 /// cylinder (centre `B_i + (ℓ_c/2)·e_i`) and piston (centre `A_i − (ℓ_p/2)·e_i`).
 #[derive(Clone, Debug, PartialEq)]
@@ -238,6 +241,53 @@ pub struct UpsResult {
 }
 
 impl UpsResult {
+    /// The joint whose own take-up moves P most among the kinds with a magnitude
+    /// (order of [`UPS_KINDS`]), on an ok pose: see `PoseResult::dominant_of`.
+    /// `u_angular` cannot move the platform: its round-off must not name a joint.
+    pub fn dominant_of(&self, magnitudes: &[f64; 3]) -> Option<(usize, usize)> {
+        if self.status != Status::Ok {
+            return None;
+        }
+        let moving = |k: &usize| magnitudes[*k] != 0.0 && *k != U_ANGULAR;
+        let contribution = &self.contribution;
+        crate::dominant_joint((0..3).filter(moving).flat_map(|k| (0..6).map(move |i| ((k, i), contribution[k][i]))))
+    }
+
+    /// This result as if solved with each kind's magnitude (order of [`UPS_KINDS`])
+    /// multiplied by `scale`, `magnitudes` being what that gives: the reactions,
+    /// margins and conditioning stay, each kind's error, envelope and contributions
+    /// scale with it, and a kind scaled to zero is determinate (as
+    /// `PoseResult::scaled`). Not for a result with an exact error.
+    #[track_caller]
+    pub fn scaled(&self, scale: &[f64; 3], magnitudes: &[f64; 3]) -> UpsResult {
+        assert!(self.exact.is_none(), "an exact error does not scale with the clearances");
+        let mut r = *self;
+        if !matches!(self.status, Status::Ok | Status::IndeterminateContact) {
+            return r;
+        }
+        let mut total = PoseError::default();
+        for (k, &s) in scale.iter().enumerate() {
+            let e = &mut r.errors[k];
+            e.dalpha *= s;
+            e.dp *= s;
+            e.euler = e.euler.map(|v| v * s);
+            total.dalpha += e.dalpha;
+            total.dp += e.dp;
+            for c in 0..3 {
+                total.euler[c] += e.euler[c];
+            }
+            r.envelope[k] = r.envelope[k].map(|v| v * s);
+            r.contribution[k] = r.contribution[k].map(|v| v * s);
+            if s == 0.0 {
+                r.kind_ok[k] = true;
+            }
+        }
+        r.total = total;
+        r.status = if r.kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
+        r.dominant = r.dominant_of(magnitudes);
+        r
+    }
+
     /// The envelope of all kinds together: each kind's bound summed.
     pub fn envelope_total(&self) -> [f64; 8] {
         std::array::from_fn(|c| self.envelope.iter().map(|k| k[c]).sum())
@@ -475,14 +525,11 @@ fn set_envelope(
         }
     }
     out.envelope = envelope;
-    if out.status == Status::Ok {
-        out.contribution = contribution;
-        // u_angular cannot move the platform: its round-off must not name a joint.
-        let moving = |(_, kind): &(usize, &ClearanceSite)| kind.magnitude != 0.0 && kind.rule != Rule::AboutForbidden;
-        let candidates = kinds.iter().enumerate().filter(moving);
-        out.dominant =
-            crate::dominant_joint(candidates.flat_map(|(k, _)| (0..6).map(move |i| ((k, i), contribution[k][i]))));
-    }
+    // Kept on indeterminate poses too: the summary reads them on ok poses only, and a
+    // variant whose indeterminate kind is zero ([`UpsResult::scaled`]) is ok.
+    out.contribution = contribution;
+    let magnitudes: [f64; 3] = std::array::from_fn(|k| kinds[k].magnitude);
+    out.dominant = out.dominant_of(&magnitudes);
 }
 
 /// [`solve_ups_pose`] for each sample of a batch, into `out` (same length).
