@@ -165,6 +165,8 @@ pub const SUITE: &[SuiteJob] = &[
     suite_job!("grid_2d_full", "grid_2d.toml", Full),
     suite_job!("grid_3d", "grid_3d.toml", Standard),
     suite_job!("sweep_16", "sweep_16.toml", Standard),
+    suite_job!("sweep_masses_4", "sweep_masses_4.toml", Standard),
+    suite_job!("sweep_masses_clearances_12", "sweep_masses_clearances_12.toml", Standard),
     suite_job!("trajectory_dynamic", "trajectory_dynamic.toml", Standard),
     suite_job!("prs_inclined", "prs_inclined.toml", Standard),
     suite_job!("rps_grid", "rps_grid.toml", Standard),
@@ -217,6 +219,14 @@ impl Measured {
         let st = &self.best.stages;
         st.pose_pass > 0.0 || st.search > 0.0 || st.writing > 0.0
     }
+}
+
+/// The wall time of the 12-variant masses × clearances sweep over that of its 4
+/// mass variants alone, both fastest runs of this invocation: what the extra
+/// clearance variants cost when they share their group's solve and search.
+fn clearance_sweep_cost(measured: &[Measured]) -> Option<f64> {
+    let seconds = |name: &str| measured.iter().find(|m| m.job.name == name).map(|m| m.best.seconds);
+    Some(seconds("sweep_masses_clearances_12")? / seconds("sweep_masses_4")?)
 }
 
 /// How the suite runs.
@@ -307,10 +317,11 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             })
             .collect();
         println!(
-            "{{\"suite\": [{}], \"kernel\": {{\"job\": \"{}\", \"poses\": {}, \"poses_per_s\": {kernel:.1}, \"isa\": \"{isa}\"}}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"solver\": \"{}\", \"compression\": \"{}\", \"scale\": {}, \"repeat\": {}}}",
+            "{{\"suite\": [{}], \"kernel\": {{\"job\": \"{}\", \"poses\": {}, \"poses_per_s\": {kernel:.1}, \"isa\": \"{isa}\"}}, \"clearance_sweep_cost\": {}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"solver\": \"{}\", \"compression\": \"{}\", \"scale\": {}, \"repeat\": {}}}",
             records.join(", "),
             SUITE[0].name,
             kernel_job.sample_count(),
+            clearance_sweep_cost(&measured).map_or("null".to_string(), |c| format!("{c:.3}")),
             o.writer.name(),
             if o.solver == SolverKind::Fast { "fast" } else { "general" },
             o.compression.name(),
@@ -327,14 +338,14 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             o.scale
         );
         println!(
-            "{:<20} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>8} {:>11}",
+            "{:<27} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>8} {:>11}",
             "job", "kind", "columns", "poses", "poses/s", "pose pass", "search", "writing", "bytes/pose"
         );
         for m in &measured {
             let st = &m.best.stages;
             let pct = |x: f64| if m.stages_timed() { format!("{:.0} %", 100.0 * x) } else { "-".into() };
             println!(
-                "{:<20} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>8} {:>11.1}",
+                "{:<27} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>8} {:>11.1}",
                 m.job.name,
                 m.mechanism,
                 m.job.columns.name(),
@@ -347,6 +358,9 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             );
         }
         println!("kernel ({}, {} poses, no I/O): {kernel:.0} poses/s", SUITE[0].name, kernel_job.sample_count());
+        if let Some(cost) = clearance_sweep_cost(&measured) {
+            println!("12 masses x clearances variants against their 4 mass variants alone: {cost:.2} x the wall time");
+        }
         println!(
             "shares: each stage's busy time against the run's wall time; the stages overlap, so they may add up to more than 100 %"
         );

@@ -349,6 +349,8 @@ fn bench_suite_reports_every_job_and_cleans_up() {
                 "grid_2d_full",
                 "grid_3d",
                 "sweep_16",
+                "sweep_masses_4",
+                "sweep_masses_clearances_12",
                 "trajectory_dynamic",
                 "prs_inclined",
                 "rps_grid",
@@ -357,6 +359,11 @@ fn bench_suite_reports_every_job_and_cleans_up() {
         );
         let columns: Vec<&str> = jobs.iter().map(|j| j["columns"].as_str().unwrap()).collect();
         assert_eq!(columns[..4], ["standard", "minimal", "full", "standard"]);
+        // The clearance sweep's cost: its wall time over its mass-only counterpart's.
+        let seconds = |name: &str| jobs.iter().find(|j| j["job"] == name).unwrap()["seconds"].as_f64().unwrap();
+        let cost = v["clearance_sweep_cost"].as_f64().expect("a number");
+        let expected = seconds("sweep_masses_clearances_12") / seconds("sweep_masses_4");
+        assert!((cost - expected).abs() <= 0.05 * expected, "{cost} against {expected} (both rounded)");
         for j in jobs {
             let rate = j["poses_per_s"].as_f64().unwrap();
             let runs: Vec<f64> = j["runs"].as_array().unwrap().iter().map(|r| r.as_f64().unwrap()).collect();
