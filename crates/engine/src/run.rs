@@ -30,7 +30,7 @@ use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
-use crate::groups::{Group, groups};
+use crate::groups::{Group, groups, membership};
 use crate::layout::Layout;
 use crate::progress::Reporter;
 
@@ -103,9 +103,10 @@ pub(crate) struct Unit {
 }
 
 /// The units that share one solve: the parts of a [`Group`]'s variants (or of as
-/// many of them as [`SHARED_ROWS`] and [`SHARED_PARTS`] allow) for one (mode, chunk). Work is numbered in the order (group, mode, chunk), and shard
-/// `I/N` computes the work whose number is `I` modulo `N`; a job whose variants are
-/// all alone numbers its units as (variant, mode, chunk).
+/// many of them as [`SHARED_ROWS`] and [`SHARED_PARTS`] allow) for one (mode,
+/// chunk). Work is numbered in the order (group, mode, chunk), and shard `I/N`
+/// computes the work whose number is `I` modulo `N`; a job whose variants are all
+/// alone numbers its units as (variant, mode, chunk).
 #[derive(Clone, Debug)]
 pub(crate) struct Work {
     pub(crate) number: u64,
@@ -113,8 +114,6 @@ pub(crate) struct Work {
     pub(crate) group: usize,
     /// The units to compute, in member order (with `--resume`, those not complete).
     pub(crate) units: Vec<Unit>,
-    /// Each unit's member index in its group.
-    pub(crate) members: Vec<usize>,
 }
 
 /// The most rows of parts, and the most parts, one [`Work`] holds: a group with
@@ -131,13 +130,12 @@ pub(crate) fn works(job: &JobSpec, groups: &[Group], chunk_size: u64) -> Vec<Wor
     for (g, group) in groups.iter().enumerate() {
         for &mode in &job.analysis.modes {
             for (chunk, range) in chunks(n, chunk_size).enumerate() {
-                let all: Vec<usize> = (0..group.members.len()).collect();
-                for members in all.chunks(per_work) {
+                for members in group.members.chunks(per_work) {
                     let units = members
                         .iter()
-                        .map(|&m| Unit { variant: group.members[m], mode, chunk: chunk as u64, range: range.clone() })
+                        .map(|&variant| Unit { variant, mode, chunk: chunk as u64, range: range.clone() })
                         .collect();
-                    out.push(Work { number: out.len() as u64, group: g, units, members: members.to_vec() });
+                    out.push(Work { number: out.len() as u64, group: g, units });
                 }
             }
         }
@@ -423,12 +421,12 @@ fn finalize(
     opts.progress.get().searching();
     let mut found_by_group = std::mem::take(&mut kept.found);
     for (g, (group, (model, source))) in groups.iter().zip(models).enumerate() {
-        let search = search_options(&variants[group.first() as usize]);
+        let first = group.first();
+        let search = search_options(&variants[first as usize]);
         for &mode in &job.analysis.modes {
             if found_by_group.contains_key(&(g, mode)) {
                 continue;
             }
-            let first = group.first();
             let units: Vec<&Unit> = all.iter().filter(|u| u.variant == first && u.mode == mode).collect();
             let start = Instant::now();
             let found = search_after(layout, model, source, mode, &search, &units, opts)?;
@@ -436,12 +434,7 @@ fn finalize(
             found_by_group.insert((g, mode), found);
         }
     }
-    let mut member_of = vec![(0, 0); variants.len()];
-    for (g, group) in groups.iter().enumerate() {
-        for (m, &v) in group.members.iter().enumerate() {
-            member_of[v as usize] = (g, m);
-        }
-    }
+    let member_of = membership(groups, variants.len());
     let mut switches = Vec::new();
     let mut summary = Vec::new();
     for variant in variants {
@@ -671,22 +664,13 @@ struct Shared<'b> {
 }
 
 impl Shared<'_> {
-    /// Member `m` of `group`: rows `row..` of `sink` from samples `from..to` of the
-    /// solve, scaled to the member's clearances; their statistics.
-    fn put(
-        &self,
-        group: &Group,
-        m: usize,
-        sink: &mut BlockSink<'_>,
-        row: usize,
-        from: usize,
-        to: usize,
-    ) -> SummaryStats {
-        let (scale, clearance) = (&group.scales[m], &group.clearances[m]);
-        let mut stats = SummaryStats::with_capacity(to - from);
-        for (i, (s, r)) in self.samples[from..to].iter().zip(&self.results[from..to]).enumerate() {
-            let r = r.scaled(scale, clearance);
-            sink.put(row + i, s, &r);
+    /// Samples `rows` of the solve, scaled by `scale` (a member's [`Group::scales`]),
+    /// into the same rows of `sink`; their statistics.
+    fn put(&self, scale: &[f64; 4], sink: &mut BlockSink<'_>, rows: std::ops::Range<usize>) -> SummaryStats {
+        let mut stats = SummaryStats::with_capacity(rows.len());
+        for i in rows {
+            let r = self.results[i].scaled(scale);
+            sink.put(i, &self.samples[i], &r);
             stats.push(&r);
         }
         stats
@@ -754,12 +738,13 @@ fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
             let shared = solve_shared(&mut blocks, model, source, mode, first, page_traces, page_loads);
             pages
                 .into_iter()
-                .zip(&work.members)
-                .map(|(page, &m)| {
+                .zip(&work.units)
+                .map(|(page, unit)| {
+                    let scale = &group.scales[group.member(unit.variant)];
                     page.write(&mut buf, codec, spare(), |sink| {
                         (0..rows)
                             .step_by(BLOCK)
-                            .map(|row| shared.put(group, m, sink, row, row, rows.min(row + BLOCK)))
+                            .map(|row| shared.put(scale, sink, row..rows.min(row + BLOCK)))
                             .collect()
                     })
                 })
@@ -838,8 +823,8 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
                 let shared = solve_shared(&mut blocks, model, source, mode, first, block_traces, block_loads);
                 block_sinks
                     .iter_mut()
-                    .zip(&work.members)
-                    .map(|(sink, &m)| shared.put(group, m, sink, 0, 0, rows))
+                    .zip(&work.units)
+                    .map(|(sink, unit)| shared.put(&group.scales[group.member(unit.variant)], sink, 0..rows))
                     .collect()
             };
             ctx.put_worker((blocks, buf));
@@ -896,8 +881,8 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<
 }
 
 /// What a run of any kind starts from: its variants and their groups, the prepared
-/// output directory, the units (all, this shard's) and the work still to compute, with their pose counts, and the options of the files it
-/// writes.
+/// output directory, the units (all, this shard's) and the work still to compute,
+/// with their pose counts, and the options of the files it writes.
 pub(crate) struct Setup {
     pub variants: Vec<Variant>,
     pub groups: Vec<Group>,
@@ -912,18 +897,16 @@ pub(crate) struct Setup {
     pub write_opts: WriteOptions,
 }
 
-/// Expands `job`'s variants and groups them (`share`: whether variants that differ
-/// only in clearances share a solve), prepares `opts.out` and plans the work;
-/// `complete` says whether `--resume` can keep a unit's files.
+/// Expands `job`'s variants and groups them ([`groups`]), prepares `opts.out` and
+/// plans the work; `complete` says whether `--resume` can keep a unit's files.
 pub(crate) fn prepare_run(
     job: &JobSpec,
     job_file: &str,
     opts: &RunOptions,
     complete: fn(&Layout, &Unit) -> bool,
-    share: bool,
 ) -> Result<Setup> {
     let variants: Vec<Variant> = job.variants(job_file)?;
-    let groups = groups(&variants, share);
+    let groups = groups(&variants);
     let job_toml = job.to_toml_string();
     let layout = Layout::new(&opts.out);
     prepare_dir(&layout, &job_toml, opts)?;
@@ -934,11 +917,7 @@ pub(crate) fn prepare_run(
     let todo_work: Vec<Work> = mine_work
         .into_iter()
         .filter_map(|mut w| {
-            let keep: Vec<bool> = w.units.iter().map(|u| !(opts.resume && complete(&layout, u))).collect();
-            let mut k = keep.iter();
-            w.units.retain(|_| *k.next().expect("one flag per unit"));
-            let mut k = keep.iter();
-            w.members.retain(|_| *k.next().expect("one flag per member"));
+            w.units.retain(|u| !(opts.resume && complete(&layout, u)));
             (!w.units.is_empty()).then_some(w)
         })
         .collect();
@@ -992,20 +971,19 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         return crate::ups::run_ups(job, job_file, opts);
     }
     let Setup { variants, groups, layout, all, mine, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
-        prepare_run(job, job_file, opts, unit_complete, true)?;
+        prepare_run(job, job_file, opts, unit_complete)?;
     let layout = &layout;
     let schema = PoseSchema::new(opts.columns, job.analysis.exact);
-    // Per group: its first variant's job with the group's clearances.
+    // Per group, the job it is solved as.
     let models: Vec<(Model, SampleSource)> = groups
         .iter()
         .map(|g| {
-            let v = &variants[g.first() as usize];
-            let mut model = Model::from_job(&v.job);
-            model.clearance = g.clearance;
+            let job = g.job(&variants);
+            let mut model = Model::from_job(&job);
             model.solver = opts.solver;
             // The envelope and the dominant joint are columns of the standard set.
             model.envelope = opts.columns >= ColumnSet::Standard;
-            (model, SampleSource::new(&v.job))
+            (model, SampleSource::new(&job))
         })
         .collect();
 
@@ -1089,7 +1067,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         // Searched after the parts are on their way: the writer need not wait.
                         let start = Instant::now();
                         // A group's traces once, from the work of its first member.
-                        if kept.keep != KeepTraces::No && work.members[0] == 0 {
+                        if kept.keep != KeepTraces::No && work.units[0].variant == groups[work.group].first() {
                             let (model, source) = &models[work.group];
                             let opts = search_options(&variants[groups[work.group].first() as usize]);
                             kept.add_traces((work.group, work.units[0].mode), &traces, model, source, &opts);

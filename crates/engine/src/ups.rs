@@ -27,7 +27,7 @@ use clearance_solver::ups::{
 use rayon::prelude::*;
 
 use crate::error::EngineError;
-use crate::groups::Group;
+use crate::groups::{Group, membership};
 use crate::layout::Layout;
 use crate::run::{
     RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
@@ -95,16 +95,14 @@ fn unit_complete(layout: &Layout, u: &Unit) -> bool {
 /// Runs a 6-UPS `job` into `opts.out` (see [`run`](crate::run())).
 pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
     let Setup { variants, groups, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
-        prepare_run(job, job_file, opts, unit_complete, true)?;
+        prepare_run(job, job_file, opts, unit_complete)?;
     let layout = &layout;
     let schema = UpsSchema::new(opts.columns, job.analysis.exact);
-    // Per group: its first variant's job with the group's magnitudes.
+    // Per group, the job it is solved as.
     let models: Vec<(UpsModel, SampleSource)> = groups
         .iter()
         .map(|g| {
-            let mut job = variants[g.first() as usize].job.clone();
-            [job.clearance.s_radial, job.clearance.u_radial, job.clearance.u_angular] =
-                [g.clearance[0], g.clearance[1], g.clearance[2]];
+            let job = g.job(&variants);
             (UpsModel::from_job(&job), SampleSource::new(&job))
         })
         .collect();
@@ -122,15 +120,14 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         let (rows, samples) = samples(source, u0.range.clone());
         let solved = solve_rows(model, &samples, u0.mode);
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-        for (u, &m) in w.units.iter().zip(&w.members) {
+        for u in &w.units {
             let pose_pass = Instant::now();
             let scaled: Vec<UpsResult>;
             let results = if group.alone() {
                 &solved
             } else {
-                let [s0, s1, s2, _] = group.scales[m];
-                let [c0, c1, c2, _] = group.clearances[m];
-                scaled = solved.iter().map(|r| r.scaled(&[s0, s1, s2], &[c0, c1, c2])).collect();
+                let [s0, s1, s2, _] = group.scales[group.member(u.variant)];
+                scaled = solved.iter().map(|r| r.scaled(&[s0, s1, s2])).collect();
                 &scaled
             };
             let batch = schema.batch(u.mode, &rows, results);
@@ -185,12 +182,7 @@ fn finalize(
     let mut summary = Vec::new();
     let mut switches = Vec::new();
     let mut found_by_group = std::collections::HashMap::new();
-    let mut member_of = vec![(0, 0); variants.len()];
-    for (g, group) in groups.iter().enumerate() {
-        for (m, &v) in group.members.iter().enumerate() {
-            member_of[v as usize] = (g, m);
-        }
-    }
+    let member_of = membership(groups, variants.len());
     for variant in variants {
         let (g, m) = member_of[variant.index as usize];
         let (group, (model, source)) = (&groups[g], &models[g]);

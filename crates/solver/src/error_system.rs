@@ -94,8 +94,15 @@ pub fn errors_from(geom: &Geometry, pose: &Posture, take: &TakeUp, dq: &Mat<f64>
     })
 }
 
+impl PoseError {
+    /// This error for `s` times the clearance that gave it (the error is linear in it).
+    pub fn scaled(&self, s: f64) -> PoseError {
+        PoseError { dalpha: self.dalpha * s, dp: self.dp * s, euler: self.euler.map(|v| v * s) }
+    }
+}
+
 /// The sum of per-kind errors (the linear theory superposes).
-pub fn total(errors: &[PoseError; 4]) -> PoseError {
+pub fn total(errors: &[PoseError]) -> PoseError {
     let mut out = PoseError::default();
     for e in errors {
         out.dalpha += e.dalpha;

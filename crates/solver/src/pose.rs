@@ -89,7 +89,7 @@ impl PoseResult {
     }
 
     /// This result as if solved with each kind's clearance magnitude multiplied by
-    /// `scale` (order of `KINDS`), `clearance` being the magnitudes that gives.
+    /// `scale` (order of `KINDS`).
     ///
     /// The reactions, margins and conditioning do not depend on the magnitudes
     /// (docs/model.md §§4–5); each kind's error (§6), its envelope and its joints'
@@ -100,26 +100,16 @@ impl PoseResult {
     /// alone, to round-off. The exact error (§7) is not linear in the magnitudes: a
     /// result that carries one is not to be scaled.
     #[track_caller]
-    pub fn scaled(&self, scale: &[f64; 4], clearance: &[f64; 4]) -> PoseResult {
+    pub fn scaled(&self, scale: &[f64; 4]) -> PoseResult {
         assert!(self.exact.is_none(), "an exact error does not scale with the clearances");
         let mut r = *self;
         if !matches!(self.status, Status::Ok | Status::IndeterminateContact) {
             return r;
         }
-        for (k, &s) in scale.iter().enumerate() {
-            let e = &mut r.errors[k];
-            e.dalpha *= s;
-            e.dp *= s;
-            e.euler = e.euler.map(|v| v * s);
-            r.envelope[k] = r.envelope[k].map(|v| v * s);
-            r.contribution[k] = r.contribution[k].map(|v| v * s);
-            if s == 0.0 {
-                r.kind_ok[k] = true;
-            }
-        }
+        r.status = scale_kinds(scale, &mut r.errors, &mut r.envelope, &mut r.contribution, &mut r.kind_ok);
         r.total = crate::error_system::total(&r.errors);
-        r.status = if r.kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
-        r.dominant = r.dominant_of(clearance);
+        // Only which kinds have a clearance matters: those the scale keeps.
+        r.dominant = r.dominant_of(scale);
         r
     }
 
@@ -146,6 +136,28 @@ impl PoseResult {
                 .flat_map(|(k, limbs)| limbs.iter().enumerate().map(move |(j, &v)| ((k, j), v))),
         )
     }
+}
+
+/// Scales each kind's error, envelope and joint contributions by its factor in
+/// `scale`, marks a kind scaled to zero determinate, and gives the status of a
+/// solvable pose that follows: what `PoseResult::scaled` and `UpsResult::scaled`
+/// share, for `K` kinds of `L` limbs.
+pub(crate) fn scale_kinds<const K: usize, const L: usize>(
+    scale: &[f64; K],
+    errors: &mut [PoseError; K],
+    envelope: &mut [[f64; 8]; K],
+    contribution: &mut [[f64; L]; K],
+    kind_ok: &mut [bool; K],
+) -> Status {
+    for (k, &s) in scale.iter().enumerate() {
+        errors[k] = errors[k].scaled(s);
+        envelope[k] = envelope[k].map(|v| v * s);
+        contribution[k] = contribution[k].map(|v| v * s);
+        if s == 0.0 {
+            kind_ok[k] = true;
+        }
+    }
+    if kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok }
 }
 
 /// The first `(kind, limb)` whose contribution is within [`DOMINANT_TIE`] (relative) of

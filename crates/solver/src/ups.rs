@@ -36,6 +36,7 @@ use crate::error_system::PoseError;
 use crate::exact::{exp_minus_identity, left_jacobian};
 use crate::limbs::{Actuated, BaseJoint, Body, ClearanceSite, LimbModel, LimbPose, Posed, Rule, Site};
 use crate::pose::Status;
+use crate::pose::scale_kinds;
 
 /// The clearance kinds of the 6-UPS, in the order of every per-kind array here.
 pub const UPS_KINDS: [&str; 3] = ["s_radial", "u_radial", "u_angular"];
@@ -254,37 +255,21 @@ impl UpsResult {
     }
 
     /// This result as if solved with each kind's magnitude (order of [`UPS_KINDS`])
-    /// multiplied by `scale`, `magnitudes` being what that gives: the reactions,
-    /// margins and conditioning stay, each kind's error, envelope and contributions
-    /// scale with it, and a kind scaled to zero is determinate (as
-    /// `PoseResult::scaled`). Not for a result with an exact error.
+    /// multiplied by `scale`: the reactions, margins and conditioning stay, each
+    /// kind's error, envelope and contributions scale with it, and a kind scaled to
+    /// zero is determinate (as `PoseResult::scaled`). Not for a result with an exact
+    /// error.
     #[track_caller]
-    pub fn scaled(&self, scale: &[f64; 3], magnitudes: &[f64; 3]) -> UpsResult {
+    pub fn scaled(&self, scale: &[f64; 3]) -> UpsResult {
         assert!(self.exact.is_none(), "an exact error does not scale with the clearances");
         let mut r = *self;
         if !matches!(self.status, Status::Ok | Status::IndeterminateContact) {
             return r;
         }
-        let mut total = PoseError::default();
-        for (k, &s) in scale.iter().enumerate() {
-            let e = &mut r.errors[k];
-            e.dalpha *= s;
-            e.dp *= s;
-            e.euler = e.euler.map(|v| v * s);
-            total.dalpha += e.dalpha;
-            total.dp += e.dp;
-            for c in 0..3 {
-                total.euler[c] += e.euler[c];
-            }
-            r.envelope[k] = r.envelope[k].map(|v| v * s);
-            r.contribution[k] = r.contribution[k].map(|v| v * s);
-            if s == 0.0 {
-                r.kind_ok[k] = true;
-            }
-        }
-        r.total = total;
-        r.status = if r.kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
-        r.dominant = r.dominant_of(magnitudes);
+        r.status = scale_kinds(scale, &mut r.errors, &mut r.envelope, &mut r.contribution, &mut r.kind_ok);
+        r.total = crate::error_system::total(&r.errors);
+        // Only which kinds have a magnitude matters: those the scale keeps.
+        r.dominant = r.dominant_of(scale);
         r
     }
 
