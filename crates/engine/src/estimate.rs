@@ -101,31 +101,107 @@ const MOST_RUNS: usize = 8;
 /// the paths it follows, and the rest by the rows. A calibration run that is
 /// the whole job is the estimate. `opts.out` is replaced by each run and removed at
 /// the end; `opts.shard` and `opts.resume` are ignored.
+///
+/// A sweep over clearance magnitudes solves each group of variants once
+/// (docs/interface.md §3), so most of its rows cost only their writing: it is
+/// estimated as its counterpart with one variant a group (each `clearance.*` sweep
+/// cut to its largest value), calibrated as above, plus its other rows at what they
+/// cost in one more run: the counterpart with as many variants a group as that run
+/// can take within `budget` (2 to 16), at the size of the last calibration run, or
+/// of the one before when the last is too slow to repeat several times over.
 pub fn estimate(job: &JobSpec, file: &str, opts: &RunOptions, budget: f64) -> Result<Estimate, EngineError> {
-    let total = rows(job);
     let opts = RunOptions { shard: None, resume: false, overwrite: true, ..opts.clone() };
-    let mut runs: Vec<Calibration> = Vec::new();
-    let mut scale = (FIRST_ROWS / total.max(1) as f64).min(1.0);
-    let result = loop {
-        let small = if scale >= 1.0 { job.clone() } else { scaled(job.clone(), scale) };
-        let start = Instant::now();
-        let report = match run(&small, file, &opts) {
-            Ok(r) => r,
-            Err(e) => break Err(e),
-        };
-        let seconds = start.elapsed().as_secs_f64();
-        runs.push(Calibration { rows: rows(&small), paths: paths(&small), seconds, search: report.stages.search });
-        // Two runs at least: one cannot tell the fixed cost from the cost per row. No
-        // run expected to take longer than `budget`.
-        if rows(&small) >= total || (seconds * GROWTH > budget && runs.len() >= 2) || runs.len() == MOST_RUNS {
-            break Ok(());
+    let result = match clearance_split(job) {
+        None => calibrate(job, file, &opts, budget).map(|(runs, seconds, _)| (runs, seconds)),
+        Some((counterpart, clearance_sweeps)) => {
+            calibrate(&counterpart, file, &opts, budget).and_then(|(mut runs, base, scales)| {
+                let last = runs.len() - 1;
+                let at = if runs[last].seconds * 2.0 <= budget { last } else { last.saturating_sub(1) };
+                let (reference, scale) = (runs[at], scales[at]);
+                let members = (budget / reference.seconds.max(1e-9)).clamp(2.0, 16.0) as usize;
+                let few = with_members(job, &clearance_sweeps, members);
+                let small = if scale >= 1.0 { few } else { scaled(few, scale) };
+                let run = time_run(&small, file, &opts)?;
+                runs.push(run);
+                if run.rows >= rows(job) {
+                    return Ok((runs, run.seconds));
+                }
+                // What each row beyond one variant a group cost, at this size.
+                let per_row = (run.seconds - reference.seconds).max(0.0) / (run.rows - reference.rows).max(1) as f64;
+                Ok((runs, base + per_row * (rows(job) - rows(&counterpart)) as f64))
+            })
         }
-        scale = (scale * GROWTH).min(1.0);
     };
     let _ = std::fs::remove_dir_all(&opts.out);
-    result?;
+    let (runs, seconds) = result?;
+    Ok(Estimate { seconds, rows: rows(job), runs, threads: rayon::current_num_threads() })
+}
+
+/// For a job whose sweeps over `clearance.*` make groups of several variants (and
+/// that does not ask for exact errors, which are never grouped): the job with each
+/// such sweep cut to one value, its largest (so that every swept kind that can be
+/// non-zero is, and the search follows it), one variant a group; and the indices of
+/// those sweeps.
+fn clearance_split(job: &JobSpec) -> Option<(JobSpec, Vec<usize>)> {
+    let sweeps: Vec<usize> = (0..job.sweep.len()).filter(|&i| job.sweep[i].param.starts_with("clearance.")).collect();
+    let members: usize = sweeps.iter().map(|&i| job.sweep[i].values.len()).product();
+    if job.analysis.exact || members < 2 {
+        return None;
+    }
+    let mut counterpart = job.clone();
+    for &i in &sweeps {
+        let values = &mut counterpart.sweep[i].values;
+        *values = vec![values.iter().copied().fold(f64::NEG_INFINITY, f64::max)];
+    }
+    Some((counterpart, sweeps))
+}
+
+/// `job` with its `clearance_sweeps` cut to about `members` variants a group (at
+/// least one value each, the first sweeps kept longest).
+fn with_members(job: &JobSpec, clearance_sweeps: &[usize], members: usize) -> JobSpec {
+    let mut few = job.clone();
+    let mut room = members;
+    for &i in clearance_sweeps {
+        let values = &mut few.sweep[i].values;
+        values.truncate(room.max(1));
+        room /= values.len();
+    }
+    few
+}
+
+/// One run of `job` into `opts.out`, timed.
+fn time_run(job: &JobSpec, file: &str, opts: &RunOptions) -> Result<Calibration, EngineError> {
+    let start = Instant::now();
+    let report = run(job, file, opts)?;
+    let seconds = start.elapsed().as_secs_f64();
+    Ok(Calibration { rows: rows(job), paths: paths(job), seconds, search: report.stages.search })
+}
+
+/// The calibration runs of [`estimate`], the estimate they give, and the scale of
+/// each run (1: the whole job).
+fn calibrate(
+    job: &JobSpec,
+    file: &str,
+    opts: &RunOptions,
+    budget: f64,
+) -> Result<(Vec<Calibration>, f64, Vec<f64>), EngineError> {
+    let total = rows(job);
+    let (mut runs, mut scales) = (Vec::new(), Vec::new());
+    let mut scale = (FIRST_ROWS / total.max(1) as f64).min(1.0);
+    loop {
+        let small = if scale >= 1.0 { job.clone() } else { scaled(job.clone(), scale) };
+        let run = time_run(&small, file, opts)?;
+        runs.push(run);
+        scales.push(scale);
+        // Two runs at least: one cannot tell the fixed cost from the cost per row. No
+        // run expected to take longer than `budget`.
+        if run.rows >= total || (run.seconds * GROWTH > budget && runs.len() >= 2) || runs.len() == MOST_RUNS {
+            break;
+        }
+        scale = (scale * GROWTH).min(1.0);
+    }
     let seconds = extrapolate(&runs, total, paths(job));
-    Ok(Estimate { seconds, rows: total, runs, threads: rayon::current_num_threads() })
+    Ok((runs, seconds, scales))
 }
 
 /// The whole run's time from the calibration runs, in two parts fitted through the
@@ -209,6 +285,40 @@ mod tests {
         ];
         let expect = 4.0 + (0.2 - 0.2 / 3.0) + 0.2 / 3000.0 * 40_000.0;
         assert!((extrapolate(&per_row, 40_000, 1_000) - expect).abs() < 1e-12);
+    }
+
+    /// A clearance sweep splits into its counterpart with one variant a group (every
+    /// swept kind at its largest value), and can be cut to a few variants a group;
+    /// other sweeps and exact errors do not split.
+    #[test]
+    fn clearance_sweeps_split_into_one_and_a_few_variants_a_group() {
+        let text = |extra: &str| {
+            format!(
+                "[grid]\nz = 2.0\npsi = {{ start = -0.3, stop = 0.3, n = 10 }}\ntheta = 0.0\n{extra}\
+                 [[sweep]]\nparam = \"mass.platform\"\nvalues = [5.0, 10.0, 20.0]\n\
+                 [[sweep]]\nparam = \"clearance.r_axial\"\nvalues = [0.0, 3e-4, 1e-4]\n\
+                 [[sweep]]\nparam = \"clearance.s_radial\"\nvalues = [1e-4, 2e-4, 4e-4]\n"
+            )
+        };
+        let job = JobSpec::from_toml_str(&text(""), "s.toml").unwrap();
+        let (one, sweeps) = clearance_split(&job).unwrap();
+        assert_eq!(sweeps, [1, 2]);
+        assert_eq!(one.variant_count(), 3);
+        assert_eq!(one.sweep[0].values, job.sweep[0].values);
+        assert_eq!(one.sweep[1].values, [3e-4]);
+        assert_eq!(one.sweep[2].values, [4e-4]);
+        let few = with_members(&job, &sweeps, 4);
+        assert_eq!(few.variant_count(), 3 * 3);
+        assert_eq!(few.sweep[0].values, job.sweep[0].values);
+        assert_eq!(few.sweep[1].values, [0.0, 3e-4, 1e-4]);
+        assert_eq!(few.sweep[2].values, [1e-4]);
+        assert_eq!(with_members(&job, &sweeps, 16).variant_count(), 3 * 9);
+        assert_eq!(with_members(&job, &sweeps, 2).sweep[1].values, [0.0, 3e-4]);
+        let exact = JobSpec::from_toml_str(&text("[analysis]\nexact = true\n"), "s.toml").unwrap();
+        assert!(clearance_split(&exact).is_none());
+        let mut masses_only = job.clone();
+        masses_only.sweep.truncate(1);
+        assert!(clearance_split(&masses_only).is_none());
     }
 
     /// The scaled job has about `scale` times the samples over every swept input.
