@@ -7,13 +7,13 @@
 //! trajectory in both modes with unreachable poses, on a 6-UPS grid, with both
 //! writers, in shards and resumed.
 
-use std::fs::File;
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 use arrow::array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray};
-use arrow::compute::concat_batches;
-use clearance_engine::{Codec, ColumnSet, JobSpec, Layout, Reporter, RunOptions, SolverKind, Writer, run};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use clearance_engine::{JobSpec, Layout, RunOptions, Writer, run};
+use common::{read, read_parts};
 
 /// 3 `r_axial` (one zero) × 2 masses × 2 `s_radial` (one zero): 2 groups of 6 (one
 /// per mass), whose members are not consecutive variants.
@@ -101,40 +101,20 @@ values = [0.0, 1e-3]
 "#;
 
 fn options(out: &Path, chunk_size: u64, writer: Writer, shard: Option<(u64, u64)>, resume: bool) -> RunOptions {
-    RunOptions {
-        out: out.to_path_buf(),
-        columns: ColumnSet::Full,
-        shard,
-        resume,
-        overwrite: false,
-        chunk_size,
-        solver: SolverKind::Fast,
-        compression: Codec::Zstd,
-        writer,
-        progress: Reporter::default(),
-        direct_io: false,
-    }
-}
-
-fn read(path: &Path) -> RecordBatch {
-    let builder = ParquetRecordBatchReaderBuilder::try_new(File::open(path).unwrap()).unwrap();
-    let schema = builder.schema().clone();
-    let batches: Vec<RecordBatch> = builder.build().unwrap().map(|b| b.unwrap()).collect();
-    concat_batches(&schema, &batches).unwrap()
+    RunOptions { chunk_size, writer, shard, resume, ..common::options(out) }
 }
 
 /// The poses of one variant of a run, every part in (mode, chunk) order, as one batch.
 fn variant_rows(root: &Path, job: &JobSpec, variant: u64, chunk_size: u64) -> RecordBatch {
     let layout = Layout::new(root);
-    let parts: Vec<PathBuf> = job
-        .analysis
-        .modes
-        .iter()
-        .flat_map(|&mode| (0..job.sample_count().div_ceil(chunk_size)).map(move |c| (mode, c)))
-        .map(|(mode, chunk)| layout.part(variant, mode, chunk))
-        .collect();
-    let batches: Vec<RecordBatch> = parts.iter().map(|p| read(p)).collect();
-    concat_batches(&batches[0].schema(), &batches).unwrap()
+    let parts = job.sample_count().div_ceil(chunk_size);
+    read_parts(
+        job.analysis
+            .modes
+            .iter()
+            .flat_map(|&mode| (0..parts).map(move |c| (mode, c)))
+            .map(|(mode, chunk)| layout.part(variant, mode, chunk)),
+    )
 }
 
 /// Rows of `batch` whose `variant` column is `variant`.

@@ -2,16 +2,13 @@
 //! values bit for bit, same nulls, for a grid with a sweep and for a trajectory
 //! in both modes.
 
-use std::fs::File;
+mod common;
 
 use arrow::array::{Array, ArrayRef, Float64Array, RecordBatch};
 use arrow::compute::cast;
 use arrow::datatypes::DataType;
-use clearance_engine::{
-    Codec, ColumnSet, JobSpec, Layout, Reporter, RunOptions, SolveOptions, SolverKind, Writer, run, solve,
-};
+use clearance_engine::{ColumnSet, JobSpec, Layout, RunOptions, SolveOptions, run, solve};
 use clearance_model::Mode;
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
 const GRID: &str = r#"
 name = "grid"
@@ -47,13 +44,7 @@ theta = { offset = 0.0, harmonics = [ { amplitude = 0.5, period = 5.0, phase = 0
 
 /// The poses of (variant, mode) read back from the run in `layout`, parts in order.
 fn read_back(layout: &Layout, variant: u64, mode: Mode, parts: u64) -> RecordBatch {
-    let mut batches = Vec::new();
-    for chunk in 0..parts {
-        let file = File::open(layout.part(variant, mode, chunk)).unwrap();
-        let reader = ParquetRecordBatchReaderBuilder::try_new(file).unwrap().build().unwrap();
-        batches.extend(reader.map(|b| b.unwrap()));
-    }
-    arrow::compute::concat_batches(&batches[0].schema(), &batches).unwrap()
+    common::read_parts((0..parts).map(|chunk| layout.part(variant, mode, chunk)))
 }
 
 fn plain(a: &ArrayRef) -> ArrayRef {
@@ -84,19 +75,7 @@ fn assert_same(name: &str, expected: &ArrayRef, got: &ArrayRef) {
 fn check(text: &str, columns: ColumnSet, chunk_size: u64) {
     let job = JobSpec::from_toml_str(text, "t.toml").unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let opts = RunOptions {
-        out: dir.path().join("run"),
-        columns,
-        shard: None,
-        resume: false,
-        overwrite: false,
-        chunk_size,
-        solver: SolverKind::Fast,
-        compression: Codec::Zstd,
-        writer: Writer::Engine,
-        progress: Reporter::default(),
-        direct_io: true,
-    };
+    let opts = RunOptions { columns, chunk_size, direct_io: true, ..common::options(&dir.path().join("run")) };
     run(&job, "t.toml", &opts).unwrap();
     let layout = Layout::new(&opts.out);
     let solved = solve(&job, "t.toml", &SolveOptions { columns, ..SolveOptions::default() }).unwrap();

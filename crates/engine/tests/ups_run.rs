@@ -2,12 +2,12 @@
 //! for bit, shards whose union is the single run, unreachable poses as a status (no
 //! NaN, no panic), `u_angular`'s error zero, and the tables' 6-UPS columns.
 
-use std::fs::File;
+mod common;
 
 use arrow::array::{Array, Float64Array, RecordBatch, StringArray};
-use clearance_engine::{Codec, ColumnSet, JobSpec, Layout, Reporter, RunOptions, SolveOptions, SolverKind, run, solve};
+use clearance_engine::{ColumnSet, JobSpec, Layout, RunOptions, SolveOptions, run, solve};
 use clearance_model::Mode;
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use common::{read, read_parts};
 
 const JOB: &str = r#"
 name = "ups"
@@ -31,31 +31,11 @@ theta = 0.1
 "#;
 
 fn options(out: &std::path::Path, shard: Option<(u64, u64)>) -> RunOptions {
-    RunOptions {
-        out: out.to_path_buf(),
-        columns: ColumnSet::Full,
-        shard,
-        resume: false,
-        overwrite: false,
-        chunk_size: 7,
-        solver: SolverKind::Fast,
-        compression: Codec::Zstd,
-        progress: Reporter::default(),
-        direct_io: false,
-        writer: clearance_engine::Writer::Engine,
-    }
-}
-
-fn read(path: &std::path::Path) -> RecordBatch {
-    let builder = ParquetRecordBatchReaderBuilder::try_new(File::open(path).unwrap()).unwrap();
-    let schema = builder.schema().clone();
-    let batches: Vec<RecordBatch> = builder.build().unwrap().map(|b| b.unwrap()).collect();
-    arrow::compute::concat_batches(&schema, &batches).unwrap()
+    RunOptions { shard, chunk_size: 7, ..common::options(out) }
 }
 
 fn poses(layout: &Layout, parts: u64) -> RecordBatch {
-    let batches: Vec<RecordBatch> = (0..parts).map(|c| read(&layout.part(0, Mode::Kinetostatic, c))).collect();
-    arrow::compute::concat_batches(&batches[0].schema(), &batches).unwrap()
+    read_parts((0..parts).map(|c| layout.part(0, Mode::Kinetostatic, c)))
 }
 
 fn column<'a>(b: &'a RecordBatch, name: &str) -> &'a Float64Array {

@@ -7,12 +7,14 @@
 //! writer does not choose (`summary.parquet`, `discontinuities.parquet`) are the
 //! same bytes.
 
+mod common;
+
 use std::fs::File;
 use std::path::Path;
 
-use arrow::array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray};
-use clearance_engine::{Codec, ColumnSet, JobSpec, Layout, Reporter, RunOptions, SolverKind, Writer, run};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use arrow::array::{Array, ArrayRef, Float64Array, StringArray};
+use clearance_engine::{Codec, ColumnSet, JobSpec, Layout, RunOptions, Writer, run};
+use common::read;
 use parquet::file::reader::{FileReader, SerializedFileReader};
 
 /// The prototype tilted far enough that legs cannot reach their rails.
@@ -51,26 +53,8 @@ theta = { offset = 0.0, harmonics = [ { amplitude = 0.3, period = 2.0, phase = 0
 "#;
 
 fn run_with(job: &JobSpec, out: &Path, columns: ColumnSet, chunk_size: u64, codec: Codec, writer: Writer) {
-    let opts = RunOptions {
-        out: out.to_path_buf(),
-        columns,
-        shard: None,
-        resume: false,
-        overwrite: false,
-        chunk_size,
-        solver: SolverKind::Fast,
-        compression: codec,
-        writer,
-        progress: Reporter::default(),
-        direct_io: true,
-    };
+    let opts = RunOptions { columns, chunk_size, compression: codec, writer, direct_io: true, ..common::options(out) };
     run(job, "t.toml", &opts).unwrap();
-}
-
-fn read(path: &Path) -> RecordBatch {
-    let reader = ParquetRecordBatchReaderBuilder::try_new(File::open(path).unwrap()).unwrap().build().unwrap();
-    let batches: Vec<RecordBatch> = reader.map(|b| b.unwrap()).collect();
-    arrow::compute::concat_batches(&batches[0].schema(), &batches).unwrap()
 }
 
 fn assert_same_column(name: &str, expected: &ArrayRef, got: &ArrayRef) {

@@ -1,0 +1,44 @@
+//! What the engine's integration tests share: run options and reading a run's
+//! Parquet files back with the `parquet` crate's Arrow reader. Each test file uses
+//! some of it.
+#![allow(dead_code)]
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use arrow::array::RecordBatch;
+use arrow::compute::concat_batches;
+use clearance_engine::{Codec, ColumnSet, Reporter, RunOptions, SolverKind, Writer};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+/// A whole run into `out`: full columns, parts of 65 536 samples, the fast solver,
+/// zstd, the engine's writer, buffered I/O, no shard, no resume.
+pub fn options(out: &Path) -> RunOptions {
+    RunOptions {
+        out: out.to_path_buf(),
+        columns: ColumnSet::Full,
+        shard: None,
+        resume: false,
+        overwrite: false,
+        chunk_size: 65536,
+        solver: SolverKind::Fast,
+        compression: Codec::Zstd,
+        writer: Writer::Engine,
+        progress: Reporter::default(),
+        direct_io: false,
+    }
+}
+
+/// One Parquet file as one batch (a file without rows gives its schema, empty).
+pub fn read(path: &Path) -> RecordBatch {
+    let builder = ParquetRecordBatchReaderBuilder::try_new(File::open(path).unwrap()).unwrap();
+    let schema = builder.schema().clone();
+    let batches: Vec<RecordBatch> = builder.build().unwrap().map(|b| b.unwrap()).collect();
+    concat_batches(&schema, &batches).unwrap()
+}
+
+/// Part files, in the order given, as one batch.
+pub fn read_parts(paths: impl IntoIterator<Item = PathBuf>) -> RecordBatch {
+    let batches: Vec<RecordBatch> = paths.into_iter().map(|p| read(&p)).collect();
+    concat_batches(&batches[0].schema(), &batches).unwrap()
+}
