@@ -555,7 +555,9 @@ def test_statuses_and_nulls():
     c = ru.pose_arrays(job0, 0.0, 0.0, 0.7, 0.0, 0.0, 0.0)
     assert c["status"][0] == "indeterminate_contact"
     assert np.isnan(c["err_x"][0]) and np.isnan(c["err_u_radial_x"][0])
-    assert c["err_u_angular_x"][0] == 0.0 and np.isfinite(c["f_u1_x"][0])
+    # u_angular's error is computed (zero up to round-off, as test_u_angular_error_is_zero_
+    # linear_and_exact bounds it): exactly 0.0 on one OpenBLAS kernel, 8e-20 on another.
+    assert abs(c["err_u_angular_x"][0]) < 1e-15 and np.isfinite(c["f_u1_x"][0])
 
 
 def test_columns_and_sampling():
