@@ -229,6 +229,58 @@ fn clearance_sweep_cost(measured: &[Measured]) -> Option<f64> {
     Some(seconds("sweep_masses_clearances_12")? / seconds("sweep_masses_4")?)
 }
 
+/// The suite's 3-D grid run as a cluster would run it, its shards one after another.
+struct Sharded {
+    job: &'static str,
+    shards: u64,
+    /// Wall seconds of all the shards' invocations.
+    seconds: f64,
+    /// Of which the step that finishes the run ([`clearance_engine::StageTimes::finish`]).
+    finish: f64,
+}
+
+impl Sharded {
+    fn finish_share(&self) -> f64 {
+        if self.seconds > 0.0 { self.finish / self.seconds } else { 0.0 }
+    }
+
+    fn json(&self) -> String {
+        format!(
+            "{{\"job\": \"{}\", \"shards\": {}, \"seconds\": {:.4}, \"finish_seconds\": {:.4}, \"finish_share\": {:.4}}}",
+            self.job,
+            self.shards,
+            self.seconds,
+            self.finish,
+            self.finish_share()
+        )
+    }
+}
+
+/// The shards of the suite's `grid_3d`, one after another into `dir`, the fastest of
+/// `repeat` such runs: where a cluster's serial tail would show, in the last shard.
+fn sharded_run(o: &SuiteOptions, dir: &std::path::Path) -> Result<Sharded> {
+    const SHARDS: u64 = 8;
+    let s = SUITE.iter().find(|s| s.name == "grid_3d").expect("the suite has a 3-D grid");
+    let job = s.job(o.scale)?;
+    let mut best = Sharded { job: s.name, shards: SHARDS, seconds: f64::INFINITY, finish: 0.0 };
+    for _ in 0..o.repeat.max(1) {
+        let _ = std::fs::remove_dir_all(dir);
+        let (mut seconds, mut finish) = (0.0, 0.0);
+        for i in 0..SHARDS {
+            let opts = o.run_options(dir, s.columns, Some((i, SHARDS)));
+            let start = Instant::now();
+            let report = run(&job, s.file, &opts)?;
+            seconds += start.elapsed().as_secs_f64();
+            finish += report.stages.finish;
+        }
+        if seconds < best.seconds {
+            (best.seconds, best.finish) = (seconds, finish);
+        }
+    }
+    let _ = std::fs::remove_dir_all(dir);
+    Ok(best)
+}
+
 /// How the suite runs.
 pub struct SuiteOptions {
     pub scale: f64,
@@ -237,6 +289,25 @@ pub struct SuiteOptions {
     pub compression: Codec,
     pub writer: Writer,
     pub json: bool,
+}
+
+impl SuiteOptions {
+    /// How `clearance run` would run a suite job into `out`.
+    fn run_options(&self, out: &std::path::Path, columns: ColumnSet, shard: Option<(u64, u64)>) -> RunOptions {
+        RunOptions {
+            out: out.to_path_buf(),
+            columns,
+            shard,
+            resume: false,
+            overwrite: false,
+            chunk_size: 65536,
+            solver: self.solver,
+            compression: self.compression,
+            writer: self.writer,
+            progress: Default::default(),
+            direct_io: crate::buffered_io_not_asked(),
+        }
+    }
 }
 
 /// `clearance bench --suite`: every job of [`SUITE`] end to end through the
@@ -249,19 +320,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
     let mut measured = Vec::with_capacity(SUITE.len());
     for s in SUITE {
         let job = s.job(o.scale)?;
-        let opts = RunOptions {
-            out: dir.0.clone(),
-            columns: s.columns,
-            shard: None,
-            resume: false,
-            overwrite: false,
-            chunk_size: 65536,
-            solver: o.solver,
-            compression: o.compression,
-            writer: o.writer,
-            progress: Default::default(),
-            direct_io: crate::buffered_io_not_asked(),
-        };
+        let opts = o.run_options(&dir.0, s.columns, None);
         let rows = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
         let mut rates = Vec::with_capacity(o.repeat);
         let (mut best, mut bytes) = (RunReport::default(), 0);
@@ -288,6 +347,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             bytes_per_pose: bytes as f64 / rows.max(1) as f64,
         });
     }
+    let sharded = sharded_run(o, &dir.0)?;
     let kernel_job = SUITE[0].job(o.scale)?;
     let kernel = (0..o.repeat.max(1)).map(|_| kernel_rate(&kernel_job, SolverKind::Fast)).fold(0.0, f64::max);
     if o.json {
@@ -317,11 +377,12 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             })
             .collect();
         println!(
-            "{{\"suite\": [{}], \"kernel\": {{\"job\": \"{}\", \"poses\": {}, \"poses_per_s\": {kernel:.1}, \"isa\": \"{isa}\"}}, \"clearance_sweep_cost\": {}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"solver\": \"{}\", \"compression\": \"{}\", \"scale\": {}, \"repeat\": {}}}",
+            "{{\"suite\": [{}], \"kernel\": {{\"job\": \"{}\", \"poses\": {}, \"poses_per_s\": {kernel:.1}, \"isa\": \"{isa}\"}}, \"clearance_sweep_cost\": {}, \"sharded\": {}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"solver\": \"{}\", \"compression\": \"{}\", \"scale\": {}, \"repeat\": {}}}",
             records.join(", "),
             SUITE[0].name,
             kernel_job.sample_count(),
             clearance_sweep_cost(&measured).map_or("null".to_string(), |c| format!("{c:.3}")),
+            sharded.json(),
             o.writer.name(),
             if o.solver == SolverKind::Fast { "fast" } else { "general" },
             o.compression.name(),
@@ -361,6 +422,14 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
         if let Some(cost) = clearance_sweep_cost(&measured) {
             println!("12 masses x clearances variants against their 4 mass variants alone: {cost:.2} x the wall time");
         }
+        println!(
+            "{} in {} shards, one after another: {:.2} s in all, {:.1} % of it ({:.3} s) in the step that finishes the run",
+            sharded.job,
+            sharded.shards,
+            sharded.seconds,
+            100.0 * sharded.finish_share(),
+            sharded.finish
+        );
         println!(
             "shares: each stage's busy time against the run's wall time; the stages overlap, so they may add up to more than 100 %"
         );

@@ -281,6 +281,38 @@ impl<'a> Search<'a> {
     }
 }
 
+/// The switches along one path whose samples' traces are not at hand (a grid line
+/// that crosses parts another shard computed): its samples are solved here and
+/// traced along this path alone. The candidate bits of a trace only spare the search
+/// work, each is checked exactly, so the switches are those [`search_path`] finds
+/// with the run's traces.
+pub fn search_untraced(
+    model: &Model,
+    source: &SampleSource,
+    path: &Path,
+    mode: Mode,
+    opts: &SearchOptions,
+    ws: &mut Workspace,
+) -> Vec<Discontinuity> {
+    let n = path.len();
+    let (origin, stride) = (path.sample_index(0), path.sample_index(1).saturating_sub(path.sample_index(0)).max(1));
+    let traces = if stride == 1 {
+        // Consecutive samples (a trajectory, or a line of the fastest input): traced
+        // as a run traces them, a block at a time, 4 bytes a sample in memory.
+        traces(model, source, mode, origin..origin + n as u64)
+    } else {
+        // A line across the faster inputs (a grid dimension long), traced along itself
+        // alone: the path as the one axis of a source of its own samples.
+        let samples: Vec<_> = (0..n).map(|k| source.sample(path.sample_index(k))).collect();
+        let mut results = vec![PoseResult::default(); n];
+        clearance_solver::solve_poses(model, &samples, mode, ws, &mut results);
+        let (traces, loads): (Vec<Trace>, Vec<Loads>) = results.iter().map(|r| trace_loads(r, model)).unzip();
+        let axis = Axis { along: path.along, stride: 1, n: n as u64, params: path.params.clone() };
+        keep_local_minima(&[axis], 0, &traces, &loads)
+    };
+    search_path(model, source, path, mode, opts, |i| traces[((i - origin) / stride) as usize], ws)
+}
+
 /// All switches of one (variant, mode), every sample solved here.
 pub fn find_discontinuities(
     model: &Model,

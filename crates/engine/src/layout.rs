@@ -8,6 +8,7 @@
 //!   summary.parquet                                 one row per (variant, mode)
 //!   _stats/variant=K/<mode>-<chunk>.json            each part's partial statistics
 //!   _stats/variant=K/<mode>-<chunk>.trace2          each part's discontinuity traces
+//!   _stats/switches-I-of-N.bin                      the switches shard I found (sharded runs)
 //!   _SUCCESS.shard-I-of-N                           shard I is done (sharded runs)
 //!   _SUCCESS                                        written last
 //! ```
@@ -82,6 +83,12 @@ impl Layout {
         // The extension names the bits' meaning: a `.trace` file of an older engine
         // (whose bits differ) is not read, but rebuilt under this name.
         self.stats(variant, mode, chunk).with_extension("trace2")
+    }
+
+    /// The switches shard `i` of `n` found on the grid lines it owns, which the step
+    /// that finishes a sharded run merges instead of searching again.
+    pub fn shard_switches(&self, i: u64, n: u64) -> PathBuf {
+        self.root.join("_stats").join(format!("switches-{i}-of-{n}.bin"))
     }
 
     pub fn discontinuities(&self) -> PathBuf {

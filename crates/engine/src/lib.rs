@@ -32,6 +32,7 @@ mod estimate;
 mod groups;
 mod kernel;
 mod layout;
+mod owned;
 mod plan;
 mod progress;
 mod run;

@@ -91,6 +91,11 @@ pub struct StageTimes {
     /// may be written while the writer thread finishes the last part, so this busy
     /// time can exceed the run's wall time (at most twice it).
     pub writing: f64,
+    /// The step that finishes the run once every part is in, on its own: the search
+    /// of whatever was not searched as it was computed (everything, after a resumed
+    /// run), or the merge of the shards' switches, and the run's final files. After
+    /// shards, only the invocation that finishes the run has it.
+    pub finish: f64,
 }
 
 /// One part file's worth of work.
@@ -328,7 +333,7 @@ enum Body {
     Batch(RecordBatch),
 }
 
-fn search_options(variant: &Variant) -> SearchOptions {
+pub(crate) fn search_options(variant: &Variant) -> SearchOptions {
     SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() }
 }
 
@@ -420,6 +425,14 @@ fn finalize(
 ) -> Result<()> {
     opts.progress.get().searching();
     let mut found_by_group = std::mem::take(&mut kept.found);
+    // After shards, their own searches: merged, not searched again.
+    if let Some(owned) = opts.shard.and_then(|(_, n)| crate::owned::read_owned(layout, &job.analysis.modes, n)) {
+        for (g, _) in groups.iter().enumerate() {
+            for &mode in &job.analysis.modes {
+                found_by_group.insert((g, mode), owned.get(&(g, mode)).cloned().unwrap_or_default());
+            }
+        }
+    }
     for (g, (group, (model, source))) in groups.iter().zip(models).enumerate() {
         let first = group.first();
         let search = search_options(&variants[first as usize]);
@@ -497,16 +510,49 @@ fn search_after(
     opts: &RunOptions,
 ) -> Result<Vec<Discontinuity>> {
     let paths: Vec<PathBuf> = units.iter().map(|u| layout.trace(u.variant, u.mode, u.chunk)).collect();
-    for (u, path) in units.iter().zip(&paths) {
-        let bytes = 4 * (u.range.end - u.range.start);
-        if std::fs::metadata(path).map(|m| m.len()).ok() != Some(bytes) {
-            let traces = clearance_discontinuity::traces(model, source, mode, u.range.clone());
-            let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
-            write_bytes(path, &encode_traces(&traces), &opts)?;
-        }
+    for u in units {
+        rebuild_traces(layout, model, source, u, opts)?;
     }
     let mut files = TraceFiles::new(units.iter().map(|u| u.range.clone()).collect(), paths);
     find_discontinuities_read(model, source, mode, search, SEARCH_TRACES, |range, dst| files.read(range, dst))
+}
+
+/// The traces of `unit`'s samples, from its trace file ([`rebuild_traces`] first).
+pub(crate) fn unit_traces(
+    layout: &Layout,
+    model: &Model,
+    source: &SampleSource,
+    unit: &Unit,
+    opts: &RunOptions,
+) -> Result<Vec<Trace>> {
+    if let Some(traces) = rebuild_traces(layout, model, source, unit, opts)? {
+        return Ok(traces);
+    }
+    let path = layout.trace(unit.variant, unit.mode, unit.chunk);
+    let mut traces = vec![0; (unit.range.end - unit.range.start) as usize];
+    TraceFiles::new(vec![unit.range.clone()], vec![path]).read(unit.range.clone(), &mut traces)?;
+    Ok(traces)
+}
+
+/// Solves `unit`'s poses again and writes its trace file where that file is missing
+/// or not whole (a part written by an engine from before traces, or a lost file);
+/// returns the traces it computed.
+fn rebuild_traces(
+    layout: &Layout,
+    model: &Model,
+    source: &SampleSource,
+    unit: &Unit,
+    opts: &RunOptions,
+) -> Result<Option<Vec<Trace>>> {
+    let path = layout.trace(unit.variant, unit.mode, unit.chunk);
+    let bytes = 4 * (unit.range.end - unit.range.start);
+    if std::fs::metadata(&path).map(|m| m.len()).ok() == Some(bytes) {
+        return Ok(None);
+    }
+    let traces = clearance_discontinuity::traces(model, source, unit.mode, unit.range.clone());
+    let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
+    write_bytes(&path, &encode_traces(&traces), &opts)?;
+    Ok(Some(traces))
 }
 
 /// The trace files of consecutive ranges of samples, read as one array.
@@ -1098,7 +1144,10 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         let finalized = (kept.keep == KeepTraces::Search && !writer_failed).then(|| {
             progress.finish();
             let kept = std::mem::take(&mut kept);
-            finalize(layout, job, &variants, &groups, &models, &all, opts, write_opts, kept, &mut stages)
+            let start = Instant::now();
+            let done = finalize(layout, job, &variants, &groups, &models, &all, opts, write_opts, kept, &mut stages);
+            stages.finish += start.elapsed().as_secs_f64();
+            done
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
         stages.writing += writer.join().expect("the writer thread does not panic")?;
@@ -1106,6 +1155,11 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     })?;
     progress.finish();
 
+    if let Some(shard) = opts.shard {
+        let start = Instant::now();
+        crate::owned::search_owned(layout, job, &variants, &groups, &models, opts, shard)?;
+        stages.search += start.elapsed().as_secs_f64();
+    }
     let finals: Vec<PathBuf> = if finalized { layout.final_files().into() } else { Vec::new() };
     let syncing = Instant::now();
     sync_units(layout, &mine, &finals)?;
@@ -1113,7 +1167,9 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let complete = mark_shard_done(layout, opts)?;
     if complete {
         if !finalized {
+            let start = Instant::now();
             finalize(layout, job, &variants, &groups, &models, &all, opts, &durable, kept, &mut stages)?;
+            stages.finish += start.elapsed().as_secs_f64();
         }
         write_marker(&layout.success())?;
     }

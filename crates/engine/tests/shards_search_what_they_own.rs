@@ -1,0 +1,155 @@
+//! Sharded runs without a serial tail: each shard searches the grid lines it owns
+//! and writes their switches; the step that finishes the run only merges them.
+//! The switches (and every other file) equal a single run's, bit for bit, and the
+//! finishing step reads no other shard's traces.
+
+mod common;
+
+use std::path::Path;
+
+use clearance_engine::{JobSpec, Layout, RunOptions, run};
+use common::read;
+
+/// A 3-D grid of the prototype with a point mass, all four kinds: switches of every
+/// kind along Z, Ψ and Θ lines, in parts of 500 samples, so that lines of every
+/// axis cross parts (and shards).
+const GRID_3D: &str = r#"
+[clearance]
+s_radial = 1e-4
+r_radial = 1e-4
+r_axial = 1e-4
+r_angular = 1e-4
+
+[mass]
+points = [ { mass = 30.0, at = [0.0, 0.0, 1.0] } ]
+
+[grid]
+z = { start = 1.95, stop = 2.15, n = 4 }
+psi = { start = -0.5, stop = 0.5, n = 31 }
+theta = { start = -0.5, stop = 0.5, n = 29 }
+"#;
+
+/// A trajectory in both modes: one path across every part.
+const TRAJECTORY: &str = r#"
+[clearance]
+r_radial = 1e-4
+r_axial = 1e-4
+
+[mass]
+points = [ { mass = 30.0, at = [0.0, 0.0, 1.0] } ]
+
+[analysis]
+modes = ["kinetostatic", "dynamic"]
+
+[trajectory]
+time = { start = 0.0, stop = 10.0, n = 2001 }
+z = { offset = 2.05, harmonics = [ { amplitude = 0.05, period = 2.5, phase = 0.0 } ] }
+psi = { offset = 0.0, harmonics = [ { amplitude = 0.3, period = 3.3, phase = 0.5 } ] }
+theta = { offset = 0.0, harmonics = [ { amplitude = 0.5, period = 2.1, phase = 0.0 } ] }
+"#;
+
+const CHUNK: u64 = 500;
+
+fn options(out: &Path, shard: Option<(u64, u64)>, resume: bool) -> RunOptions {
+    RunOptions { chunk_size: CHUNK, shard, resume, ..common::options(out) }
+}
+
+fn same_finals(a: &Path, b: &Path) {
+    for file in ["discontinuities.parquet", "summary.parquet"] {
+        assert_eq!(read(&a.join(file)), read(&b.join(file)), "{file}");
+    }
+}
+
+/// Every trace file of the run's parts.
+fn trace_files(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for v in std::fs::read_dir(dir.join("_stats")).unwrap() {
+        let v = v.unwrap().path();
+        if v.is_dir() {
+            for f in std::fs::read_dir(&v).unwrap() {
+                let f = f.unwrap().path();
+                if f.extension().is_some_and(|e| e == "trace2") {
+                    out.push(f);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Runs `text` alone and in `n` shards one after another, removing every trace file
+/// before the last shard: its finishing step must merge, not search (a search from
+/// traces would solve the lost ones again and write them back).
+fn sharded_equals_single(text: &str, n: u64) {
+    let job = JobSpec::from_toml_str(text, "t.toml").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
+    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    for i in 0..n - 1 {
+        let report = run(&job, "t.toml", &options(&sharded, Some((i, n)), false)).unwrap();
+        assert!(!report.complete);
+        assert!(Layout::new(&sharded).shard_switches(i, n).exists(), "shard {i} wrote its switches");
+    }
+    let before = trace_files(&sharded);
+    assert!(!before.is_empty());
+    for f in &before {
+        std::fs::remove_file(f).unwrap();
+    }
+    let report = run(&job, "t.toml", &options(&sharded, Some((n - 1, n)), false)).unwrap();
+    assert!(report.complete);
+    let rebuilt: Vec<_> = trace_files(&sharded).into_iter().filter(|f| before.contains(f)).collect();
+    assert!(rebuilt.is_empty(), "the finishing step searched again from traces: {rebuilt:?}");
+    same_finals(&single, &sharded);
+    let switches = read(&single.join("discontinuities.parquet")).num_rows();
+    assert!(switches > 0, "no switch to compare");
+}
+
+#[test]
+fn a_3d_grid_in_8_shards_gives_the_single_runs_switches() {
+    sharded_equals_single(GRID_3D, 8);
+}
+
+#[test]
+fn a_trajectory_in_3_shards_gives_the_single_runs_switches() {
+    sharded_equals_single(TRAJECTORY, 3);
+}
+
+/// A shard re-run with `--resume` searches its lines again; a shard file lost after
+/// every shard is done, or a sharded run finished by a resumed run without shards,
+/// falls back to the search from the traces: the same switches every way.
+#[test]
+fn resumed_and_lost_shard_files_give_the_same_switches() {
+    let job = JobSpec::from_toml_str(GRID_3D, "t.toml").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
+    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    let layout = Layout::new(&sharded);
+    for i in 0..4 {
+        run(&job, "t.toml", &options(&sharded, Some((i, 4)), false)).unwrap();
+    }
+    same_finals(&single, &sharded);
+
+    // Shard 1 loses a part and its switches; re-run with --resume, it finishes the run.
+    std::fs::remove_file(layout.shard_switches(1, 4)).unwrap();
+    std::fs::remove_file(layout.shard_marker(1, 4)).unwrap();
+    std::fs::remove_file(layout.success()).unwrap();
+    let mode = job.analysis.modes[0];
+    std::fs::remove_file(layout.part(0, mode, 1)).unwrap();
+    std::fs::remove_file(layout.discontinuities()).unwrap();
+    run(&job, "t.toml", &options(&sharded, Some((1, 4)), true)).unwrap();
+    assert!(layout.success().exists());
+    same_finals(&single, &sharded);
+
+    // A shard file lost after the fact: the last shard re-run searches from traces.
+    std::fs::remove_file(layout.shard_switches(2, 4)).unwrap();
+    std::fs::remove_file(layout.success()).unwrap();
+    std::fs::remove_file(layout.discontinuities()).unwrap();
+    run(&job, "t.toml", &options(&sharded, Some((3, 4)), true)).unwrap();
+    same_finals(&single, &sharded);
+
+    // Finished by a resumed run without shards.
+    std::fs::remove_file(layout.success()).unwrap();
+    std::fs::remove_file(layout.discontinuities()).unwrap();
+    run(&job, "t.toml", &options(&sharded, None, true)).unwrap();
+    same_finals(&single, &sharded);
+}
