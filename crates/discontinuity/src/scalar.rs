@@ -43,13 +43,19 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
         if !(here < f(solved, a, ws).abs() && here <= f(solved, c, ws).abs()) {
             continue;
         }
+        // The load's sign at the sample: look for an extremum of the other sign.
+        let sign = if negative(k) { -1.0 } else { 1.0 };
+        let samples = [a, k, c].map(|i| (ev.param(i), sign * f(solved, i, ws)));
         for (lo, hi) in [(a, k), (k, c)] {
             if negative(lo) != negative(hi) {
                 continue;
             }
-            // The load's sign at both ends: look for the extremum of the other sign.
-            let sign = if negative(k) { -1.0 } else { 1.0 };
             let (plo, phi) = (ev.param(lo), ev.param(hi));
+            let mid = 0.5 * (plo + phi);
+            let at_mid = ev.reactions_at(mid, ws).map(|r| sign * axial(&r, model, j));
+            if at_mid.is_some_and(|y| stays_clear(samples, (plo, phi), (mid, y))) {
+                continue;
+            }
             // One point of the other sign is enough; narrower excursions than the
             // tolerance are too narrow for any sampling.
             let (pm, least) = brent_min_below(plo, phi, SCAN_TOL * (phi - plo), -floor, |p| {
@@ -68,4 +74,75 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
     }
     out.sort_by(|x, y| x.p.total_cmp(&y.p));
     out
+}
+
+/// How far the load at an interval's midpoint may stray from the parabola through the
+/// three samples, as a fraction of the sampled minimum, for the parabola to speak for
+/// the interval.
+const FIT: f64 = 0.1;
+
+/// The lowest the interval may come, as a fraction of the sampled minimum, for it to be
+/// clear of the other sign without a minimisation.
+const CLEAR: f64 = 0.5;
+
+/// Whether the interval `(plo, phi)` beside the sampled minimum (the middle of
+/// `samples`, three `(param, sign·f)` with the sample's sign, so that the minimum
+/// is positive) is clear of the other sign, from the load at its midpoint `mid`:
+/// that is the sampling halved, and a finer sampling shows a pair of crossings as a
+/// dip towards zero. Clear when the midpoint's load lies on the parabola through the
+/// three samples (within [`FIT`] of the minimum) and neither the parabola over the
+/// interval nor that load, less their disagreement, comes below [`CLEAR`] of the
+/// minimum. Otherwise the interval is minimised (most stay clear: 99 % of the sampled
+/// minima of a 3-D grid are more than 8 times as far from zero as their neighbours'
+/// second difference).
+fn stays_clear(samples: [(f64, f64); 3], (plo, phi): (f64, f64), (mid, y_mid): (f64, f64)) -> bool {
+    let [(x0, y0), (x1, y1), (x2, y2)] = samples;
+    let d01 = (y1 - y0) / (x1 - x0);
+    let d012 = ((y2 - y1) / (x2 - x1) - d01) / (x2 - x0);
+    let parabola = |x: f64| y0 + (x - x0) * (d01 + (x - x1) * d012);
+    let mut lowest = parabola(plo).min(parabola(phi));
+    if d012 > 0.0 {
+        let vertex = 0.5 * (x0 + x1) - d01 / (2.0 * d012);
+        if vertex > plo && vertex < phi {
+            lowest = lowest.min(parabola(vertex));
+        }
+    }
+    let off = (y_mid - parabola(mid)).abs();
+    let floor = y1 * CLEAR;
+    y1 > 0.0 && off <= FIT * y1 && lowest - off >= floor && y_mid - off >= floor
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three samples of `y` at −1, 0, 1, the interval (0, 1) and its midpoint's value.
+    fn clear(y: impl Fn(f64) -> f64) -> bool {
+        stays_clear([-1.0, 0.0, 1.0].map(|x| (x, y(x))), (0.0, 1.0), (0.5, y(0.5)))
+    }
+
+    #[test]
+    fn a_parabola_far_from_zero_is_clear() {
+        assert!(clear(|x| 1.0 + 0.3 * x * x));
+        // Its vertex inside the interval, at 0.9 of the sampled minimum.
+        assert!(clear(|x| 0.9 + 0.4 * (x - 0.5) * (x - 0.5)));
+    }
+
+    #[test]
+    fn a_dip_the_samples_do_not_show_is_minimised() {
+        // The midpoint falls off the samples' parabola: the interval hides a dip.
+        assert!(!clear(|x| 1.0 + 0.3 * x * x - if x == 0.5 { 0.5 } else { 0.0 }));
+        // A narrower dip, 15 % of the minimum at the midpoint: still more than FIT.
+        assert!(!clear(|x| 1.0 + 0.3 * x * x - (-(x - 0.5) * (x - 0.5) / 0.001).exp() * 0.15));
+    }
+
+    #[test]
+    fn a_parabola_that_comes_near_zero_is_minimised() {
+        // The two-crossings case of a Θ-line: the samples' parabola itself reaches zero.
+        assert!(!clear(|x| 0.05 + 0.5 * (x - 0.4) * (x - 0.4) - 0.07));
+        // Within half of the minimum, though not below zero.
+        assert!(!clear(|x| 1.0 + 2.0 * (x - 0.5) * (x - 0.5) - 0.55));
+        // A load of the other sign at a neighbour (a sign change beside the sample).
+        assert!(!clear(|x| if x < -0.5 { -1.0 } else { 1.0 + x * x }));
+    }
 }
