@@ -39,7 +39,7 @@ pub(crate) fn switches(
 ) {
     let ev = solved.ev;
     let (model, kind) = (ev.model, d.kind());
-    let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(&solved.reactions(k, ws), model, kind, j);
+    let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(solved.reactions(k, ws), model, kind, j);
     let mag = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| crate::norm(load(solved, k, ws));
     let squared = |p: f64, ws: &mut Workspace| {
         ev.reactions_at(p, ws).map(|r| {
@@ -60,7 +60,7 @@ pub(crate) fn switches(
     let mut minima = Vec::new();
     let mut dips = Vec::new();
     for (a, k, c) in segment.triples() {
-        if !segment.has(k, min_bit(d, j)) {
+        if !segment.has(k, min_bit(d, j, segment.along)) {
             continue;
         }
         let here = mag(solved, k, ws);
@@ -97,7 +97,10 @@ pub(crate) fn switches(
     // Every other interval whose end directions differ by more than 90°: a dip
     // between monotone samples.
     for (a, b) in segment.pairs() {
-        if !segment.has(a, turn_bit(d, j)) || minima.binary_search(&a).is_ok() || minima.binary_search(&b).is_ok() {
+        if !segment.has(a, turn_bit(d, j, segment.along))
+            || minima.binary_search(&a).is_ok()
+            || minima.binary_search(&b).is_ok()
+        {
             continue;
         }
         if dot(load(solved, a, ws), load(solved, b, ws)) >= 0.0 {

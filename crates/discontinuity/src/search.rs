@@ -10,7 +10,7 @@ use clearance_solver::{
 use std::collections::HashMap;
 
 use crate::trace::{Decider, SOLVABLE, Trace, det_bit, min_bit, neg_bit, turn_bit};
-use crate::{Discontinuity, Path, SearchOptions, dips, margin, scalar};
+use crate::{Along, Discontinuity, Path, SearchOptions, dips, margin, scalar};
 
 fn error_of(r: &PoseResult, kind: ClearanceKind) -> [f64; 6] {
     let e: &PoseError = &r.errors[kind.index()];
@@ -90,10 +90,9 @@ pub(crate) struct Solved<'a> {
 
 impl Solved<'_> {
     /// The reactions at the `k`-th sample (a solvable one).
-    pub fn reactions(&mut self, k: usize, ws: &mut Workspace) -> JointReactions {
+    pub fn reactions(&mut self, k: usize, ws: &mut Workspace) -> &JointReactions {
         let ev = self.ev;
-        *self
-            .reactions
+        self.reactions
             .entry(k)
             .or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
     }
@@ -112,6 +111,8 @@ pub(crate) struct Segment<'a> {
     pub start: usize,
     pub end: usize,
     pub det: Trace,
+    /// The input the path follows: which candidate bits are its.
+    pub along: Along,
 }
 
 impl Segment<'_> {
@@ -202,10 +203,16 @@ pub fn search_path(
                 if matches!(kind, ClearanceKind::RAxial | ClearanceKind::RAngular) {
                     // Nothing to find: one sign throughout and no sampled minimum.
                     let changes = negative & positive & (1 << j) != 0;
-                    if !changes && seen & min_bit(Decider::Axial, j) == 0 {
+                    if !changes && seen & min_bit(Decider::Axial, j, path.along) == 0 {
                         continue;
                     }
-                    let segment = Segment { trace: &trace, start, end, det: det_bit(ClearanceKind::RAxial, j) };
+                    let segment = Segment {
+                        trace: &trace,
+                        start,
+                        end,
+                        det: det_bit(ClearanceKind::RAxial, j),
+                        along: path.along,
+                    };
                     let found = crossings.get_or_insert_with(|| scalar::crossings(&mut solved, &segment, j, ws));
                     for c in found.iter() {
                         let before = c.before.solve(&mut solved, ws);
@@ -214,10 +221,10 @@ pub fn search_path(
                     }
                 } else {
                     let d = if kind == ClearanceKind::SRadial { Decider::SRadial } else { Decider::RRadial };
-                    if seen & (min_bit(d, j) | turn_bit(d, j)) == 0 {
+                    if seen & (min_bit(d, j, path.along) | turn_bit(d, j, path.along)) == 0 {
                         continue;
                     }
-                    let segment = Segment { trace: &trace, start, end, det: det_bit(kind, j) };
+                    let segment = Segment { trace: &trace, start, end, det: det_bit(kind, j), along: path.along };
                     dips::switches(&mut solved, &segment, d, j, ws, &mut out);
                 }
             }

@@ -6,25 +6,27 @@ use clearance_model::{ClearanceKind, KINDS, Mode};
 use clearance_solver::{Model, PoseResult, solve_in_blocks};
 use rayon::prelude::*;
 
-use crate::paths::{Axis, axes};
+use crate::paths::{Along, Axis, axes};
 use crate::{axial, margin, solvable, vector};
 
 /// One sample's [`Trace`], as bits. Bit 0: the sample is solvable. Per kind `k`
 /// (order of `KINDS`) and limb `j`, bit `1 + 3k + j`: the deciding load is above
-/// the noise floor (determinate). Then, per limb `j`, the candidates of the search
-/// (docs/model.md §8), each a pre-filter that the search checks exactly:
+/// the noise floor (determinate). Bits `13 + j`: `f_Rj·y_j` is negative (a sign
+/// change lies between samples of opposite signs). Then, per input a path may follow
+/// (slot `x`: 0 for time or Z, 1 for Ψ, 2 for Θ, see [`slot`]), the candidates of the
+/// search along that input (docs/model.md §8), each a pre-filter that the search
+/// checks exactly:
 ///
-/// - bits `13 + j` (`|f_Sj|`), `16 + j` (`|f⊥j|`) and `22 + j` (`|f_Rj·y_j|`, the
-///   scalar load of `r_axial` and `r_angular`): as far as the samples in hand show
-///   ([`keep_local_minima`]), an interior local minimum of the magnitude along some
-///   path, whatever its value (a dip below the threshold can hide between samples
-///   above it, so only the refined minimum decides);
-/// - bit `19 + j`: `f_Rj·y_j` is negative (a sign change lies between samples of
-///   opposite signs);
-/// - bits `25 + j` (`f_Sj`) and `28 + j` (`f⊥j`): the load's direction may turn by
-///   more than 90° to the next sample along some path (or that sample is
-///   indeterminate, or not in hand), so a dip may hide between monotone samples.
-pub type Trace = u32;
+/// - bits `16 + 9x + 3d + j`, for the magnitude of `f_Sj` (d = 0), `f⊥j` (1) and
+///   `f_Rj·y_j` (2, the scalar load of `r_axial` and `r_angular`): as far as the
+///   samples in hand show ([`keep_local_minima`]), an interior local minimum of the
+///   magnitude along the line through the sample, whatever its value (a dip below the
+///   threshold can hide between samples above it, so only the refined minimum
+///   decides);
+/// - bits `43 + 6x + 3d + j` (`f_Sj`, `f⊥j`): the load's direction may turn by more
+///   than 90° to the next sample along the line (or that sample is indeterminate, or
+///   not in hand), so a dip may hide between monotone samples.
+pub type Trace = u64;
 
 pub(crate) const SOLVABLE: Trace = 1;
 
@@ -58,31 +60,46 @@ impl Decider {
     }
 }
 
-/// Candidate bit: an interior local minimum of the magnitude along some path.
-pub(crate) fn min_bit(d: Decider, j: usize) -> Trace {
-    1 << ([13, 16, 22][d as usize] + j)
+/// The slot of an input's candidate bits: time and Z share one (a trajectory has no
+/// other input, a grid no time).
+pub(crate) fn slot(along: Along) -> usize {
+    match along {
+        Along::T | Along::Z => 0,
+        Along::Psi => 1,
+        Along::Theta => 2,
+    }
+}
+
+/// Candidate bit: an interior local minimum of the magnitude along the line.
+pub(crate) fn min_bit(d: Decider, j: usize, along: Along) -> Trace {
+    1 << (16 + 9 * slot(along) + 3 * d as usize + j)
 }
 
 /// `f_Rj·y_j < 0`.
 pub(crate) fn neg_bit(j: usize) -> Trace {
-    1 << (19 + j)
+    1 << (13 + j)
 }
 
 /// Candidate bit of a vector load: its direction may turn by more than 90° to the
-/// next sample along some path.
-pub(crate) fn turn_bit(d: Decider, j: usize) -> Trace {
+/// next sample along the line.
+pub(crate) fn turn_bit(d: Decider, j: usize, along: Along) -> Trace {
     debug_assert!(d != Decider::Axial, "a scalar load has no direction");
-    1 << ([25, 28][d as usize] + j)
+    1 << (43 + 6 * slot(along) + 3 * d as usize + j)
 }
 
-/// Every candidate bit [`keep_local_minima`] settles.
-fn settled_bits() -> Trace {
+/// Every candidate bit of one slot's input, or of all three.
+fn settled_bits(along: Option<Along>) -> Trace {
     let mut m = 0;
-    for j in 0..3 {
-        for d in Decider::ALL {
-            m |= min_bit(d, j);
-            if d != Decider::Axial {
-                m |= turn_bit(d, j);
+    for a in [Along::Z, Along::Psi, Along::Theta] {
+        if along.is_some_and(|x| slot(x) != slot(a)) {
+            continue;
+        }
+        for j in 0..3 {
+            for d in Decider::ALL {
+                m |= min_bit(d, j, a);
+                if d != Decider::Axial {
+                    m |= turn_bit(d, j, a);
+                }
             }
         }
     }
@@ -123,6 +140,7 @@ pub fn trace_into(r: &PoseResult, model: &Model, loads: &mut Loads) -> Trace {
             }
         }
     }
+    let alongs = [Along::Z, Along::Psi, Along::Theta];
     for j in 0..3 {
         for d in Decider::ALL {
             let determinate = t & det_bit(d.kind(), j) != 0;
@@ -139,13 +157,13 @@ pub fn trace_into(r: &PoseResult, model: &Model, loads: &mut Loads) -> Trace {
                     loads.direction[d.slot(j)] = v.map(|x| (x / n) as f32);
                 }
                 if determinate {
-                    t |= turn_bit(d, j);
+                    t |= alongs.iter().fold(0, |m, &a| m | turn_bit(d, j, a));
                 }
                 n
             };
             loads.magnitude[d.slot(j)] = magnitude;
             if determinate {
-                t |= min_bit(d, j);
+                t |= alongs.iter().fold(0, |m, &a| m | min_bit(d, j, a));
             }
         }
     }
@@ -167,9 +185,10 @@ const SLACK: f64 = 1e-9;
 const TURN_SLACK: f32 = 1e-4;
 
 /// The traces of the samples `first..first + traces.len()` with the candidate bits
-/// cleared where the samples in hand rule them out: a minimum bit where the sample
-/// is not an interior local minimum of that magnitude along any path, a turn bit
-/// where the direction turns by less than 90° to the next sample along every path.
+/// cleared where the samples in hand rule them out, input by input: a minimum bit
+/// where the sample is not an interior local minimum of that magnitude along the
+/// line of that input, a turn bit where the direction turns by less than 90° to the
+/// next sample along it (and every bit of an input that does not vary).
 /// A neighbour outside the range, or indeterminate, leaves the bit set (the search
 /// decides), so the result never depends on where a range starts or ends; only the
 /// work does. Samples are settled in parallel.
@@ -177,7 +196,9 @@ pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[L
     assert_eq!(traces.len(), loads.len(), "one load set per trace");
     assert!(axes.len() <= 3, "at most three inputs vary");
     let n = traces.len();
-    let settled = settled_bits();
+    let settled = settled_bits(None);
+    // The bits of inputs that do not vary: no path follows them.
+    let unused = axes.iter().fold(settled, |m, a| m & !settled_bits(Some(a.along)));
     (0..n)
         .into_par_iter()
         .with_min_len(4096)
@@ -186,65 +207,58 @@ pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[L
             if t & settled == 0 {
                 return t;
             }
+            t &= !unused;
             let global = first + i as u64;
-            // Along each axis: the neighbours (in hand or not) where the sample is
-            // interior, and the next one where it is not the last node.
-            let mut around = [(None, None); 3];
-            let mut next = [None; 3];
-            let (mut interior, mut ahead) = (0, 0);
             for a in axes {
                 let s = a.stride as usize;
-                let node = (global / a.stride) % a.n;
-                if !a.is_end(global) {
-                    around[interior] = (i.checked_sub(s), Some(i + s));
-                    interior += 1;
-                }
-                if node + 1 < a.n {
-                    next[ahead] = Some(i + s);
-                    ahead += 1;
-                }
-            }
-            for j in 0..3 {
-                for d in Decider::ALL {
-                    let det = det_bit(d.kind(), j);
-                    let slot = d.slot(j);
-                    let bit = min_bit(d, j);
-                    if t & bit != 0 {
-                        let here = loads[i].magnitude[slot];
-                        // Whether the sample `k` (if in hand) does not rule out a minimum here.
-                        let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
-                            Some(k) => {
-                                traces[k] & SOLVABLE == 0
-                                    || traces[k] & det == 0
-                                    || here <= loads[k].magnitude[slot] * (1.0 + SLACK)
+                // The neighbours along this axis (in hand or not) where the sample is
+                // interior, and whether there is a next node.
+                let interior = !a.is_end(global);
+                let (before, after) = (i.checked_sub(s), i + s);
+                let ahead = (global / a.stride) % a.n + 1 < a.n;
+                for j in 0..3 {
+                    for d in Decider::ALL {
+                        let det = det_bit(d.kind(), j);
+                        let slot = d.slot(j);
+                        let bit = min_bit(d, j, a.along);
+                        if t & bit != 0 {
+                            let here = loads[i].magnitude[slot];
+                            // Whether the sample `k` (if in hand) does not rule out a minimum here.
+                            let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
+                                Some(k) => {
+                                    traces[k] & SOLVABLE == 0
+                                        || traces[k] & det == 0
+                                        || here <= loads[k].magnitude[slot] * (1.0 + SLACK)
+                                }
+                                None => true,
+                            };
+                            if !(interior && allows(before) && allows(Some(after))) {
+                                t &= !bit;
                             }
-                            None => true,
+                        }
+                        if d == Decider::Axial || t & turn_bit(d, j, a.along) == 0 {
+                            continue;
+                        }
+                        let u = loads[i].direction[slot];
+                        // Whether the interval to the next sample may turn: an
+                        // unsolvable one ends the segment (no interval), an
+                        // indeterminate one is skipped by it.
+                        let turns = |k: usize| {
+                            if k >= n {
+                                return true;
+                            }
+                            if traces[k] & SOLVABLE == 0 {
+                                return false;
+                            }
+                            if traces[k] & det == 0 {
+                                return true;
+                            }
+                            let v = loads[k].direction[slot];
+                            u[0] * v[0] + u[1] * v[1] + u[2] * v[2] < TURN_SLACK
                         };
-                        if !around[..interior].iter().any(|&(before, after)| allows(before) && allows(after)) {
-                            t &= !bit;
+                        if !(ahead && turns(after)) {
+                            t &= !turn_bit(d, j, a.along);
                         }
-                    }
-                    if d == Decider::Axial || t & turn_bit(d, j) == 0 {
-                        continue;
-                    }
-                    let u = loads[i].direction[slot];
-                    // Whether the interval to `k` may turn: an unsolvable `k` ends the
-                    // segment (no interval), an indeterminate one is skipped by it.
-                    let turns = |k: usize| {
-                        if k >= n {
-                            return true;
-                        }
-                        if traces[k] & SOLVABLE == 0 {
-                            return false;
-                        }
-                        if traces[k] & det == 0 {
-                            return true;
-                        }
-                        let v = loads[k].direction[slot];
-                        u[0] * v[0] + u[1] * v[1] + u[2] * v[2] < TURN_SLACK
-                    };
-                    if !next[..ahead].iter().flatten().any(|&k| turns(k)) {
-                        t &= !turn_bit(d, j);
                     }
                 }
             }

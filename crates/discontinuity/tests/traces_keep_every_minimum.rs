@@ -14,10 +14,9 @@ use clearance_model::{JobSpec, Mode};
 use clearance_solver::{Model, Workspace, solve_pose};
 
 /// Candidate bits (the minima and turns that `keep_local_minima` settles): bits
-/// 13 and up, but for the axial load's sign (bits 19..21).
+/// 16 and up.
 fn candidates(t: &[Trace]) -> u32 {
-    let sign = 0b111 << 19;
-    t.iter().map(|t| ((t >> 13) << 13 & !sign).count_ones()).sum()
+    t.iter().map(|t| ((t >> 16) << 16).count_ones()).sum()
 }
 
 /// `prunes`: whether, with all samples in one range, at most a fifth of the

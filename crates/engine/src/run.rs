@@ -237,6 +237,9 @@ pub(crate) fn sync_units(layout: &Layout, units: &[Unit], others: &[PathBuf]) ->
 /// Threads that flush a run's files at its end.
 const SYNC_THREADS: usize = 8;
 
+/// Bytes of one trace in a trace file (little-endian).
+const TRACE_BYTES: usize = std::mem::size_of::<Trace>();
+
 fn encode_traces(traces: &[Trace]) -> Vec<u8> {
     traces.iter().flat_map(|t| t.to_le_bytes()).collect()
 }
@@ -337,13 +340,13 @@ pub(crate) fn search_options(variant: &Variant) -> SearchOptions {
     SearchOptions { dip_threshold: variant.job.analysis.discontinuity_load_fraction * variant.job.weight() }
 }
 
-/// Poses whose traces a run keeps in memory (4 bytes each): up to this many in a
+/// Poses whose traces a run keeps in memory (8 bytes each): up to this many in a
 /// (variant, mode), a run that computes every unit searches its paths as their
 /// units come in. Beyond, and after a sharded or resumed run, the search at the
 /// end reads them back from the parts' trace files, [`SEARCH_TRACES`] at a time.
 const KEEP_TRACES: u64 = 1 << 24;
 
-/// Traces the search at the end holds at once (4 bytes each; a path longer than
+/// Traces the search at the end holds at once (8 bytes each; a path longer than
 /// this is read whole): what bounds its memory, whatever the pose count.
 const SEARCH_TRACES: usize = 1 << 22;
 
@@ -545,7 +548,7 @@ fn rebuild_traces(
     opts: &RunOptions,
 ) -> Result<Option<Vec<Trace>>> {
     let path = layout.trace(unit.variant, unit.mode, unit.chunk);
-    let bytes = 4 * (unit.range.end - unit.range.start);
+    let bytes = TRACE_BYTES as u64 * (unit.range.end - unit.range.start);
     if std::fs::metadata(&path).map(|m| m.len()).ok() == Some(bytes) {
         return Ok(None);
     }
@@ -578,22 +581,22 @@ impl TraceFiles {
         while at < range.end {
             let k = self.ranges.partition_point(|r| r.end <= at);
             let (file_range, path) = (&self.ranges[k], &self.paths[k]);
-            let count = (range.end.min(file_range.end) - at).min(self.bytes.len() as u64 / 4) as usize;
+            let count = (range.end.min(file_range.end) - at).min((self.bytes.len() / TRACE_BYTES) as u64) as usize;
             let cannot = || EngineError::io("read", path);
             let (_, file, offset) = match &mut self.open {
                 Some(open) if open.0 == k => open,
                 _ => self.open.insert((k, std::fs::File::open(path).map_err(cannot())?, 0)),
             };
-            let wanted = 4 * (at - file_range.start);
+            let wanted = TRACE_BYTES as u64 * (at - file_range.start);
             if *offset != wanted {
                 *offset = file.seek(SeekFrom::Start(wanted)).map_err(cannot())?;
             }
-            let bytes = &mut self.bytes[..4 * count];
+            let bytes = &mut self.bytes[..TRACE_BYTES * count];
             file.read_exact(bytes).map_err(cannot())?;
             *offset += bytes.len() as u64;
             let (here, rest) = std::mem::take(&mut dst).split_at_mut(count);
-            for (t, b) in here.iter_mut().zip(bytes.chunks_exact(4)) {
-                *t = Trace::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            for (t, b) in here.iter_mut().zip(bytes.chunks_exact(TRACE_BYTES)) {
+                *t = Trace::from_le_bytes(b.try_into().expect("one trace's bytes"));
             }
             dst = rest;
             at += count as u64;
@@ -1187,7 +1190,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         // The third file is read in several pieces.
         let lens = [5u64, 1, 40_000, 3];
-        let all: Vec<Trace> = (0..lens.iter().sum::<u64>() as u32).map(|i| i.wrapping_mul(2654435761)).collect();
+        let all: Vec<Trace> = (0..lens.iter().sum::<u64>()).map(|i| i.wrapping_mul(0x9e37_79b9_7f4a_7c15)).collect();
         let (mut ranges, mut paths, mut start) = (Vec::new(), Vec::new(), 0);
         for (k, len) in lens.into_iter().enumerate() {
             let path = dir.path().join(format!("{k}.trace"));
