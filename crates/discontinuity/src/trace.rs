@@ -13,7 +13,7 @@ use crate::{axial, margin, solvable, vector};
 /// (order of `KINDS`) and limb `j`, bit `1 + 3k + j`: the deciding load is above
 /// the noise floor (determinate). Bits `13 + j`: `f_Rj·y_j` is negative (a sign
 /// change lies between samples of opposite signs). Then, per input a path may follow
-/// (slot `x`: 0 for time or Z, 1 for Ψ, 2 for Θ, see [`slot`]), the candidates of the
+/// (slot `x`: 0 for time or Z, 1 for Ψ, 2 for Θ), the candidates of the
 /// search along that input (docs/model.md §8), each a pre-filter that the search
 /// checks exactly:
 ///
