@@ -320,6 +320,18 @@ fn ups_paths(job: &JobSpec, source: &SampleSource) -> Vec<UpsPath> {
     }
 }
 
+/// The loads deciding each kind (0 `s_radial`, 1 `u_radial`) of each limb at one
+/// sample, where the pose has reactions: what the search reads of a sample.
+type SampleLoads = [[Option<nalgebra::Vector3<f64>>; 6]; 2];
+
+/// The most memory the search's table of every sample's loads may take (384 bytes a
+/// sample: about 700 000 samples).
+const SHARED_LOADS_BYTES: u64 = 1 << 28;
+
+fn sample_loads(r: &UpsResult) -> SampleLoads {
+    std::array::from_fn(|kind| std::array::from_fn(|l| load(r, kind, l)))
+}
+
 /// The load deciding kind `kind` (0 `s_radial`, 1 `u_radial`) of limb `l`, and that
 /// kind's error `[Δp; Δα]`, where the pose has reactions.
 fn load(r: &UpsResult, kind: usize, l: usize) -> Option<nalgebra::Vector3<f64>> {
@@ -348,6 +360,21 @@ fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleS
     let floor = model.assembly.floor;
     let trajectory = job.trajectory.as_ref().map(|t| t.inputs6());
     let paths = ups_paths(job, source);
+    // Every sample lies on a line of each input that varies: its loads are solved once
+    // for all of them where the table fits in memory, else again on each line.
+    let n = source.len();
+    let mut inputs: Vec<&str> = paths.iter().map(|p| p.along).collect();
+    inputs.dedup();
+    let fits = n.saturating_mul(std::mem::size_of::<SampleLoads>() as u64) <= SHARED_LOADS_BYTES;
+    let shared: Option<Vec<SampleLoads>> = (inputs.len() > 1 && fits).then(|| {
+        (0..n)
+            .into_par_iter()
+            .map_init(
+                || UpsWorkspace::new(model),
+                |ws, i| sample_loads(&solve_ups_loads(model, &source.sample6(i).1, mode, ws)),
+            )
+            .collect()
+    });
     let found: Vec<Vec<UpsSwitch>> = paths
         .par_iter()
         .map_init(
@@ -360,14 +387,18 @@ fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleS
                     solve_ups_loads(model, &s, mode, ws)
                 };
                 let sample = |k: usize| source.sample6(path.index(k)).1;
-                let results: Vec<UpsResult> =
-                    (0..path.len).map(|k| solve_ups_loads(model, &sample(k), mode, ws)).collect();
+                let loads: Vec<SampleLoads> = match &shared {
+                    Some(all) => (0..path.len).map(|k| all[path.index(k) as usize]).collect(),
+                    None => {
+                        (0..path.len).map(|k| sample_loads(&solve_ups_loads(model, &sample(k), mode, ws))).collect()
+                    }
+                };
                 let mut out = Vec::new();
                 for &kind in &kinds {
                     for l in 0..6 {
-                        let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> = results
+                        let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> = loads
                             .iter()
-                            .map(|r| load(r, kind, l).map(|f| (f.norm(), f)).filter(|(m, _)| *m > floor))
+                            .map(|r| r[kind][l].map(|f| (f.norm(), f)).filter(|(m, _)| *m > floor))
                             .collect();
                         // Each interval refined on its own, then the minima kept (`select`).
                         let refined: Vec<Refined> = minima(&mags)
