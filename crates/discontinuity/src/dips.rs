@@ -24,6 +24,19 @@ struct Dip {
 /// minimiser's tolerance).
 const EDGE: f64 = 10.0 * SCAN_TOL;
 
+/// Whether short segments are checked whole (always, but in the test that
+/// compares the search without it).
+fn whole_segment_check() -> bool {
+    #[cfg(test)]
+    return !tests::WHOLE_OFF.load(std::sync::atomic::Ordering::Relaxed);
+    #[cfg(not(test))]
+    true
+}
+
+/// Segments of at most this many samples are checked whole for a turn of the load
+/// (every pair of samples) before their minima are refined.
+const FEW: usize = 16;
+
 /// The step of the five-point difference of `|f|²` that polishes a minimum: its
 /// truncation (`h⁴`) is negligible, its round-off (`ε·|f|²/h`) moves the root by
 /// about `1e-11·(m/c)²` for a dip of depth `m` and curvature `c`.
@@ -51,11 +64,24 @@ pub(crate) fn switches(
         // The squared magnitude has the same minimum and is smooth there (the
         // magnitude itself is a V when the load passes near zero).
         let (plo, phi) = (ev.param(lo), ev.param(hi));
+        #[cfg(test)]
+        tests::MINIMISED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         brent_min(plo, phi, SCAN_TOL * (phi - plo), |p| squared(p, ws).unwrap_or(f64::INFINITY))
     };
     let edge = |lo: usize, hi: usize| EDGE * (ev.param(hi) - ev.param(lo));
     let inside = |p: f64, lo: usize, hi: usize| p > ev.param(lo) + edge(lo, hi) && p < ev.param(hi) - edge(lo, hi);
 
+    // A switch reads its take-up directions at two determinate samples of the
+    // segment. Where every two of them point within 90° of each other, as along a
+    // Z-line of vertical rails (moving all sliders together leaves the loads as they
+    // are, but for round-off that makes sampled minima), none can be: on a short
+    // segment, checked before any refinement.
+    if segment.end - segment.start <= FEW && whole_segment_check() {
+        let loads: Vec<[f64; 3]> = segment.after(segment.start).map(|k| load(solved, k, ws)).collect();
+        if loads.iter().enumerate().all(|(i, a)| loads[i + 1..].iter().all(|b| dot(*a, *b) >= 0.0)) {
+            return;
+        }
+    }
     // Every interior sampled minimum, refined on each side on its own.
     let mut minima = Vec::new();
     let mut dips = Vec::new();
@@ -187,5 +213,44 @@ fn polish(p: f64, lo: f64, hi: f64, width: f64, mut squared: impl FnMut(f64) -> 
             return p;
         }
         width *= 16.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+    use clearance_grid::SampleSource;
+    use clearance_model::{JobSpec, Mode};
+    use clearance_solver::Model;
+
+    /// Set by the one test that searches without the whole-segment check; no other
+    /// test here searches.
+    pub(super) static WHOLE_OFF: AtomicBool = AtomicBool::new(false);
+    /// Intervals minimised, counted for that test.
+    pub(super) static MINIMISED: AtomicUsize = AtomicUsize::new(0);
+
+    /// On a 3-D grid of vertical rails with an added mass (its Z-lines carry the
+    /// same loads at every height, but for round-off), the check spares minimisations
+    /// and changes no switch; its Ψ- and Θ-lines are short too, and hold switches.
+    #[test]
+    fn short_segments_without_a_turn_lose_no_switch() {
+        let text = "[clearance]\ns_radial = 1e-4\nr_radial = 1e-4\n\
+            [mass]\npoints = [ { mass = 20.0, at = [0.0, 0.0, 1.0] } ]\n\
+            [grid]\nz = { start = 1.95, stop = 2.1, n = 4 }\npsi = { start = -0.5, stop = 0.5, n = 15 }\n\
+            theta = { start = -0.5, stop = 0.5, n = 16 }\n";
+        let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
+        let (model, source) = (Model::from_job(&job), SampleSource::new(&job));
+        let opts = crate::SearchOptions { dip_threshold: job.analysis.discontinuity_load_fraction * job.weight() };
+        let [(all, minimised), (checked, fewer)] = [true, false].map(|off| {
+            WHOLE_OFF.store(off, Ordering::Relaxed);
+            MINIMISED.store(0, Ordering::Relaxed);
+            let found = crate::find_discontinuities(&model, &source, Mode::Kinetostatic, &opts);
+            WHOLE_OFF.store(false, Ordering::Relaxed);
+            (found, MINIMISED.load(Ordering::Relaxed))
+        });
+        assert!(all.len() > 10, "{} switches to lose", all.len());
+        assert_eq!(all, checked);
+        assert!(fewer < minimised, "{fewer} of {minimised} intervals minimised");
     }
 }
