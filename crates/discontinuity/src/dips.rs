@@ -5,6 +5,7 @@
 use clearance_solver::Workspace;
 
 use crate::search::{Segment, Solved};
+use crate::shortcut::Shortcut;
 use crate::trace::{Decider, min_bit, turn_bit};
 use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector};
 
@@ -24,14 +25,8 @@ struct Dip {
 /// minimiser's tolerance).
 const EDGE: f64 = 10.0 * SCAN_TOL;
 
-/// Whether short segments are checked whole (always, but in the test that
-/// compares the search without it).
-fn whole_segment_check() -> bool {
-    #[cfg(test)]
-    return !tests::WHOLE_OFF.load(std::sync::atomic::Ordering::Relaxed);
-    #[cfg(not(test))]
-    true
-}
+/// Checking a short segment whole for a turn of its load before refining its minima.
+static WHOLE_SEGMENT: Shortcut = Shortcut::new();
 
 /// Segments of at most this many samples are checked whole for a turn of the load
 /// (every pair of samples) before their minima are refined.
@@ -64,8 +59,7 @@ pub(crate) fn switches(
         // The squared magnitude has the same minimum and is smooth there (the
         // magnitude itself is a V when the load passes near zero).
         let (plo, phi) = (ev.param(lo), ev.param(hi));
-        #[cfg(test)]
-        tests::MINIMISED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        WHOLE_SEGMENT.minimising();
         brent_min(plo, phi, SCAN_TOL * (phi - plo), |p| squared(p, ws).unwrap_or(f64::INFINITY))
     };
     let edge = |lo: usize, hi: usize| EDGE * (ev.param(hi) - ev.param(lo));
@@ -76,7 +70,7 @@ pub(crate) fn switches(
     // Z-line of vertical rails (moving all sliders together leaves the loads as they
     // are, but for round-off that makes sampled minima), none can be: on a short
     // segment, checked before any refinement.
-    if segment.end - segment.start <= FEW && whole_segment_check() {
+    if segment.end - segment.start <= FEW && WHOLE_SEGMENT.on() {
         let loads: Vec<[f64; 3]> = segment.after(segment.start).map(|k| load(solved, k, ws)).collect();
         if loads.iter().enumerate().all(|(i, a)| loads[i + 1..].iter().all(|b| dot(*a, *b) >= 0.0)) {
             return;
@@ -218,17 +212,7 @@ fn polish(p: f64, lo: f64, hi: f64, width: f64, mut squared: impl FnMut(f64) -> 
 
 #[cfg(test)]
 mod tests {
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-
-    use clearance_grid::SampleSource;
-    use clearance_model::{JobSpec, Mode};
-    use clearance_solver::Model;
-
-    /// Set by the one test that searches without the whole-segment check; no other
-    /// test here searches.
-    pub(super) static WHOLE_OFF: AtomicBool = AtomicBool::new(false);
-    /// Intervals minimised, counted for that test.
-    pub(super) static MINIMISED: AtomicUsize = AtomicUsize::new(0);
+    use super::WHOLE_SEGMENT;
 
     /// On a 3-D grid of vertical rails with an added mass (its Z-lines carry the
     /// same loads at every height, but for round-off), the check spares minimisations
@@ -239,16 +223,7 @@ mod tests {
             [mass]\npoints = [ { mass = 20.0, at = [0.0, 0.0, 1.0] } ]\n\
             [grid]\nz = { start = 1.95, stop = 2.1, n = 4 }\npsi = { start = -0.5, stop = 0.5, n = 15 }\n\
             theta = { start = -0.5, stop = 0.5, n = 16 }\n";
-        let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
-        let (model, source) = (Model::from_job(&job), SampleSource::new(&job));
-        let opts = crate::SearchOptions { dip_threshold: job.analysis.discontinuity_load_fraction * job.weight() };
-        let [(all, minimised), (checked, fewer)] = [true, false].map(|off| {
-            WHOLE_OFF.store(off, Ordering::Relaxed);
-            MINIMISED.store(0, Ordering::Relaxed);
-            let found = crate::find_discontinuities(&model, &source, Mode::Kinetostatic, &opts);
-            WHOLE_OFF.store(false, Ordering::Relaxed);
-            (found, MINIMISED.load(Ordering::Relaxed))
-        });
+        let [(all, minimised), (checked, fewer)] = WHOLE_SEGMENT.both_ways(text);
         assert!(all.len() > 10, "{} switches to lose", all.len());
         assert_eq!(all, checked);
         assert!(fewer < minimised, "{fewer} of {minimised} intervals minimised");

@@ -35,6 +35,7 @@ mod minimise;
 mod paths;
 mod scalar;
 mod search;
+mod shortcut;
 mod trace;
 
 pub use minimise::{brent_min, brent_root};

@@ -6,6 +6,7 @@ use clearance_solver::Workspace;
 
 use crate::minimise::brent_min_below;
 use crate::search::{Segment, Side, Solved};
+use crate::shortcut::Shortcut;
 use crate::trace::{Decider, min_bit, neg_bit};
 use crate::{LOCATE_TOL, SCAN_TOL, axial, brent_root};
 
@@ -53,11 +54,10 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
             let (plo, phi) = (ev.param(lo), ev.param(hi));
             let mid = 0.5 * (plo + phi);
             let at_mid = ev.reactions_at(mid, ws).map(|r| sign * axial(&r, model, j));
-            if midpoint_check() && at_mid.is_some_and(|y| stays_clear(samples, (plo, phi), (mid, y))) {
+            if MIDPOINT.on() && at_mid.is_some_and(|y| stays_clear(samples, (plo, phi), (mid, y))) {
                 continue;
             }
-            #[cfg(test)]
-            tests::MINIMISED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            MIDPOINT.minimising();
             // One point of the other sign is enough; narrower excursions than the
             // tolerance are too narrow for any sampling.
             let (pm, least) = brent_min_below(plo, phi, SCAN_TOL * (phi - plo), -floor, |p| {
@@ -78,14 +78,8 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
     out
 }
 
-/// Whether intervals clear at their midpoint are spared the minimisation (always,
-/// but in the test that compares the search without it).
-fn midpoint_check() -> bool {
-    #[cfg(test)]
-    return !tests::MIDPOINT_OFF.load(std::sync::atomic::Ordering::Relaxed);
-    #[cfg(not(test))]
-    true
-}
+/// Sparing the minimisation of an interval clear at its midpoint ([`stays_clear`]).
+static MIDPOINT: Shortcut = Shortcut::new();
 
 /// How far the load at an interval's midpoint may stray from the parabola through the
 /// three samples, as a fraction of the sampled minimum, for the parabola to speak for
@@ -126,31 +120,6 @@ fn stays_clear(samples: [(f64, f64); 3], (plo, phi): (f64, f64), (mid, y_mid): (
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-
-    /// Set by the one test that searches without the midpoint check; the others
-    /// here do not search.
-    pub(super) static MIDPOINT_OFF: AtomicBool = AtomicBool::new(false);
-    /// Intervals minimised by Brent, counted for that test.
-    pub(super) static MINIMISED: AtomicUsize = AtomicUsize::new(0);
-
-    /// The switches of `text`'s job with and without the midpoint check, and how many
-    /// intervals each minimised.
-    fn both_ways(text: &str) -> [(Vec<crate::Discontinuity>, usize); 2] {
-        use clearance_grid::SampleSource;
-        use clearance_model::{JobSpec, Mode};
-        use clearance_solver::Model;
-        let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
-        let (model, source) = (Model::from_job(&job), SampleSource::new(&job));
-        let opts = crate::SearchOptions { dip_threshold: job.analysis.discontinuity_load_fraction * job.weight() };
-        [true, false].map(|off| {
-            MIDPOINT_OFF.store(off, Ordering::Relaxed);
-            MINIMISED.store(0, Ordering::Relaxed);
-            let found = crate::find_discontinuities(&model, &source, Mode::Kinetostatic, &opts);
-            MIDPOINT_OFF.store(false, Ordering::Relaxed);
-            (found, MINIMISED.load(Ordering::Relaxed))
-        })
-    }
 
     /// The midpoint check changes the work, not the switches: on a 3-D grid of every
     /// kind with an added mass, and on the Θ-line whose axial load crosses zero twice
@@ -163,14 +132,14 @@ mod tests {
             [mass]\npoints = [ { mass = 30.0, at = [0.0, 0.0, 1.0] } ]\n\
             [grid]\nz = { start = 1.95, stop = 2.15, n = 5 }\npsi = { start = -0.5, stop = 0.5, n = 41 }\n\
             theta = { start = -0.5, stop = 0.5, n = 37 }\n";
-        let [(all, minimised), (quick, fewer)] = both_ways(grid);
+        let [(all, minimised), (quick, fewer)] = MIDPOINT.both_ways(grid);
         let axial = all.iter().filter(|d| d.kind == clearance_model::ClearanceKind::RAxial).count();
         assert!(axial > 10, "{axial} axial switches to lose");
         assert_eq!(all, quick);
         assert!(fewer * 10 <= minimised, "{fewer} of {minimised} intervals minimised");
         let line = "[clearance]\nr_axial = 1e-4\n[grid]\nz = 2.05\npsi = -0.1\n\
             theta = { start = -0.5, stop = 0.5, n = 11 }\n";
-        let [(all, _), (quick, _)] = both_ways(line);
+        let [(all, _), (quick, _)] = MIDPOINT.both_ways(line);
         assert_eq!(all, quick);
         assert!(all.len() >= 2, "{all:?}");
     }
