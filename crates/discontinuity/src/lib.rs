@@ -296,10 +296,10 @@ pub fn search_untraced(
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
     let n = path.len();
-    let (origin, stride) = (path.sample_index(0), path.sample_index(1).saturating_sub(path.sample_index(0)).max(1));
-    let traces = if stride == 1 {
+    let traces = if path.is_consecutive() {
         // Consecutive samples (a trajectory, or a line of the fastest input): traced
-        // as a run traces them, a block at a time, 4 bytes a sample in memory.
+        // as a run traces them, a block at a time, 8 bytes a sample in memory.
+        let origin = path.sample_index(0);
         traces(model, source, mode, origin..origin + n as u64)
     } else {
         // A line across the faster inputs (a grid dimension long), traced along itself
@@ -311,7 +311,7 @@ pub fn search_untraced(
         let axis = Axis { along: path.along, stride: 1, n: n as u64, params: path.params.clone() };
         keep_local_minima(&[axis], 0, &traces, &loads)
     };
-    search_path(model, source, path, mode, opts, |i| traces[((i - origin) / stride) as usize], ws)
+    search_path(model, source, path, mode, opts, |i| traces[path.position(i)], ws)
 }
 
 /// All switches of one (variant, mode), every sample solved here.

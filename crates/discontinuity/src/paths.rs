@@ -56,6 +56,16 @@ impl Path {
         self.origin + k as u64 * self.stride
     }
 
+    /// The position on the path of the sample with index `i` (one of its samples).
+    pub fn position(&self, i: u64) -> usize {
+        ((i - self.origin) / self.stride) as usize
+    }
+
+    /// Whether its samples are consecutive (a trajectory, or a line of the fastest input).
+    pub fn is_consecutive(&self) -> bool {
+        self.stride == 1
+    }
+
     /// The sample at parameter `p` (not necessarily a grid or time node).
     pub fn sample_at(&self, source: &SampleSource, p: f64) -> Sample {
         match source {

@@ -87,10 +87,13 @@ pub(crate) fn turn_bit(d: Decider, j: usize, along: Along) -> Trace {
     1 << (43 + 6 * slot(along) + 3 * d as usize + j)
 }
 
+/// One input of each slot: the inputs whose candidate bits a trace holds.
+const INPUTS: [Along; 3] = [Along::Z, Along::Psi, Along::Theta];
+
 /// Every candidate bit of one slot's input, or of all three.
 fn settled_bits(along: Option<Along>) -> Trace {
     let mut m = 0;
-    for a in [Along::Z, Along::Psi, Along::Theta] {
+    for a in INPUTS {
         if along.is_some_and(|x| slot(x) != slot(a)) {
             continue;
         }
@@ -140,7 +143,6 @@ pub fn trace_into(r: &PoseResult, model: &Model, loads: &mut Loads) -> Trace {
             }
         }
     }
-    let alongs = [Along::Z, Along::Psi, Along::Theta];
     for j in 0..3 {
         for d in Decider::ALL {
             let determinate = t & det_bit(d.kind(), j) != 0;
@@ -157,13 +159,13 @@ pub fn trace_into(r: &PoseResult, model: &Model, loads: &mut Loads) -> Trace {
                     loads.direction[d.slot(j)] = v.map(|x| (x / n) as f32);
                 }
                 if determinate {
-                    t |= alongs.iter().fold(0, |m, &a| m | turn_bit(d, j, a));
+                    t |= INPUTS.iter().fold(0, |m, &a| m | turn_bit(d, j, a));
                 }
                 n
             };
             loads.magnitude[d.slot(j)] = magnitude;
             if determinate {
-                t |= alongs.iter().fold(0, |m, &a| m | min_bit(d, j, a));
+                t |= INPUTS.iter().fold(0, |m, &a| m | min_bit(d, j, a));
             }
         }
     }

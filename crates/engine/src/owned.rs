@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use crate::error::EngineError;
 use crate::groups::Group;
 use crate::layout::Layout;
-use crate::run::{RunOptions, Unit, search_options, unit_traces, works};
+use crate::run::{RunOptions, search_options, unit_traces, works};
 
 type Result<T, E = EngineError> = std::result::Result<T, E>;
 /// The switches of each (group, mode).
@@ -51,28 +51,28 @@ pub(crate) fn search_owned(
     opts: &RunOptions,
     (me, n): (u64, u64),
 ) -> Result<()> {
-    // The shard of each (group, mode, chunk): the work holding the group's first member.
+    // The shard of each (group, mode, chunk), and the unit whose traces its paths are
+    // searched from: the work holding the group's first member.
     let mut owner = HashMap::new();
     for w in works(job, groups, opts.chunk_size) {
         for u in w.units.iter().filter(|u| u.variant == groups[w.group].first()) {
-            owner.insert((w.group, u.mode, u.chunk), w.number % n);
+            owner.insert((w.group, u.mode, u.chunk), (w.number % n, u.clone()));
         }
     }
     let chunk_of = |i: u64| i / opts.chunk_size;
-    let len = job.sample_count();
     let mut across_count = 0u64;
     let mut out = Vec::new();
     for (g, (group, (model, source))) in groups.iter().zip(models).enumerate() {
         let search = search_options(&variants[group.first() as usize]);
+        let all = paths(source);
         for &mode in &job.analysis.modes {
-            let all = paths(source);
             // This shard's paths, by chunk where they lie in one, and those across chunks.
             let mut within: std::collections::BTreeMap<u64, Vec<usize>> = Default::default();
             let mut across = Vec::new();
             for (k, p) in all.iter().enumerate() {
                 let (a, b) = (chunk_of(p.sample_index(0)), chunk_of(p.sample_index(p.len() - 1)));
                 if a == b {
-                    if owner[&(g, mode, a)] == me {
+                    if owner[&(g, mode, a)].0 == me {
                         within.entry(a).or_default().push(k);
                     }
                 } else {
@@ -86,11 +86,9 @@ pub(crate) fn search_owned(
                 switches.into_iter().map(move |switch| Owned { group: g, mode, path: k as u64, switch })
             };
             for (chunk, ks) in within {
-                let start = chunk * opts.chunk_size;
-                let range = start..(start + opts.chunk_size).min(len);
-                let unit = Unit { variant: group.first(), mode, chunk, range };
-                let traces = unit_traces(layout, model, source, &unit, opts)?;
-                let at = |i: u64| traces[(i - start) as usize];
+                let unit = &owner[&(g, mode, chunk)].1;
+                let traces = unit_traces(layout, model, source, unit, opts)?;
+                let at = |i: u64| traces[(i - unit.range.start) as usize];
                 out.par_extend(
                     ks.par_iter()
                         .map_init(Workspace::new, |ws, &k| {

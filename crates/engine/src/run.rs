@@ -429,10 +429,10 @@ fn finalize(
     opts.progress.get().searching();
     let mut found_by_group = std::mem::take(&mut kept.found);
     // After shards, their own searches: merged, not searched again.
-    if let Some(owned) = opts.shard.and_then(|(_, n)| crate::owned::read_owned(layout, &job.analysis.modes, n)) {
-        for (g, _) in groups.iter().enumerate() {
+    if let Some(mut owned) = opts.shard.and_then(|(_, n)| crate::owned::read_owned(layout, &job.analysis.modes, n)) {
+        for g in 0..groups.len() {
             for &mode in &job.analysis.modes {
-                found_by_group.insert((g, mode), owned.get(&(g, mode)).cloned().unwrap_or_default());
+                found_by_group.insert((g, mode), owned.remove(&(g, mode)).unwrap_or_default());
             }
         }
     }
