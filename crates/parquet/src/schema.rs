@@ -48,7 +48,7 @@ impl ColumnSet {
 }
 
 /// The value slots of one row, every column set's columns among them
-/// ([`row_values`] fills them all at once; a column reads its slot).
+/// ([`row_values`] fills those of the set at once; a column reads its slot).
 mod slot {
     pub const Z: usize = 0;
     pub const PSI: usize = 1;
@@ -89,6 +89,8 @@ pub struct PoseSchema {
     slots: Vec<usize>,
     /// Whether the `dominant` column (after `status`) is in the set.
     dominant: bool,
+    /// The slots the columns read.
+    fill: Fill,
 }
 
 /// The envelope's parts: each component of `[Δp; Δα]`, then bounds on `|Δp|`, `|Δα|`.
@@ -136,13 +138,30 @@ impl Row<'_> {
     }
 }
 
-/// Every slot of one row into `v`; NaN where the status leaves a value undefined
-/// (docs/conventions.md), which the batch turns into a null.
-fn row_values(s: &Sample, r: &PoseResult, v: &mut Row<'_>) {
-    // An `ok` row with every kind determinate fills every slot below the exact error's.
-    let fill_from = if r.status == Status::Ok && r.kind_ok == [true; 4] { slot::EXACT } else { 0 };
-    for slot in fill_from..slot::COUNT {
-        v.set(slot, f64::NAN);
+/// Which slots [`row_values`] fills: those a column set reads, and the exact
+/// error's when the job computes it.
+#[derive(Clone, Copy)]
+struct Fill {
+    /// Per-kind errors, margins and the envelope (the standard set).
+    standard: bool,
+    /// Reactions (the full set).
+    full: bool,
+    exact: bool,
+}
+
+/// The slots of one row that `fill` names into `v`; NaN where the status leaves a
+/// value undefined (docs/conventions.md), which the batch turns into a null. The
+/// other slots keep whatever they held: no column reads them.
+fn row_values(s: &Sample, r: &PoseResult, v: &mut Row<'_>, fill: Fill) {
+    if !(r.status == Status::Ok && r.kind_ok == [true; 4]) {
+        for slot in 0..slot::COUNT {
+            v.set(slot, f64::NAN);
+        }
+    } else if fill.exact {
+        // Every other slot of an `ok` row with every kind determinate is written below.
+        for slot in slot::EXACT..slot::EXACT + 6 {
+            v.set(slot, f64::NAN);
+        }
     }
     v.set(slot::Z, s.z[0]);
     v.set(slot::PSI, s.psi[0]);
@@ -162,27 +181,35 @@ fn row_values(s: &Sample, r: &PoseResult, v: &mut Row<'_>) {
     if r.status == Status::Ok {
         v.set_error(slot::TOTAL, &r.total);
     }
-    for k in 0..4 {
-        if r.kind_ok[k] {
-            v.set_error(slot::KIND + 9 * k, &r.errors[k]);
+    if fill.standard {
+        for k in 0..4 {
+            if r.kind_ok[k] {
+                v.set_error(slot::KIND + 9 * k, &r.errors[k]);
+            }
+        }
+        let m = &r.margins;
+        for j in 0..3 {
+            v.set_all(slot::MARGIN + 4 * j, &[m.r_radial[j], m.r_axial[j], m.r_angular[j], m.s[j]]);
+        }
+        let total = r.envelope_total();
+        v.set_all(slot::ENVELOPE, &total);
+        for (k, env) in r.envelope.iter().enumerate() {
+            v.set_all(slot::ENVELOPE + 8 * (k + 1), env);
         }
     }
-    let m = &r.margins;
-    for j in 0..3 {
-        v.set_all(slot::MARGIN + 4 * j, &[m.r_radial[j], m.r_axial[j], m.r_angular[j], m.s[j]]);
-        let base = slot::REACTION + 9 * j;
-        for i in 0..3 {
-            v.set(base + i, r.reactions.f_r[j][i]);
-            v.set(base + 3 + i, r.reactions.m_r[j][i]);
-            v.set(base + 6 + i, r.reactions.f_s[j][i]);
+    if fill.full {
+        for j in 0..3 {
+            let base = slot::REACTION + 9 * j;
+            for i in 0..3 {
+                v.set(base + i, r.reactions.f_r[j][i]);
+                v.set(base + 3 + i, r.reactions.m_r[j][i]);
+                v.set(base + 6 + i, r.reactions.f_s[j][i]);
+            }
         }
     }
-    let total = r.envelope_total();
-    v.set_all(slot::ENVELOPE, &total);
-    for (k, env) in r.envelope.iter().enumerate() {
-        v.set_all(slot::ENVELOPE + 8 * (k + 1), env);
-    }
-    if let Some(e) = r.exact {
+    if fill.exact
+        && let Some(e) = r.exact
+    {
         // The stored exact error is [Δα; Δp]; columns follow the err_* order (Δp first).
         v.set_all(slot::EXACT, &e[3..]);
         v.set_all(slot::EXACT + 3, &e[..3]);
@@ -263,7 +290,8 @@ impl PoseSchema {
         }
         fields.extend(f.iter().map(|c| Field::new(&c.name, DataType::Float64, true).with_metadata(unit(c.unit))));
         let slots = f.iter().map(|c| c.slot).collect();
-        Self { schema: Arc::new(Schema::new(fields)), floats: f, slots, dominant }
+        let fill = Fill { standard: set >= ColumnSet::Standard, full: set >= ColumnSet::Full, exact };
+        Self { schema: Arc::new(Schema::new(fields)), floats: f, slots, dominant, fill }
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -319,6 +347,7 @@ impl PoseSchema {
             Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
         };
         let (t_nulls, float_nulls) = cols.nulls.split_first().expect("t has a flag");
+        let rows = cols.sample.len();
         let [mode, sample, status] = label_columns(mode, cols.sample, &cols.status);
         let mut out: Vec<ArrayRef> = Vec::with_capacity(self.floats.len() + 5);
         out.extend([mode, sample, float((cols.t, t_nulls)), status]);
@@ -326,7 +355,12 @@ impl PoseSchema {
             out.push(dominant_column(&cols.dominant));
         }
         // Columns on the pool: a serial pass over a whole unit would leave it idle.
-        out.par_extend(cols.floats.into_par_iter().zip(float_nulls).map(float));
+        // A few thousand rows are done before the pool's threads would wake.
+        if rows < 1 << 14 {
+            out.extend(cols.floats.into_iter().zip(float_nulls).map(float));
+        } else {
+            out.par_extend(cols.floats.into_par_iter().zip(float_nulls).map(float));
+        }
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 
@@ -533,6 +567,12 @@ const TILE: usize = 32;
 /// `tile[slot][k]`: slot `slot` of the `k`-th row gathered.
 type Tile = [[f64; TILE]; slot::COUNT];
 
+thread_local! {
+    /// The tile of this thread's last sink: a fresh one is 36 KB to allocate and
+    /// zero, once for each block of a loop of small `solve` calls.
+    static SPARE_TILE: std::cell::Cell<Option<Box<Tile>>> = const { std::cell::Cell::new(None) };
+}
+
 /// Writes the rows of one block into their column buffers.
 ///
 /// Rows go first to a small slot-major tile (26 KB, in the core's first-level
@@ -550,10 +590,12 @@ pub struct BlockSink<'a> {
     dominant: &'a mut [u8],
     floats: Vec<&'a mut [f64]>,
     slots: &'a [usize],
+    fill: Fill,
     /// The unit's flags of columns with a value that is not finite (`t` first), for
     /// [`PoseSchema::finish`]; pages need none.
     nulls: Option<&'a [AtomicBool]>,
-    tile: Box<Tile>,
+    /// Taken by the first `put`, on the thread that fills the block.
+    tile: Option<Box<Tile>>,
     tile_start: usize,
     tile_len: usize,
 }
@@ -569,6 +611,9 @@ fn flag(f: &AtomicBool) {
 impl Drop for BlockSink<'_> {
     fn drop(&mut self) {
         self.flush();
+        if let Some(tile) = self.tile.take() {
+            SPARE_TILE.set(Some(tile));
+        }
     }
 }
 
@@ -589,8 +634,9 @@ impl<'a> BlockSink<'a> {
             dominant,
             floats,
             slots: &schema.slots,
+            fill: schema.fill,
             nulls,
-            tile: Box::new([[0.0; TILE]; slot::COUNT]),
+            tile: None,
             tile_start: 0,
             tile_len: 0,
         }
@@ -610,7 +656,10 @@ impl<'a> BlockSink<'a> {
             self.tile_start = i;
         }
         let k = self.tile_len;
-        row_values(s, r, &mut Row { tile: &mut self.tile, k });
+        // Slots a row does not write are never read: a used tile serves as well.
+        let tile =
+            self.tile.get_or_insert_with(|| SPARE_TILE.take().unwrap_or_else(|| Box::new([[0.0; TILE]; slot::COUNT])));
+        row_values(s, r, &mut Row { tile, k }, self.fill);
         self.tile_len += 1;
         let Some(nulls) = self.nulls else { return };
         // `t` is null on every row of a grid: flagged on its own, it does not send
@@ -618,7 +667,7 @@ impl<'a> BlockSink<'a> {
         if !t.is_finite() {
             flag(&nulls[0]);
         }
-        let tile = &self.tile;
+        let tile = self.tile.as_deref().expect("allocated above");
         if !self.slots.iter().all(|&slot| tile[slot][k].is_finite()) {
             // Rare: flag the columns this row leaves null.
             for (f, &slot) in nulls[1..].iter().zip(self.slots) {
@@ -632,8 +681,9 @@ impl<'a> BlockSink<'a> {
     /// Copies the tile's rows to the column buffers.
     fn flush(&mut self) {
         let (start, len) = (self.tile_start, self.tile_len);
+        let Some(tile) = self.tile.as_deref() else { return };
         for (col, &slot) in self.floats.iter_mut().zip(self.slots) {
-            col[start..start + len].copy_from_slice(&self.tile[slot][..len]);
+            col[start..start + len].copy_from_slice(&tile[slot][..len]);
         }
         self.tile_len = 0;
     }
@@ -698,6 +748,56 @@ mod tests {
             let got = schema.finish(Mode::Kinetostatic, cols);
             assert_eq!(got, expected, "{set:?}");
             assert!(expected.columns().iter().any(|c| c.null_count() > 0), "{set:?}: some nulls");
+        }
+    }
+
+    /// A set fills only the slots its columns read: each column of the minimal and
+    /// standard sets equals the same column of the full set (which fills every
+    /// slot), with rows of every status, and the exact error's columns likewise.
+    #[test]
+    fn each_set_fills_the_slots_its_columns_read() {
+        let rows: Vec<(Sample, PoseResult)> = (0..2 * TILE + 3)
+            .map(|i| {
+                let f = 1.0 + i as f64;
+                let s = Sample {
+                    index: i as u64,
+                    t: None,
+                    z: [f, 0.0, 0.0],
+                    psi: [0.5 * f, 0.0, 0.0],
+                    theta: [-f, 0.0, 0.0],
+                };
+                let mut r = PoseResult { x: f, y: 2.0 * f, phi: 3.0 * f, ..PoseResult::default() };
+                r.status = Status::ALL[i % 4];
+                r.kind_ok = [i % 3 != 1, true, true, i % 7 != 2];
+                r.q = [f, -f, 2.0 * f];
+                r.total.dp.y = 1e-6 * f;
+                for (k, e) in r.errors.iter_mut().enumerate() {
+                    e.dalpha.z = f + k as f64;
+                }
+                r.margins.s[2] = 5.0 * f;
+                r.envelope = [[f; 8], [2.0 * f; 8], [3.0 * f; 8], [4.0 * f; 8]];
+                r.exact = (i % 5 != 0).then_some([f, 2.0 * f, 3.0 * f, 4.0 * f, 5.0 * f, 6.0 * f]);
+                (s, r)
+            })
+            .collect();
+        for exact in [false, true] {
+            let full = PoseSchema::new(ColumnSet::Full, exact).batch(Mode::Kinetostatic, &rows);
+            if exact {
+                let column = full.column_by_name("exact_err_x").expect("exact columns");
+                for (i, (_, r)) in rows.iter().enumerate() {
+                    if r.exact.is_none() {
+                        assert!(column.is_null(i), "row {i} has no exact error");
+                    }
+                }
+            }
+            for set in [ColumnSet::Minimal, ColumnSet::Standard] {
+                let batch = PoseSchema::new(set, exact).batch(Mode::Kinetostatic, &rows);
+                assert!(batch.num_columns() < full.num_columns());
+                for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
+                    let want = full.column_by_name(field.name()).expect("a full column");
+                    assert_eq!(column, want, "{set:?}, exact {exact}: {}", field.name());
+                }
+            }
         }
     }
 }
