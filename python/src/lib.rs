@@ -8,7 +8,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use arrow::array::{Array, RecordBatch, StructArray};
-use arrow::ffi::{FFI_ArrowArray, FFI_ArrowSchema, to_ffi};
+use arrow::datatypes::SchemaRef;
+use arrow::ffi::{FFI_ArrowArray, FFI_ArrowSchema};
 use clearance_engine::{
     Codec, ColumnSet, EngineError, JobSpec, Poses, Progress, Reporter, RunOptions, SolveOptions, SolverKind, Writer,
 };
@@ -23,6 +24,35 @@ create_exception!(_clearance, JobError, PyValueError, "A job that is not valid; 
 struct Job {
     spec: JobSpec,
     file: String,
+}
+
+/// The jobs given as text most recently, by (kind, text): an optimiser calls
+/// `solve` in a loop with a few jobs, and parsing and checking one is a good part
+/// of a small call.
+static RECENT_JOBS: Mutex<Vec<(String, String, Arc<Job>)>> = Mutex::new(Vec::new());
+
+/// Jobs [`RECENT_JOBS`] keeps.
+const RECENT: usize = 8;
+
+/// [`load_job`], from [`RECENT_JOBS`] when the same text was given lately. A job
+/// file is read each time: it may have changed.
+fn cached_job(kind: &str, value: &str) -> PyResult<Arc<Job>> {
+    if kind == "path" {
+        return load_job(kind, value).map(Arc::new);
+    }
+    let mut recent = RECENT_JOBS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(i) = recent.iter().position(|(k, v, _)| k == kind && v == value) {
+        let hit = recent.remove(i);
+        let job = hit.2.clone();
+        recent.push(hit);
+        return Ok(job);
+    }
+    let job = Arc::new(load_job(kind, value)?);
+    if recent.len() == RECENT {
+        recent.remove(0);
+    }
+    recent.push((kind.to_string(), value.to_string(), job.clone()));
+    Ok(job)
 }
 
 /// `kind` is `path` (a TOML file), `toml` (its text) or `json` (a dict, as JSON).
@@ -119,32 +149,69 @@ impl Progress for PyProgress {
 }
 
 /// Runs `f` on a pool of `threads` threads, or on the global pool.
+///
+/// Starting threads on every call would cost a loop of small calls more than its
+/// poses, so pools are kept. A call takes a pool of its size out of the store
+/// and puts it back when done: calls from several Python threads each get a pool
+/// of their own and overlap.
 fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
-    match threads {
-        None => Ok(f()),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n.max(1))
-                .build()
-                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-            Ok(pool.install(f))
-        }
+    /// Idle pools, by size; at most [`KEPT`].
+    static IDLE: Mutex<Vec<(usize, rayon::ThreadPool)>> = Mutex::new(Vec::new());
+    const KEPT: usize = 4;
+    let Some(n) = threads.map(|n| n.max(1)) else { return Ok(f()) };
+    let idle = || IDLE.lock().unwrap_or_else(|e| e.into_inner());
+    let kept = {
+        let mut pools = idle();
+        pools.iter().position(|(size, _)| *size == n).map(|i| pools.swap_remove(i).1)
+    };
+    let pool = match kept {
+        Some(pool) => pool,
+        None => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?,
+    };
+    let out = pool.install(f);
+    let mut pools = idle();
+    if pools.len() == KEPT {
+        pools.remove(0);
     }
+    pools.push((n, pool));
+    Ok(out)
 }
 
 /// A record batch as a `pyarrow.RecordBatch`, its buffers moved, not copied.
 fn to_pyarrow<'py>(py: Python<'py>, batch: RecordBatch) -> PyResult<Bound<'py, PyAny>> {
+    let schema = pyarrow_schema(py, &batch.schema())?;
     let data = StructArray::from(batch).into_data();
-    let (array, schema): (FFI_ArrowArray, FFI_ArrowSchema) =
-        to_ffi(&data).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    let (array, schema) = (Box::new(array), Box::new(schema));
+    let array = Box::new(FFI_ArrowArray::new(&data));
     let class = py.import("pyarrow")?.getattr("RecordBatch")?;
-    // pyarrow moves the structures out (their release callbacks go with them);
-    // the emptied boxes are dropped here.
-    class.call_method1(
-        "_import_from_c",
-        (&*array as *const FFI_ArrowArray as usize, &*schema as *const FFI_ArrowSchema as usize),
-    )
+    // pyarrow moves the structure out (its release callback goes with it); the
+    // emptied box is dropped here.
+    class.call_method1("_import_from_c", (&*array as *const FFI_ArrowArray as usize, schema))
+}
+
+/// `schema` as a `pyarrow.Schema`, imported once for each schema: importing a
+/// hundred fields with their units took a good part of a small `solve` call.
+fn pyarrow_schema<'py>(py: Python<'py>, schema: &SchemaRef) -> PyResult<Bound<'py, PyAny>> {
+    static IMPORTED: Mutex<Vec<(SchemaRef, Py<PyAny>)>> = Mutex::new(Vec::new());
+    const KEPT: usize = 16;
+    // Not held while Python runs: another thread may hold the GIL and wait for it.
+    let imported = || IMPORTED.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, py_schema)) = imported().iter().find(|(s, _)| Arc::ptr_eq(s, schema) || **s == **schema) {
+        return Ok(py_schema.bind(py).clone());
+    }
+    let ffi = Box::new(FFI_ArrowSchema::try_from(schema.as_ref()).map_err(|e| PyRuntimeError::new_err(e.to_string()))?);
+    let py_schema = py
+        .import("pyarrow")?
+        .getattr("Schema")?
+        .call_method1("_import_from_c", (&*ffi as *const FFI_ArrowSchema as usize,))?;
+    let mut imported = imported();
+    if imported.len() == KEPT {
+        imported.remove(0);
+    }
+    imported.push((schema.clone(), py_schema.clone().unbind()));
+    Ok(py_schema)
 }
 
 #[pyfunction]
@@ -162,7 +229,7 @@ fn solve<'py>(
     threads: Option<usize>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
-    let job = load_job(kind, value)?;
+    let job = cached_job(kind, value)?;
     let floats = |b: Option<&[u8]>| -> Vec<f64> {
         b.unwrap_or_default().chunks_exact(8).map(|c| f64::from_ne_bytes(c.try_into().expect("8 bytes"))).collect()
     };

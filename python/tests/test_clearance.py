@@ -94,6 +94,46 @@ def test_explicit_poses_equal_the_grid():
         assert poses.column(name).equals(grid.column(name)), name
 
 
+def test_calls_in_a_loop_and_in_threads_equal_one_call():
+    """What a loop keeps from call to call (the parsed job, the schema, the pools,
+    each thread's buffers) changes nothing: pieces of a pose list solved in turn,
+    with every thread count, and from two Python threads at once, equal the list
+    solved in one call."""
+    job = {
+        "clearance": {"s_radial": 1e-4, "r_radial": 1e-4, "r_axial": 1e-4, "r_angular": 1e-4},
+        "grid": {"z": 2.05, "psi": 0.0, "theta": 0.0},
+    }
+    rng = np.random.default_rng(7)
+    n = 5000
+    psi, theta = rng.uniform(-0.6, 0.6, n), rng.uniform(-0.6, 0.6, n)
+    z = rng.uniform(1.95, 2.15, n)
+    whole = clearance.solve(job, z=z, psi=psi, theta=theta)
+    cuts = [0, 1, 64, 65, 1000, 3721, n]
+    for threads in [None, 1, 2, 3]:
+        pieces = [
+            clearance.solve(job, z=z[a:b], psi=psi[a:b], theta=theta[a:b], threads=threads)
+            for a, b in zip(cuts, cuts[1:])
+        ]
+        assert pa.concat_tables(pieces).drop(["sample"]).equals(whole.drop(["sample"])), threads
+        # A job that differs only in a number is not taken for the one before it.
+        doubled = {**job, "clearance": {k: 2 * v for k, v in job["clearance"].items()}}
+        twice = clearance.solve(doubled, z=z, psi=psi, theta=theta, threads=threads)
+        np.testing.assert_allclose(twice.column("err_x"), 2 * whole.column("err_x").to_numpy(), rtol=1e-12)
+    results = {}
+
+    def one(k):
+        results[k] = [clearance.solve(job, z=z, psi=psi, theta=theta, threads=1) for _ in range(3)]
+
+    threads = [threading.Thread(target=one, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for tables in results.values():
+        for t in tables:
+            assert t.equals(whole)
+
+
 def test_check_returns_the_plan():
     plan = clearance.check(GRID)
     assert plan["rows"] == 21 * 23 * 2
