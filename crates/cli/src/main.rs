@@ -15,7 +15,11 @@ use clearance_engine::{
 };
 
 #[derive(Parser)]
-#[command(name = "clearance", version, about = "Pose error of a 3-PRS parallel robot due to joint clearances")]
+#[command(
+    name = "clearance",
+    version,
+    about = "Pose error of parallel robots (3-PRS, 3-RPS, 6-UPS) due to joint clearances"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
