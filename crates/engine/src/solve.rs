@@ -9,7 +9,7 @@ use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use clearance_grid::{Sample, SampleSource};
 use clearance_model::{JobSpec, Mode};
 use clearance_parquet::{BlockSink, ColumnSet, PoseSchema};
-use clearance_solver::{Model, PoseResult, SolverKind, Workspace, solve_poses};
+use clearance_solver::{Blocks, Model, SolverKind};
 
 use crate::error::EngineError;
 use crate::progress::Reporter;
@@ -63,24 +63,18 @@ impl Default for SolveOptions {
     }
 }
 
-/// A thread's buffers for solving a block, kept from call to call: a fresh set is
-/// hundreds of kilobytes of results to allocate and fault in, once for each piece
-/// of each call of an optimiser's loop.
-type BlockState = (Workspace, Vec<Sample>, Vec<PoseResult>);
-
 thread_local! {
-    static BLOCK_STATE: std::cell::RefCell<BlockState> = std::cell::RefCell::new(fresh_state());
+    /// This thread's buffers for solving a block, kept from call to call: fresh ones
+    /// are hundreds of kilobytes of results to allocate and fault in, once for each
+    /// piece of each call of an optimiser's loop.
+    static BLOCKS: std::cell::RefCell<Blocks> = std::cell::RefCell::default();
 }
 
-fn fresh_state() -> BlockState {
-    (Workspace::new(), Vec::new(), Vec::new())
-}
-
-/// `f` with this thread's [`BlockState`] (a fresh one if it is in use).
-fn with_block_state<T>(f: impl FnOnce(&mut BlockState) -> T) -> T {
-    BLOCK_STATE.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut state) => f(&mut state),
-        Err(_) => f(&mut fresh_state()),
+/// `f` with this thread's [`BLOCKS`] (fresh ones if they are in use).
+fn with_blocks<T>(f: impl FnOnce(&mut Blocks) -> T) -> T {
+    BLOCKS.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut blocks) => f(&mut blocks),
+        Err(_) => f(&mut Blocks::default()),
     })
 }
 
@@ -188,19 +182,17 @@ pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<Recor
         for &mode in &job.analysis.modes {
             progress.stage(&format!("variant {} {}", v.index, mode.name()));
             let mut cols = schema.columns(n as usize);
-            let fill = |(ws, samples, results): &mut BlockState, (b, mut sink): (usize, BlockSink<'_>)| {
+            let fill = |blocks: &mut Blocks, (b, mut sink): (usize, BlockSink<'_>)| {
                 let first = (b * block) as u64;
-                samples.clear();
-                samples.extend((first..first + sink.len() as u64).map(sample));
-                results.resize(samples.len(), PoseResult::default());
-                solve_poses(&model, samples, mode, ws, results);
+                let (samples, results) =
+                    blocks.solve_samples(&model, (first..first + sink.len() as u64).map(sample), mode);
                 for (i, (s, r)) in samples.iter().zip(results.iter()).enumerate() {
                     sink.put(i, s, r);
                 }
                 let len = samples.len() as u64;
                 progress.advance(len, done.fetch_add(len, Ordering::Relaxed) + len);
             };
-            fill_blocks(cols.blocks(schema, block), |b| with_block_state(|state| fill(state, b)));
+            fill_blocks(cols.blocks(schema, block), |b| with_blocks(|blocks| fill(blocks, b)));
             let batch = schema.finish(mode, cols);
             let mut columns: Vec<ArrayRef> = vec![Arc::new(UInt64Array::from_value(v.index, batch.num_rows()))];
             columns.extend(batch.columns().iter().cloned());

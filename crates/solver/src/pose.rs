@@ -356,8 +356,18 @@ impl Blocks {
         range: std::ops::Range<u64>,
         mode: Mode,
     ) -> (&[Sample], &[PoseResult]) {
+        self.solve_samples(model, range.map(|i| source.sample(i)), mode)
+    }
+
+    /// `samples`, solved in `mode`: each sample beside its result.
+    pub fn solve_samples(
+        &mut self,
+        model: &Model,
+        samples: impl IntoIterator<Item = Sample>,
+        mode: Mode,
+    ) -> (&[Sample], &[PoseResult]) {
         self.samples.clear();
-        self.samples.extend(range.map(|i| source.sample(i)));
+        self.samples.extend(samples);
         self.results.resize(self.samples.len(), PoseResult::default());
         solve_poses(model, &self.samples, mode, &mut self.ws, &mut self.results);
         (&self.samples, &self.results)
