@@ -48,11 +48,17 @@ fn cached_job(kind: &str, value: &str) -> PyResult<Arc<Job>> {
         return Ok(job);
     }
     let job = Arc::new(load_job(kind, value)?);
-    if recent.len() == RECENT {
-        recent.remove(0);
-    }
-    recent.push((kind.to_string(), value.to_string(), job.clone()));
+    keep_newest(&mut recent, (kind.to_string(), value.to_string(), job.clone()), RECENT);
     Ok(job)
+}
+
+/// Adds `item` to the newest end of `store`, dropping the oldest beyond `kept`: the
+/// module's stores of jobs, pools and schemas.
+fn keep_newest<T>(store: &mut Vec<T>, item: T, kept: usize) {
+    if store.len() == kept {
+        store.remove(0);
+    }
+    store.push(item);
 }
 
 /// `kind` is `path` (a TOML file), `toml` (its text) or `json` (a dict, as JSON).
@@ -75,15 +81,21 @@ fn load_job(kind: &str, value: &str) -> PyResult<Job> {
     }
 }
 
-/// An engine error as a Python exception, its causes once each.
-fn to_py(e: EngineError) -> PyErr {
+/// An error and its causes, each once, joined by `: `.
+fn with_causes(e: &dyn std::error::Error) -> String {
     let mut msg = e.to_string();
-    let mut source = std::error::Error::source(&e);
+    let mut source = e.source();
     while let Some(s) = source {
         msg.push_str(": ");
         msg.push_str(&s.to_string());
         source = s.source();
     }
+    msg
+}
+
+/// An engine error as a Python exception, its causes once each.
+fn to_py(e: EngineError) -> PyErr {
+    let msg = with_causes(&e);
     match e {
         EngineError::Job(_) => JobError::new_err(msg),
         EngineError::OutputDir(_) | EngineError::Samples(_) => PyValueError::new_err(msg),
@@ -172,11 +184,7 @@ fn on_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyR
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?,
     };
     let out = pool.install(f);
-    let mut pools = idle();
-    if pools.len() == KEPT {
-        pools.remove(0);
-    }
-    pools.push((n, pool));
+    keep_newest(&mut idle(), (n, pool), KEPT);
     Ok(out)
 }
 
@@ -206,11 +214,7 @@ fn pyarrow_schema<'py>(py: Python<'py>, schema: &SchemaRef) -> PyResult<Bound<'p
         .import("pyarrow")?
         .getattr("Schema")?
         .call_method1("_import_from_c", (&*ffi as *const FFI_ArrowSchema as usize,))?;
-    let mut imported = imported();
-    if imported.len() == KEPT {
-        imported.remove(0);
-    }
-    imported.push((schema.clone(), py_schema.clone().unbind()));
+    keep_newest(&mut imported(), (schema.clone(), py_schema.clone().unbind()), KEPT);
     Ok(py_schema)
 }
 
@@ -311,16 +315,7 @@ fn check(kind: &str, value: &str) -> PyResult<String> {
 #[pyo3(signature = (dir, out=None))]
 fn plot(py: Python<'_>, dir: PathBuf, out: Option<PathBuf>) -> PyResult<Vec<PathBuf>> {
     let out = out.unwrap_or_else(|| clearance_engine::Layout::new(&dir).plots());
-    py.detach(|| clearance_plot::plot_run(&dir, &out)).map_err(|e| {
-        let mut msg = e.to_string();
-        let mut source = std::error::Error::source(&e);
-        while let Some(s) = source {
-            msg.push_str(": ");
-            msg.push_str(&s.to_string());
-            source = s.source();
-        }
-        PyRuntimeError::new_err(msg)
-    })
+    py.detach(|| clearance_plot::plot_run(&dir, &out)).map_err(|e| PyRuntimeError::new_err(with_causes(&e)))
 }
 
 /// Caps the vector instruction set (`portable`, `avx2`, `avx512`) of the whole process.
