@@ -174,6 +174,8 @@ pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<Recor
         model.solver = opts.solver;
         // The envelope and the dominant joint are columns of the standard set.
         model.envelope = opts.columns >= ColumnSet::Standard;
+        // The minimal set reads the totals alone, and nothing here searches.
+        model.totals_only = opts.columns == ColumnSet::Minimal;
         let source = SampleSource::new(&v.job);
         let sample = |i: u64| match &opts.poses {
             Some(p) => p.sample(i),

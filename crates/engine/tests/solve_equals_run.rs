@@ -115,3 +115,12 @@ fn grid_with_a_sweep_in_parts_of_uneven_length() {
 fn trajectory_in_both_modes() {
     check(TRAJECTORY, ColumnSet::Standard, 128);
 }
+
+/// The minimal set, which `solve` computes the totals alone for (and the whole
+/// result where the exact error is asked for).
+#[test]
+fn minimal_columns_with_and_without_exact_errors() {
+    check(GRID, ColumnSet::Minimal, 70);
+    check(TRAJECTORY, ColumnSet::Minimal, 128);
+    check(&format!("{GRID}\n[analysis]\nexact = true\n"), ColumnSet::Minimal, 70);
+}

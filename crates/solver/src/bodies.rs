@@ -194,6 +194,13 @@ pub struct Model {
     /// (`PoseResult::envelope`, `contribution`, `dominant`); off (the default), they
     /// are NaN and `None`. A run turns it on for the column sets that write them.
     pub envelope: bool,
+    /// Compute, of each solvable pose, only what the totals need: the fast solver
+    /// then sets a result's status, `x`, `y`, `phi`, `q`, `kind_ok`, `total`,
+    /// `cond_a`, `cond_jp` and `dominant` (`None`) and leaves its other fields as they
+    /// were. For callers that read nothing else (the minimal column set, in memory):
+    /// building the whole result is about a fifth of a pose's time. Off by default,
+    /// and with `exact` (the exact error needs the whole take-up) or `envelope`.
+    pub totals_only: bool,
 }
 
 impl Model {
@@ -215,6 +222,7 @@ impl Model {
             exact: job.analysis.exact,
             solver: SolverKind::default(),
             envelope: false,
+            totals_only: false,
         }
     }
 }

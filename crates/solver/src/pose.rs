@@ -527,19 +527,23 @@ fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mu
     let (t, contribution) = reduced.errors(model, pose, &take);
     let errors = [pose_error(t[0], &inv), pose_error(t[1], &inv), pose_error(t[2], &inv), pose_error(t[3], &inv)];
     let envelope = model.envelope.then(|| reduced.envelope(model, pose));
+    let totals_only = model.totals_only && !model.exact && envelope.is_none();
     for (i, o) in out.iter_mut().enumerate() {
-        *o = if solvable.get(i) {
-            let cond = (reduced.cond_g.get(i), reduced.cond_m.get(i));
-            let e = [errors[0].get(i), errors[1].get(i), errors[2].get(i), errors[3].get(i)];
-            let mut r = finish(model, pose, i, cond, reactions.get(i), &take.get(i), e);
-            if let Some(env) = &envelope {
-                let (env, share) = (env.map(|k| k.map(|v| v.get(i))), contribution.map(|k| k.map(|v| v.get(i))));
-                r.set_envelope(&model.clearance, env, share);
-            }
-            r
-        } else {
-            unsolved(pose, &reduced, i)
-        };
+        if !solvable.get(i) {
+            *o = unsolved(pose, &reduced, i);
+            continue;
+        }
+        let cond = (reduced.cond_g.get(i), reduced.cond_m.get(i));
+        let e = [errors[0].get(i), errors[1].get(i), errors[2].get(i), errors[3].get(i)];
+        if totals_only {
+            finish_totals(o, pose, i, cond, take.indeterminate.map(|d| !d.get(i)), &e);
+            continue;
+        }
+        *o = finish(model, pose, i, cond, reactions.get(i), &take.get(i), e);
+        if let Some(env) = &envelope {
+            let (env, share) = (env.map(|k| k.map(|v| v.get(i))), contribution.map(|k| k.map(|v| v.get(i))));
+            o.set_envelope(&model.clearance, env, share);
+        }
     }
 }
 
@@ -591,6 +595,33 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
     r
 }
 
+/// A solvable pose's status: ok unless some kind's take-up is indeterminate.
+#[inline(always)]
+fn solved_status(kind_ok: &[bool; 4]) -> Status {
+    if kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok }
+}
+
+/// What [`finish`] gives of lane `i` for [`Model::totals_only`], set in `o`: the
+/// same values, and the other fields left as they were (writing all of a result
+/// cost more than solving for the totals).
+#[inline(always)]
+fn finish_totals<L: Lane>(
+    o: &mut PoseResult,
+    pose: &Pose<L>,
+    i: usize,
+    cond: (f64, f64),
+    kind_ok: [bool; 4],
+    errors: &[PoseError; 4],
+) {
+    o.status = solved_status(&kind_ok);
+    (o.x, o.y, o.phi) = (pose.x.get(i), pose.y.get(i), pose.phi.get(i));
+    o.q = lane3(&pose.q, i);
+    o.kind_ok = kind_ok;
+    o.total = error_system::total(errors);
+    (o.cond_a, o.cond_jp) = cond;
+    o.dominant = None;
+}
+
 /// A solvable pose's result from its reactions, take-up and per-kind errors.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -605,7 +636,7 @@ fn finish<L: Lane>(
 ) -> PoseResult {
     let total = error_system::total(&errors);
     let kind_ok = take.indeterminate.map(|i| !i);
-    let status = if kind_ok.contains(&false) { Status::IndeterminateContact } else { Status::Ok };
+    let status = solved_status(&kind_ok);
     let exact = (model.exact && status == Status::Ok)
         .then(|| exact_error(&model.geometry, &pose.posture(i), take))
         .flatten()

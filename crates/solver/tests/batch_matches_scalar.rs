@@ -108,3 +108,81 @@ fn family_batches_give_each_pose_its_scalar_bits() {
     }
     assert!(seen[0] > 50 && seen[1] > 5 && seen[2] > 5, "statuses seen: {seen:?}");
 }
+
+/// The fields that `Model::totals_only` names, of one result.
+fn totals(r: &PoseResult) -> String {
+    format!(
+        "{:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
+        r.status, r.x, r.y, r.phi, r.q, r.kind_ok, r.total, r.cond_a, r.cond_jp, r.dominant
+    )
+}
+
+/// `Model::totals_only` (the minimal columns in memory) gives the named fields the
+/// bits of the whole solve, alone and in batches on every instruction set, and
+/// leaves a solvable pose's other fields as they were; with exact errors or the
+/// envelope on, it is ignored.
+#[test]
+fn totals_only_gives_the_totals_bits_and_leaves_the_rest() {
+    let mut rng = ChaCha8Rng::seed_from_u64(23);
+    let mut ws = Workspace::new();
+    let mut seen = [0usize; 4];
+    // Left in every slot before solving: a result no pose has.
+    let mut stale = PoseResult::default();
+    stale.reactions.f_r[1][2] = 12345.0;
+    stale.margins.s[0] = -1.0;
+    stale.errors[2].dp.x = 7.0;
+    stale.exact = Some([9.0; 6]);
+    stale.envelope[1][3] = 3.0;
+    for case in 0..40 {
+        let clearance = [0, 1, 2, 3].map(|_| if rng.random_bool(0.2) { 0.0 } else { rng.random_range(1e-5..1e-3) });
+        let job = common::grid_job(&mut rng, clearance);
+        let mut model = Model::from_job(&job);
+        model.singular_cond = rng.random_range(20.0..400.0);
+        model.indeterminate_floor = model.weight * rng.random_range(0.0..0.1);
+        if case % 4 == 1 {
+            let g = &model.geometry;
+            model.geometry = Geometry::new(g.base_radius, g.platform_radius, rng.random_range(0.15..0.3));
+        }
+        // Every fourth case computes exact errors, every fourth the envelope: ignored.
+        let (ignored_exact, ignored_envelope) = (case % 4 == 2, case % 4 == 3);
+        model.exact = ignored_exact;
+        model.envelope = ignored_envelope;
+        let n = rng.random_range(1..40);
+        let samples: Vec<Sample> = (0..n)
+            .map(|_| {
+                common::static_sample(
+                    rng.random_range(1.2..2.6),
+                    rng.random_range(-1.2..1.2),
+                    rng.random_range(-1.2..1.2),
+                )
+            })
+            .collect();
+        let whole: Vec<PoseResult> =
+            samples.iter().map(|s| solve_pose(&model, s, Mode::Kinetostatic, &mut ws)).collect();
+        let slim = Model { totals_only: true, ..model.clone() };
+        for isa in Isa::available() {
+            let mut out = vec![stale; n];
+            solve_batches(&slim, &samples, &mut out, isa);
+            for (i, (r, w)) in out.iter().zip(&whole).enumerate() {
+                let what = format!("case {case}, {isa:?}, pose {i}, {:?}", w.status);
+                assert_eq!(totals(r), totals(w), "{what}");
+                let solvable =
+                    matches!(w.status, clearance_solver::Status::Ok | clearance_solver::Status::IndeterminateContact);
+                if ignored_exact || ignored_envelope || !solvable {
+                    assert_eq!(bits(r), bits(w), "{what}");
+                } else {
+                    // The rest is the stale result's: nothing was spent on it.
+                    let rest = |r: &PoseResult| {
+                        format!("{:?} {:?} {:?} {:?} {:?}", r.reactions, r.margins, r.errors, r.exact, r.envelope)
+                    };
+                    assert_eq!(rest(r), rest(&stale), "{what}");
+                }
+                seen[w.status.index()] += 1;
+            }
+        }
+        for (s, w) in samples.iter().zip(&whole) {
+            assert_eq!(totals(&solve_pose(&slim, s, Mode::Kinetostatic, &mut ws)), totals(w));
+        }
+    }
+    assert!(seen.iter().all(|&k| k > 5), "statuses seen: {seen:?}");
+}
