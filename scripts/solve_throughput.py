@@ -37,7 +37,13 @@ def loop_rate(side: int, poses: int, columns: str) -> float:
     """Poses/s of `solve` called on side × side poses until `poses` are done."""
     psi, theta = grid(side)
     calls = max(1, poses // psi.size)
-    clearance.solve(JOB, z=2.05, psi=psi, theta=theta, columns=columns)  # warm: pool, job
+    # Warm up for 0.1 s, as `clearance bench` warms its kernel: the job and pool are
+    # made on the first call, and for the next ~25 ms after the machine was busy (the
+    # kernel's subprocess, say) calls ran at one thread's speed (measured: ~1 000 µs
+    # a call, then ~570 µs) until the OS had the pool's threads on separate cores.
+    warm = time.perf_counter()
+    while time.perf_counter() - warm < 0.1:
+        clearance.solve(JOB, z=2.05, psi=psi, theta=theta, columns=columns)
     start = time.perf_counter()
     for _ in range(calls):
         table = clearance.solve(JOB, z=2.05, psi=psi, theta=theta, columns=columns)
