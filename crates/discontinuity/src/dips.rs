@@ -71,7 +71,15 @@ pub(crate) fn switches(
     // are, but for round-off that makes sampled minima), none can be: on a short
     // segment, checked before any refinement.
     if segment.end - segment.start <= FEW && WHOLE_SEGMENT.on() {
-        let loads: Vec<[f64; 3]> = segment.after(segment.start).map(|k| load(solved, k, ws)).collect();
+        // On the stack: one allocation per segment made the threads of a 3-D grid's
+        // search wait on the allocator's locks.
+        let mut loads = [[0.0; 3]; FEW];
+        let mut n = 0;
+        for k in segment.after(segment.start) {
+            loads[n] = load(solved, k, ws);
+            n += 1;
+        }
+        let loads = &loads[..n];
         if loads.iter().enumerate().all(|(i, a)| loads[i + 1..].iter().all(|b| dot(*a, *b) >= 0.0)) {
             return;
         }

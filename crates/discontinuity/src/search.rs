@@ -82,17 +82,51 @@ impl Evaluator<'_> {
 /// The samples of one path, solved when first asked for.
 pub(crate) struct Solved<'a> {
     pub ev: &'a Evaluator<'a>,
+    maps: Maps,
+}
+
+/// The solved samples of a path by index: whole results (for the jump across a
+/// switch), and reactions only, for following loads, of the few samples near a
+/// candidate (a slot per sample of the path was a quarter of the search's time).
+#[derive(Default)]
+struct Maps {
     cache: HashMap<usize, PoseResult>,
-    /// Reactions only, for following loads: of the few samples near a candidate (a
-    /// slot per sample of the path was a quarter of the search's time).
     reactions: HashMap<usize, JointReactions>,
 }
 
-impl Solved<'_> {
+thread_local! {
+    /// Each thread's [`Maps`], emptied after each path: a 3-D grid has tens of
+    /// thousands of short paths, and growing two maps afresh for each made the
+    /// search's threads wait on the allocator's locks (a third of the search's
+    /// samples on `grid_3d`, `perf`).
+    static SPARE_MAPS: std::cell::Cell<Option<Maps>> = const { std::cell::Cell::new(None) };
+}
+
+/// Maps that grew past this many entries (a long trajectory's) are dropped, not kept.
+const KEPT_ENTRIES: usize = 1 << 12;
+
+impl Drop for Solved<'_> {
+    fn drop(&mut self) {
+        let mut maps = std::mem::take(&mut self.maps);
+        if maps.cache.capacity() <= KEPT_ENTRIES && maps.reactions.capacity() <= KEPT_ENTRIES {
+            maps.cache.clear();
+            maps.reactions.clear();
+            SPARE_MAPS.set(Some(maps));
+        }
+    }
+}
+
+impl<'a> Solved<'a> {
+    /// None of the path's samples solved yet.
+    fn new(ev: &'a Evaluator<'a>) -> Self {
+        Self { ev, maps: SPARE_MAPS.take().unwrap_or_default() }
+    }
+
     /// The reactions at the `k`-th sample (a solvable one).
     pub fn reactions(&mut self, k: usize, ws: &mut Workspace) -> &JointReactions {
         let ev = self.ev;
-        self.reactions
+        self.maps
+            .reactions
             .entry(k)
             .or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
     }
@@ -100,7 +134,7 @@ impl Solved<'_> {
     /// The `k`-th sample of the path, solved.
     pub fn get(&mut self, k: usize, ws: &mut Workspace) -> PoseResult {
         let ev = self.ev;
-        *self.cache.entry(k).or_insert_with(|| solve_pose(ev.model, &ev.node(k), ev.mode, ws))
+        *self.maps.cache.entry(k).or_insert_with(|| solve_pose(ev.model, &ev.node(k), ev.mode, ws))
     }
 }
 
@@ -163,7 +197,7 @@ pub fn search_path(
 ) -> Vec<Discontinuity> {
     let ev = Evaluator { model, source, path, mode, opts };
     let trace = |k: usize| trace_of(path.sample_index(k));
-    let mut solved = Solved { ev: &ev, cache: HashMap::new(), reactions: HashMap::new() };
+    let mut solved = Solved::new(&ev);
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
