@@ -133,13 +133,17 @@ fn totals_only_gives_the_totals_bits_and_leaves_the_rest() {
     stale.errors[2].dp.x = 7.0;
     stale.exact = Some([9.0; 6]);
     stale.envelope[1][3] = 3.0;
-    for case in 0..40 {
+    // The prototype's cases, then each member of the family's.
+    for case in 0..40 + 2 * common::FAMILY.len() {
         let clearance = [0, 1, 2, 3].map(|_| if rng.random_bool(0.2) { 0.0 } else { rng.random_range(1e-5..1e-3) });
-        let job = common::grid_job(&mut rng, clearance);
+        let (job, z) = match case.checked_sub(40) {
+            None => (common::grid_job(&mut rng, clearance), 1.9),
+            Some(member) => common::family_job(&mut rng, member / 2, clearance),
+        };
         let mut model = Model::from_job(&job);
         model.singular_cond = rng.random_range(20.0..400.0);
         model.indeterminate_floor = model.weight * rng.random_range(0.0..0.1);
-        if case % 4 == 1 {
+        if case % 4 == 1 && case < 40 {
             let g = &model.geometry;
             model.geometry = Geometry::new(g.base_radius, g.platform_radius, rng.random_range(0.15..0.3));
         }
@@ -151,7 +155,7 @@ fn totals_only_gives_the_totals_bits_and_leaves_the_rest() {
         let samples: Vec<Sample> = (0..n)
             .map(|_| {
                 common::static_sample(
-                    rng.random_range(1.2..2.6),
+                    z + rng.random_range(-0.7..0.7),
                     rng.random_range(-1.2..1.2),
                     rng.random_range(-1.2..1.2),
                 )
