@@ -162,15 +162,24 @@ def test_two_solves_in_threads_overlap():
     """The GIL is released while computing: the progress callbacks of two calls,
     made from inside the engine, interleave. (With the GIL held for a whole call,
     the other call could not enter the engine until it returned.)"""
-    side = 800
-    job = {
-        "clearance": {"r_radial": 1e-4, "r_axial": 1e-4, "r_angular": 1e-4, "s_radial": 1e-4},
-        "grid": {
-            "z": 2.05,
-            "psi": {"start": -0.5, "stop": 0.5, "n": side},
-            "theta": {"start": -0.5, "stop": 0.5, "n": side},
-        },
-    }
+
+    def square(side):
+        return {
+            "clearance": {"r_radial": 1e-4, "r_axial": 1e-4, "r_angular": 1e-4, "s_radial": 1e-4},
+            "grid": {
+                "z": 2.05,
+                "psi": {"start": -0.5, "stop": 0.5, "n": side},
+                "theta": {"start": -0.5, "stop": 0.5, "n": side},
+            },
+        }
+
+    # Calls long enough for several progress callbacks (at most one each 0.1 s) on
+    # this machine: about 0.8 s each on one thread, between 800² and 1600² poses.
+    start = time.perf_counter()
+    clearance.solve(square(300), threads=1, columns="minimal")
+    rate = 300**2 / (time.perf_counter() - start)
+    side = int(min(1600, max(800, (0.8 * rate) ** 0.5)))
+    job = square(side)
     events = []
 
     def one(tag):
@@ -192,7 +201,7 @@ def test_two_solves_in_threads_overlap():
     one(0)
     one(1)
     sequential = time.perf_counter() - start
-    print(f"two calls: {concurrent:.2f} s in threads, {sequential:.2f} s one after the other")
+    print(f"two calls of {side}² poses: {concurrent:.2f} s in threads, {sequential:.2f} s one after the other")
     # The spans of the two calls' mid-computation callbacks intersect: either they
     # interleave ([0, 1, 0, 1]) or one call runs wholly inside the other ([1, 0, 0, 1]).
     # With the GIL held for a whole call, one span would end before the other begins.
