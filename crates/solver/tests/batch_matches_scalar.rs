@@ -18,6 +18,19 @@ fn bits(r: &PoseResult) -> String {
     format!("{r:?}")
 }
 
+/// `n` kinetostatic samples: Z within `dz` of `z`, Ψ and Θ within `angle` of zero.
+fn samples_near(rng: &mut impl Rng, n: usize, z: f64, dz: f64, angle: f64) -> Vec<Sample> {
+    (0..n)
+        .map(|_| {
+            common::static_sample(
+                z + rng.random_range(-dz..dz),
+                rng.random_range(-angle..angle),
+                rng.random_range(-angle..angle),
+            )
+        })
+        .collect()
+}
+
 #[test]
 fn batches_give_each_pose_its_scalar_bits() {
     let mut rng = ChaCha8Rng::seed_from_u64(21);
@@ -83,15 +96,7 @@ fn family_batches_give_each_pose_its_scalar_bits() {
             model.exact = round % 2 == 0;
             model.singular_cond = rng.random_range(20.0..400.0);
             let n = rng.random_range(1..30);
-            let samples: Vec<Sample> = (0..n)
-                .map(|_| {
-                    common::static_sample(
-                        z + rng.random_range(-0.6..0.6),
-                        rng.random_range(-0.9..0.9),
-                        rng.random_range(-0.9..0.9),
-                    )
-                })
-                .collect();
+            let samples = samples_near(&mut rng, n, z, 0.6, 0.9);
             let scalar: Vec<String> =
                 samples.iter().map(|s| bits(&solve_pose(&model, s, Mode::Kinetostatic, &mut ws))).collect();
             for isa in Isa::available() {
@@ -152,15 +157,7 @@ fn totals_only_gives_the_totals_bits_and_leaves_the_rest() {
         model.exact = ignored_exact;
         model.envelope = ignored_envelope;
         let n = rng.random_range(1..40);
-        let samples: Vec<Sample> = (0..n)
-            .map(|_| {
-                common::static_sample(
-                    z + rng.random_range(-0.7..0.7),
-                    rng.random_range(-1.2..1.2),
-                    rng.random_range(-1.2..1.2),
-                )
-            })
-            .collect();
+        let samples = samples_near(&mut rng, n, z, 0.7, 1.2);
         let whole: Vec<PoseResult> =
             samples.iter().map(|s| solve_pose(&model, s, Mode::Kinetostatic, &mut ws)).collect();
         let slim = Model { totals_only: true, ..model.clone() };
