@@ -25,6 +25,8 @@
 //!
 //! Samples whose deciding load is within the noise floor are indeterminate and left
 //! out; unreachable and near-singular samples cut a path into separate segments.
+//! The Z-lines of a 3-PRS with vertical rails carry the same loads at every height
+//! and are not searched.
 //! Locations are refined to [`LOCATE_TOL`] in the path parameter, so the result does
 //! not depend on the sample spacing, short of dips too narrow for it to show.
 //! Which samples the search looks at comes from each sample's [`Trace`], recorded
@@ -295,6 +297,10 @@ pub fn search_untraced(
     opts: &SearchOptions,
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
+    if search::loads_invariant(model, path.along) && search::RIGID.on() {
+        // Not a sample solved for a line that holds no switch.
+        return Vec::new();
+    }
     let n = path.len();
     let traces = if path.is_consecutive() {
         // Consecutive samples (a trajectory, or a line of the fastest input): traced

@@ -3,14 +3,44 @@
 //! [`crate::dips`].
 
 use clearance_grid::{Sample, SampleSource};
-use clearance_model::{ClearanceKind, KINDS, Mode};
+use clearance_model::{ClearanceKind, KINDS, MechanismKind, Mode};
 use clearance_solver::{
     JointReactions, Model, PoseError, PoseResult, Workspace, solve_pose, solve_reactions, solve_reactions_if_solvable,
 };
+use std::cell::RefCell;
 use std::collections::HashMap;
 
+use crate::shortcut::Shortcut;
 use crate::trace::{Decider, SOLVABLE, Trace, det_bit, min_bit, neg_bit, turn_bit};
 use crate::{Along, Discontinuity, Path, SearchOptions, dips, margin, scalar};
+
+/// Leaving out the lines along which no load changes ([`loads_invariant`]).
+pub(crate) static RIGID: Shortcut = Shortcut::new();
+
+/// Whether every load is the same at every point of a line along `along`, so that
+/// no take-up can switch on it: a Z-line of a 3-PRS with vertical rails. Moving Z
+/// alone slides the three sliders by the same amount (`q_j = h_j − √(L² − (ρ_j −
+/// R_b)²)`, and the parasitic motions do not depend on Z, the limb planes being
+/// vertical), so every body translates rigidly along `z`: the geometry of A·w = b,
+/// the weights and the external wrench are those at any other height. A grid has no
+/// velocities, so its loads are kinetostatic. The samples of such a line differ in
+/// round-off alone; searching it (a 3-D grid's Z-lines were two thirds of its
+/// search) finds nothing.
+pub(crate) fn loads_invariant(model: &Model, along: Along) -> bool {
+    along == Along::Z && model.geometry.kind == MechanismKind::Prs3 && model.geometry.vertical_rails
+}
+
+/// Whether the search of a path along `along` is left out ([`loads_invariant`]).
+pub(crate) fn skipped(model: &Model, along: Along) -> bool {
+    if !loads_invariant(model, along) {
+        return false;
+    }
+    if RIGID.on() {
+        return true;
+    }
+    RIGID.minimising();
+    false
+}
 
 fn error_of(r: &PoseResult, kind: ClearanceKind) -> [f64; 6] {
     let e: &PoseError = &r.errors[kind.index()];
@@ -23,9 +53,33 @@ pub(crate) struct Evaluator<'a> {
     pub path: &'a Path,
     pub mode: Mode,
     pub opts: &'a SearchOptions,
+    /// The reactions at the last few points between samples, by the bits of their
+    /// parameter: a root finder returns a point it has evaluated, and the switch it
+    /// locates is recorded there once for each kind it decides (`r_axial` and
+    /// `r_angular` share theirs).
+    recent: RefCell<Recent>,
 }
 
-impl Evaluator<'_> {
+/// A ring of the last [`RECENT`] points [`Evaluator::reactions_at`] solved.
+#[derive(Default)]
+struct Recent {
+    at: [Option<(u64, Option<JointReactions>)>; RECENT],
+    next: usize,
+}
+
+const RECENT: usize = 4;
+
+impl<'a> Evaluator<'a> {
+    pub fn new(
+        model: &'a Model,
+        source: &'a SampleSource,
+        path: &'a Path,
+        mode: Mode,
+        opts: &'a SearchOptions,
+    ) -> Self {
+        Self { model, source, path, mode, opts, recent: RefCell::default() }
+    }
+
     /// The `k`-th sample of the path.
     fn node(&self, k: usize) -> Sample {
         self.source.sample(self.path.sample_index(k))
@@ -41,8 +95,17 @@ impl Evaluator<'_> {
     /// errors (the same reactions and verdict as `solve_pose`, for a third of the
     /// work).
     pub fn reactions_at(&self, p: f64, ws: &mut Workspace) -> Option<JointReactions> {
+        let key = p.to_bits();
+        let mut recent = self.recent.borrow_mut();
+        if let Some((_, r)) = recent.at.iter().flatten().find(|(k, _)| *k == key) {
+            return *r;
+        }
         let s = self.path.sample_at(self.source, p);
-        solve_reactions_if_solvable(self.model, &s, self.mode, ws)
+        let r = solve_reactions_if_solvable(self.model, &s, self.mode, ws);
+        let next = recent.next;
+        recent.at[next] = Some((key, r));
+        recent.next = (next + 1) % RECENT;
+        r
     }
 
     /// The whole solution at path parameter `p` (for the jump across a switch).
@@ -60,7 +123,7 @@ impl Evaluator<'_> {
         after: &PoseResult,
     ) -> Discontinuity {
         let s = self.path.sample_at(self.source, p);
-        let r = solve_reactions_if_solvable(self.model, &s, self.mode, ws);
+        let r = self.reactions_at(p, ws);
         let margin = r.map_or(f64::NAN, |r| margin(&r, self.model, kind, j));
         let (b, a) = (error_of(before, kind), error_of(after, kind));
         Discontinuity {
@@ -195,7 +258,10 @@ pub fn search_path(
     trace_of: impl Fn(u64) -> Trace,
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
-    let ev = Evaluator { model, source, path, mode, opts };
+    if skipped(model, path.along) {
+        return Vec::new();
+    }
+    let ev = Evaluator::new(model, source, path, mode, opts);
     let trace = |k: usize| trace_of(path.sample_index(k));
     let mut solved = Solved::new(&ev);
     let mut out = Vec::new();
@@ -282,5 +348,38 @@ impl Side {
             Side::Sample(k) => solved.get(k, ws),
             Side::At(p) => solved.ev.pose_at(p, ws),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RIGID;
+
+    /// Z-lines of vertical rails hold no switch: on a 3-D grid of every kind, with an
+    /// uneven limb layout (parasitic motions by Newton), a point mass and an external
+    /// wrench off the centre, searching them finds nothing the search without them
+    /// does not, and their Ψ- and Θ-lines hold switches. Rails leaning 30° move the
+    /// legs with Z: their Z-lines are searched.
+    #[test]
+    fn z_lines_of_vertical_rails_lose_no_switch() {
+        let grid = "[clearance]\ns_radial = 1e-4\nr_radial = 1e-4\nr_axial = 1e-4\nr_angular = 1e-4\n\
+            [grid]\nz = { start = 1.9, stop = 2.2, n = 6 }\npsi = { start = -0.5, stop = 0.5, n = 21 }\n\
+            theta = { start = -0.5, stop = 0.5, n = 19 }\n";
+        let vertical = format!(
+            "[mechanism]\nlimb_angles_deg = [0.0, 100.0, 230.0]\n\
+             [mass]\npoints = [ {{ mass = 25.0, at = [0.1, 0.0, 1.0] }} ]\n\
+             [load]\nforce = [5.0, -3.0, -40.0]\nmoment = [1.0, 2.0, 0.5]\nat = [0.2, 0.1, 0.0]\n{grid}"
+        );
+        let [(all, searched), (quick, left_out)] = RIGID.both_ways(&vertical);
+        assert!(all.len() > 20, "{} switches to lose", all.len());
+        assert!(all.iter().all(|d| d.along != crate::Along::Z), "a switch along Z: {all:?}");
+        assert_eq!(all, quick);
+        // Every Z-line (21 × 19 nodes) searched without the shortcut, none with it.
+        assert_eq!((searched, left_out), (21 * 19, 0));
+        let inclined = format!("[mechanism]\nrail_angle_deg = 30.0\n{grid}");
+        let [(all, none), (quick, _)] = RIGID.both_ways(&inclined);
+        assert!(all.iter().any(|d| d.along == crate::Along::Z), "inclined rails switch along Z too");
+        assert_eq!(all, quick);
+        assert_eq!(none, 0, "inclined rails' Z-lines are not left out");
     }
 }
