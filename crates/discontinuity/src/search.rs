@@ -5,7 +5,7 @@
 use clearance_grid::{Sample, SampleSource};
 use clearance_model::{ClearanceKind, KINDS, MechanismKind, Mode};
 use clearance_solver::{
-    JointReactions, Model, PoseError, PoseResult, Workspace, solve_pose, solve_reactions, solve_reactions_if_solvable,
+    JointReactions, Model, PoseError, Workspace, solve_errors, solve_reactions, solve_reactions_if_solvable,
 };
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -42,8 +42,8 @@ pub(crate) fn skipped(model: &Model, along: Along) -> bool {
     false
 }
 
-fn error_of(r: &PoseResult, kind: ClearanceKind) -> [f64; 6] {
-    let e: &PoseError = &r.errors[kind.index()];
+fn error_of(errors: &[PoseError; 4], kind: ClearanceKind) -> [f64; 6] {
+    let e = &errors[kind.index()];
     [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z]
 }
 
@@ -108,9 +108,9 @@ impl<'a> Evaluator<'a> {
         r
     }
 
-    /// The whole solution at path parameter `p` (for the jump across a switch).
-    pub fn pose_at(&self, p: f64, ws: &mut Workspace) -> PoseResult {
-        solve_pose(self.model, &self.path.sample_at(self.source, p), self.mode, ws)
+    /// The per-kind errors at path parameter `p` (for the jump across a switch).
+    pub fn errors_at(&self, p: f64, ws: &mut Workspace) -> [PoseError; 4] {
+        solve_errors(self.model, &self.path.sample_at(self.source, p), self.mode, ws)
     }
 
     pub fn record(
@@ -119,8 +119,8 @@ impl<'a> Evaluator<'a> {
         j: usize,
         p: f64,
         ws: &mut Workspace,
-        before: &PoseResult,
-        after: &PoseResult,
+        before: &[PoseError; 4],
+        after: &[PoseError; 4],
     ) -> Discontinuity {
         let s = self.path.sample_at(self.source, p);
         let r = self.reactions_at(p, ws);
@@ -148,12 +148,12 @@ pub(crate) struct Solved<'a> {
     maps: Maps,
 }
 
-/// The solved samples of a path by index: whole results (for the jump across a
+/// The solved samples of a path by index: per-kind errors (for the jump across a
 /// switch), and reactions only, for following loads, of the few samples near a
 /// candidate (a slot per sample of the path was a quarter of the search's time).
 #[derive(Default)]
 struct Maps {
-    cache: HashMap<usize, PoseResult>,
+    cache: HashMap<usize, [PoseError; 4]>,
     reactions: HashMap<usize, JointReactions>,
 }
 
@@ -194,10 +194,10 @@ impl<'a> Solved<'a> {
             .or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
     }
 
-    /// The `k`-th sample of the path, solved.
-    pub fn get(&mut self, k: usize, ws: &mut Workspace) -> PoseResult {
+    /// The per-kind errors at the `k`-th sample of the path.
+    pub fn errors(&mut self, k: usize, ws: &mut Workspace) -> [PoseError; 4] {
         let ev = self.ev;
-        *self.maps.cache.entry(k).or_insert_with(|| solve_pose(ev.model, &ev.node(k), ev.mode, ws))
+        *self.maps.cache.entry(k).or_insert_with(|| solve_errors(ev.model, &ev.node(k), ev.mode, ws))
     }
 }
 
@@ -315,8 +315,8 @@ pub fn search_path(
                     };
                     let found = crossings.get_or_insert_with(|| scalar::crossings(&mut solved, &segment, j, ws));
                     for c in found.iter() {
-                        let before = c.before.solve(&mut solved, ws);
-                        let after = c.after.solve(&mut solved, ws);
+                        let before = c.before.errors(&mut solved, ws);
+                        let after = c.after.errors(&mut solved, ws);
                         out.push(ev.record(kind, j, c.p, ws, &before, &after));
                     }
                 } else {
@@ -343,10 +343,10 @@ pub(crate) enum Side {
 }
 
 impl Side {
-    pub fn solve(self, solved: &mut Solved<'_>, ws: &mut Workspace) -> PoseResult {
+    pub fn errors(self, solved: &mut Solved<'_>, ws: &mut Workspace) -> [PoseError; 4] {
         match self {
-            Side::Sample(k) => solved.get(k, ws),
-            Side::At(p) => solved.ev.pose_at(p, ws),
+            Side::Sample(k) => solved.errors(k, ws),
+            Side::At(p) => solved.ev.errors_at(p, ws),
         }
     }
 }

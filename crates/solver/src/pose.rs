@@ -307,6 +307,30 @@ fn reactions_only(
     solvable.then(|| reduced.reactions(model, &pose, &loads).get(0))
 }
 
+/// The per-kind pose errors of [`solve_pose`]'s result, with the same bits (zero where
+/// it does not solve the pose), without the rest of it: what a discontinuity's jump
+/// reads either side of a switch. The fast solver builds neither the result (over a
+/// kilobyte) nor the exact error; the general one is `solve_pose`.
+pub fn solve_errors(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> [PoseError; 4] {
+    if model.solver == SolverKind::General {
+        return solve_pose(model, sample, mode, ws).errors;
+    }
+    let Some((pose, loads, _)) = posture(model, sample, mode) else {
+        return [PoseError::default(); 4];
+    };
+    // As `solve_fast` decides and computes them, pose by pose.
+    let reduced = Reduced::new(model, &pose, true);
+    let limit = model.singular_cond;
+    if !pose.reachable || pose.across || !(reduced.cond_g <= limit && reduced.cond_m <= limit) {
+        return [PoseError::default(); 4];
+    }
+    let reactions = reduced.reactions(model, &pose, &loads);
+    let take = take_ups(&model.geometry, &reactions, &model.clearance, model.indeterminate_floor);
+    let inv = euler_inverse(&pose);
+    let (t, _) = reduced.errors(model, &pose, &take);
+    t.map(|t| pose_error(t, &inv).get(0))
+}
+
 /// Runs one sample in one mode. Never panics on a bad pose: it becomes a status.
 pub fn solve_pose(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> PoseResult {
     let Some((pose, loads, inertial)) = posture(model, sample, mode) else {

@@ -4,7 +4,8 @@
 //! wherever `solve_pose` has them. The discontinuity search refines switches with
 //! them, so its results must not depend on which is called. Kinetostatic and
 //! dynamic, both solvers, with thresholds tight enough that near-singular and
-//! unreachable poses occur.
+//! unreachable poses occur. `solve_errors` gives `solve_pose`'s per-kind errors, with
+//! their bits (zero where the pose is not solved), which a switch's jump reads.
 
 mod common;
 
@@ -12,7 +13,7 @@ use clearance_grid::Sample;
 use clearance_kinematics::Geometry;
 use clearance_model::Mode;
 use clearance_solver::{
-    Model, SolverKind, Status, Workspace, solve_pose, solve_reactions, solve_reactions_if_solvable,
+    Model, SolverKind, Status, Workspace, solve_errors, solve_pose, solve_reactions, solve_reactions_if_solvable,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -28,6 +29,8 @@ fn reactions_only_solves_give_solve_pose_bits_and_verdict() {
         let mut model = Model::from_job(&job);
         model.solver = if case % 2 == 0 { SolverKind::Fast } else { SolverKind::General };
         model.singular_cond = rng.random_range(20.0..400.0);
+        // The errors do not depend on what else a result holds.
+        (model.exact, model.envelope) = (case % 3 == 1, case % 5 == 2);
         if case % 4 == 1 {
             let g = &model.geometry;
             model.geometry = Geometry::new(g.base_radius, g.platform_radius, rng.random_range(0.15..0.3));
@@ -47,6 +50,8 @@ fn reactions_only_solves_give_solve_pose_bits_and_verdict() {
                 if let Some(r) = checked {
                     assert_eq!(format!("{r:?}"), format!("{:?}", full.reactions), "{what}");
                 }
+                let errors = solve_errors(&model, &s, mode, &mut ws);
+                assert_eq!(format!("{errors:?}"), format!("{:?}", full.errors), "{what}");
                 if solvable {
                     let plain = solve_reactions(&model, &s, mode, &mut ws).expect("reactions where solvable");
                     assert_eq!(format!("{plain:?}"), format!("{:?}", full.reactions), "{what}");
