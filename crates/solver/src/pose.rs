@@ -11,10 +11,10 @@ use crate::bodies::{Inertial, Model};
 use crate::equilibrium::{self, JointReactions};
 use crate::error_system::{self, PoseError};
 use crate::exact::exact_error;
-use crate::fast::{Loads, Pose, Reactions, Reduced, euler_inverse, pose_error};
+use crate::fast::{Errors, Loads, Pose, Reactions, Reduced, euler_inverse, pose_error};
 use crate::lanes::{F8, LANES, Lane, Mask, lane3};
 use crate::linalg::LuSolver;
-use crate::takeup::{Margins, TakeUp, take_ups};
+use crate::takeup::{Margins, TakeUp, TakeUps, take_ups};
 
 /// What became of a pose (docs/conventions.md gives the precedence and what each
 /// status leaves null).
@@ -298,12 +298,7 @@ fn reactions_only(
     let (pose, loads, _) = posture(model, sample, mode)?;
     let reduced = Reduced::new(model, &pose, conditioned);
     // As `solve_fast` decides: both condition numbers within the limit (NaN is not).
-    let solvable = !pose.across
-        && if conditioned {
-            reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond
-        } else {
-            reduced.regular()
-        };
+    let solvable = if conditioned { solved_posture(model, &pose, &reduced) } else { !pose.across && reduced.regular() };
     solvable.then(|| reduced.reactions(model, &pose, &loads).get(0))
 }
 
@@ -320,15 +315,40 @@ pub fn solve_errors(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspa
     };
     // As `solve_fast` decides and computes them, pose by pose.
     let reduced = Reduced::new(model, &pose, true);
-    let limit = model.singular_cond;
-    if !pose.reachable || pose.across || !(reduced.cond_g <= limit && reduced.cond_m <= limit) {
+    if !pose.reachable || !solved_posture(model, &pose, &reduced) {
         return [PoseError::default(); 4];
     }
-    let reactions = reduced.reactions(model, &pose, &loads);
+    solution(model, &pose, &loads, &reduced).errors.map(|e| e.get(0))
+}
+
+/// What the fast solver computes of a solvable posture (every lane's, whatever it is).
+struct Solution<L: Lane> {
+    reactions: Reactions<L>,
+    take: TakeUps<L>,
+    errors: [Errors<L>; 4],
+    /// Each joint's share of `|Δp|`, with `model.envelope` (else zeros).
+    contribution: [[L; 3]; 4],
+}
+
+/// Reactions, take-up and per-kind errors from the factored reduction: the one
+/// sequence of operations [`solve_fast`] and [`solve_errors`] share, so that their
+/// bits agree.
+#[inline(always)]
+fn solution<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, reduced: &Reduced<L>) -> Solution<L> {
+    let reactions = reduced.reactions(model, pose, loads);
     let take = take_ups(&model.geometry, &reactions, &model.clearance, model.indeterminate_floor);
-    let inv = euler_inverse(&pose);
-    let (t, _) = reduced.errors(model, &pose, &take);
-    t.map(|t| pose_error(t, &inv).get(0))
+    let inv = euler_inverse(pose);
+    let (t, contribution) = reduced.errors(model, pose, &take);
+    let errors = [pose_error(t[0], &inv), pose_error(t[1], &inv), pose_error(t[2], &inv), pose_error(t[3], &inv)];
+    Solution { reactions, take, errors, contribution }
+}
+
+/// Whether a reachable posture is solved: no leg across its rail, and both condition
+/// numbers within `singular_cond` (NaN is not). Pose by pose; [`solve_fast`] decides
+/// the same lane by lane.
+fn solved_posture(model: &Model, pose: &Pose<f64>, reduced: &Reduced<f64>) -> bool {
+    let limit = model.singular_cond;
+    !pose.across && reduced.cond_g <= limit && reduced.cond_m <= limit
 }
 
 /// Runs one sample in one mode. Never panics on a bad pose: it becomes a status.
@@ -545,11 +565,7 @@ fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mu
         }
         return;
     }
-    let reactions = reduced.reactions(model, pose, loads);
-    let take = take_ups(&model.geometry, &reactions, &model.clearance, model.indeterminate_floor);
-    let inv = euler_inverse(pose);
-    let (t, contribution) = reduced.errors(model, pose, &take);
-    let errors = [pose_error(t[0], &inv), pose_error(t[1], &inv), pose_error(t[2], &inv), pose_error(t[3], &inv)];
+    let Solution { reactions, take, errors, contribution } = solution(model, pose, loads, &reduced);
     let envelope = model.envelope.then(|| reduced.envelope(model, pose));
     let totals_only = model.totals_only && !model.exact && envelope.is_none();
     for (i, o) in out.iter_mut().enumerate() {
@@ -596,7 +612,7 @@ fn solve_general(model: &Model, pose: &Pose<f64>, inertial: &Inertial, ws: &mut 
     result.cond_a = reduced.cond_g;
     result.cond_jp = reduced.cond_m;
     result.status = Status::NearSingular;
-    if pose.across || !(reduced.cond_g <= model.singular_cond && reduced.cond_m <= model.singular_cond) {
+    if !solved_posture(model, pose, &reduced) {
         return result;
     }
     equilibrium::assemble(model, &posture, inertial, ws.a.as_mut(), ws.w.as_mut());
