@@ -45,6 +45,7 @@ pub(crate) fn switches(
     ws: &mut Workspace,
     out: &mut Vec<Discontinuity>,
 ) {
+    crate::trace::SET_ASIDE.minimising();
     let ev = solved.ev;
     let (model, kind) = (ev.model, d.kind());
     let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(solved.reactions(k, ws), model, kind, j);
@@ -102,7 +103,7 @@ pub(crate) fn switches(
         // those agree to within 90°, no refinement here can give a switch, nor
         // stop another dip's walk (which stops at these samples too): skip it.
         let (la, lk, lc) = (load(solved, a, ws), load(solved, k, ws), load(solved, c, ws));
-        let high = here >= 2.0 * ev.opts.dip_threshold && ev.opts.dip_threshold > model.indeterminate_floor;
+        let high = ev.opts.set_aside_from(model).is_some_and(|from| here >= from);
         if high && dot(la, lk) >= 0.0 && dot(lk, lc) >= 0.0 && dot(la, lc) >= 0.0 {
             continue;
         }

@@ -43,7 +43,7 @@ mod trace;
 pub use minimise::{brent_min, brent_root};
 pub use paths::{Along, Axis, Path, axes, paths};
 pub use search::search_path;
-pub use trace::{Loads, Trace, keep_local_minima, trace, trace_into, trace_loads, traces};
+pub use trace::{Loads, Trace, keep_local_minima, keep_local_minima_of, trace, trace_into, trace_loads, traces};
 
 use clearance_grid::SampleSource;
 use clearance_model::{ClearanceKind, Mode};
@@ -86,6 +86,26 @@ pub struct SearchOptions {
     /// `discontinuity_load_fraction·W`: refined vector-load minima at or above this
     /// are not switches.
     pub dip_threshold: f64,
+}
+
+impl SearchOptions {
+    /// The magnitude from which a sampled minimum of a vector load is set aside
+    /// without refinement when the directions at it and at its two neighbours are
+    /// within 90° of each other: twice the threshold, where the threshold is above the
+    /// noise floor (else none). A dip there that could be a switch lies below the
+    /// threshold, so the walks from it stop at once, at two of those three samples,
+    /// and their directions agree: no switch (docs/model.md §8). The search applies it
+    /// to the loads it solves, and a run's traces to the loads the pass solved (the
+    /// same bits), so that a line with no other candidate is not solved at all.
+    pub fn set_aside_from(&self, model: &Model) -> Option<f64> {
+        (self.dip_threshold > model.indeterminate_floor).then_some(2.0 * self.dip_threshold)
+    }
+}
+
+/// Whether the search looks at the lines along `along` at all: not those along which
+/// no load changes (the Z-lines of a 3-PRS with vertical rails, docs/model.md §8).
+pub fn searched_along(model: &Model, along: Along) -> bool {
+    !search::loads_invariant(model, along)
 }
 
 /// `f_Rj·y_j`: the scalar load that decides `r_axial` and `r_angular`.
@@ -272,6 +292,19 @@ impl<'a> Search<'a> {
         count
     }
 
+    /// Clears in the traces received from sample `first` on the bits that `traces`
+    /// (theirs, settled again with more samples in hand: [`keep_local_minima`] over a
+    /// range that reaches into the next samples) does not have. The paths not yet
+    /// searched then look at fewer candidates; the switches are the same.
+    #[track_caller]
+    pub fn refine(&mut self, first: u64, traces: &[Trace]) {
+        let first = first as usize;
+        let mine = &mut self.traces[first..first + traces.len()];
+        for (t, settled) in mine.iter_mut().zip(traces) {
+            *t &= settled;
+        }
+    }
+
     /// Whether every sample's trace is in (and so every path searched).
     pub fn is_complete(&self) -> bool {
         self.traces.len() as u64 == self.source.len()
@@ -306,7 +339,7 @@ pub fn search_untraced(
         // Consecutive samples (a trajectory, or a line of the fastest input): traced
         // as a run traces them, a block at a time, 8 bytes a sample in memory.
         let origin = path.sample_index(0);
-        traces(model, source, mode, origin..origin + n as u64)
+        traces(model, source, mode, origin..origin + n as u64, opts)
     } else {
         // A line across the faster inputs (a grid dimension long), traced along itself
         // alone: the path as the one axis of a source of its own samples.
@@ -315,7 +348,7 @@ pub fn search_untraced(
         clearance_solver::solve_poses(model, &samples, mode, ws, &mut results);
         let (traces, loads): (Vec<Trace>, Vec<Loads>) = results.iter().map(|r| trace_loads(r, model)).unzip();
         let axis = Axis { along: path.along, stride: 1, n: n as u64, params: path.params.clone() };
-        keep_local_minima(&[axis], 0, &traces, &loads)
+        keep_local_minima(&[axis], 0, &traces, &loads, opts.set_aside_from(model))
     };
     search_path(model, source, path, mode, opts, |i| traces[path.position(i)], ws)
 }
@@ -327,5 +360,5 @@ pub fn find_discontinuities(
     mode: Mode,
     opts: &SearchOptions,
 ) -> Vec<Discontinuity> {
-    find_discontinuities_traced(model, source, mode, opts, &traces(model, source, mode, 0..source.len()))
+    find_discontinuities_traced(model, source, mode, opts, &traces(model, source, mode, 0..source.len(), opts))
 }

@@ -37,7 +37,7 @@ fn check(text: &str, mode: Mode, ranges: &[u64], prunes: bool) {
         let mut start = 0;
         while start < n {
             let end = (start + len).min(n);
-            pruned.extend(traces(&model, &source, mode, start..end));
+            pruned.extend(traces(&model, &source, mode, start..end, &opts));
             start = end;
         }
         assert_eq!(find_discontinuities_traced(&model, &source, mode, &opts, &pruned), expected, "ranges of {len}");

@@ -87,7 +87,7 @@ pub(crate) fn search_owned(
             };
             for (chunk, ks) in within {
                 let unit = &owner[&(g, mode, chunk)].1;
-                let traces = unit_traces(layout, model, source, unit, opts)?;
+                let traces = unit_traces(layout, model, source, unit, &search, opts)?;
                 let at = |i: u64| traces[(i - unit.range.start) as usize];
                 out.par_extend(
                     ks.par_iter()

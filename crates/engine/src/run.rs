@@ -17,7 +17,8 @@ use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
 use clearance_discontinuity::{
-    Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima, trace_into,
+    Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima,
+    keep_local_minima_of, searched_along, trace_into,
 };
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
@@ -364,7 +365,24 @@ struct Kept<'a> {
     /// Per (group, mode), with [`KeepTraces::Search`]: its switches, once all its
     /// work is in.
     found: std::collections::HashMap<(usize, Mode), Vec<Discontinuity>>,
+    /// Per (group, mode), with [`KeepTraces::Search`]: the last samples of its work so
+    /// far, unsettled, with their loads ([`Kept::settle`]).
+    seams: std::collections::HashMap<(usize, Mode), Seam>,
 }
+
+/// The last samples of a (group, mode)'s work so far, from `start` on: their traces
+/// before [`keep_local_minima`] and their loads, so that the next unit's samples settle
+/// with their neighbours along every axis in hand, and these with theirs in the next
+/// unit.
+struct Seam {
+    start: u64,
+    traces: Vec<Trace>,
+    loads: Vec<Loads>,
+}
+
+/// The most samples a [`Seam`] keeps (152 bytes each, 20 MB): grids whose longest
+/// stride the search follows is at most half this (a Z-plane of 65 536 samples).
+const SEAM_SAMPLES: usize = 1 << 17;
 
 /// What [`Kept`] does with the traces of the units it is given.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -384,6 +402,68 @@ impl<'a> Kept<'a> {
         // Bins, not values: a run's total stays the size of its histogram.
         merged.flush();
         *count += 1;
+    }
+
+    /// The traces of the samples `start..` (`traces`, as [`trace_into`] gives them, with
+    /// their `loads`) settled by [`keep_local_minima`] with the last samples of the
+    /// same (group, mode) before them in hand, where those are kept: a grid line that
+    /// crosses from one unit into the next then has its neighbours in hand at the seam
+    /// (a Z-line of a 3-D grid crosses a seam at every other node or so). Those earlier
+    /// samples within a stride of the seam, settled again, refine the search's traces
+    /// (its paths not searched yet see fewer candidates; the switches are the same).
+    /// Keeps the last samples for the next unit: twice the longest stride of an input
+    /// the search follows, if that is at most [`SEAM_SAMPLES`].
+    fn settle(
+        &mut self,
+        key: (usize, Mode),
+        (model, source): (&Model, &SampleSource),
+        start: u64,
+        traces: &[Trace],
+        loads: &[Loads],
+        set_aside: Option<f64>,
+    ) -> Vec<Trace> {
+        let axes = axes(source);
+        let stride = axes.iter().filter(|a| searched_along(model, a.along)).map(|a| a.stride as usize).max();
+        // Beyond the cap, the longest stride's neighbours would not be in hand: none kept.
+        let keep = match stride {
+            Some(s) if 2 * s <= SEAM_SAMPLES => 2 * s,
+            _ => 0,
+        };
+        let (seam_start, mut seam_traces, mut seam_loads) = match self.seams.remove(&key) {
+            Some(seam) if seam.start + seam.traces.len() as u64 == start => (seam.start, seam.traces, seam.loads),
+            _ => (start, Vec::new(), Vec::new()),
+        };
+        let (before, n, half) = (seam_traces.len(), traces.len(), keep / 2);
+        // The seam and the first samples of this unit: enough for each sample within a
+        // stride of the seam to have its neighbours in hand.
+        seam_traces.extend_from_slice(&traces[..n.min(keep)]);
+        seam_loads.extend_from_slice(&loads[..n.min(keep)]);
+        let across = |which| keep_local_minima_of(&axes, seam_start, &seam_traces, &seam_loads, set_aside, which);
+        let again = before.saturating_sub(half);
+        if again < before
+            && let Some(search) = self.searches.get_mut(&key)
+        {
+            search.refine(seam_start + again as u64, &across(again..before));
+        }
+        let mut settled = across(before..before + n.min(half));
+        // The rest of the unit has its neighbours in hand within it.
+        settled.extend(keep_local_minima_of(&axes, start, traces, loads, set_aside, n.min(half)..n));
+        if keep > 0 && start + (n as u64) < source.len() {
+            let seam = if n >= keep {
+                Seam {
+                    start: start + (n - keep) as u64,
+                    traces: traces[n - keep..].to_vec(),
+                    loads: loads[n - keep..].to_vec(),
+                }
+            } else {
+                let from = seam_traces.len().saturating_sub(keep);
+                seam_traces.drain(..from);
+                seam_loads.drain(..from);
+                Seam { start: seam_start + from as u64, traces: seam_traces, loads: seam_loads }
+            };
+            self.seams.insert(key, seam);
+        }
+        settled
     }
 
     /// The traces of a work's samples, which its group's variants share.
@@ -514,7 +594,7 @@ fn search_after(
 ) -> Result<Vec<Discontinuity>> {
     let paths: Vec<PathBuf> = units.iter().map(|u| layout.trace(u.variant, u.mode, u.chunk)).collect();
     for u in units {
-        rebuild_traces(layout, model, source, u, opts)?;
+        rebuild_traces(layout, model, source, u, search, opts)?;
     }
     let mut files = TraceFiles::new(units.iter().map(|u| u.range.clone()).collect(), paths);
     find_discontinuities_read(model, source, mode, search, SEARCH_TRACES, |range, dst| files.read(range, dst))
@@ -526,9 +606,10 @@ pub(crate) fn unit_traces(
     model: &Model,
     source: &SampleSource,
     unit: &Unit,
+    search: &SearchOptions,
     opts: &RunOptions,
 ) -> Result<Vec<Trace>> {
-    if let Some(traces) = rebuild_traces(layout, model, source, unit, opts)? {
+    if let Some(traces) = rebuild_traces(layout, model, source, unit, search, opts)? {
         return Ok(traces);
     }
     let path = layout.trace(unit.variant, unit.mode, unit.chunk);
@@ -545,6 +626,7 @@ fn rebuild_traces(
     model: &Model,
     source: &SampleSource,
     unit: &Unit,
+    search: &SearchOptions,
     opts: &RunOptions,
 ) -> Result<Option<Vec<Trace>>> {
     let path = layout.trace(unit.variant, unit.mode, unit.chunk);
@@ -552,7 +634,7 @@ fn rebuild_traces(
     if std::fs::metadata(&path).map(|m| m.len()).ok() == Some(bytes) {
         return Ok(None);
     }
-    let traces = clearance_discontinuity::traces(model, source, unit.mode, unit.range.clone());
+    let traces = clearance_discontinuity::traces(model, source, unit.mode, unit.range.clone(), search);
     let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
     write_bytes(&path, &encode_traces(&traces), &opts)?;
     Ok(Some(traces))
@@ -896,11 +978,25 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
 /// to reuse.
 fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<Trace>, Vec<Loads>) {
     let Computed { work, bodies, traces, loads, block_stats } = c;
-    let (_, source) = &ctx.models[work.group];
+    let (model, source) = &ctx.models[work.group];
     // With the whole unit in hand, most samples are seen not to be load
     // minima, so the search solves only the others.
     let start = work.units[0].range.start;
-    let traces = keep_local_minima(&axes(source), start, &traces, &loads[..traces.len()]);
+    let set_aside = search_options(&ctx.variants[ctx.groups[work.group].first() as usize]).set_aside_from(model);
+    // The search follows a group's first member (`add_traces`): its traces settle
+    // across the seams of its units.
+    let traces = if kept.keep == KeepTraces::Search && work.units[0].variant == ctx.groups[work.group].first() {
+        kept.settle(
+            (work.group, work.units[0].mode),
+            (model, source),
+            start,
+            &traces,
+            &loads[..traces.len()],
+            set_aside,
+        )
+    } else {
+        keep_local_minima(&axes(source), start, &traces, &loads[..traces.len()], set_aside)
+    };
     let layout = ctx.layout;
     let parts = work
         .units
