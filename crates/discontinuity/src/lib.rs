@@ -330,7 +330,7 @@ pub fn search_untraced(
     opts: &SearchOptions,
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
-    if search::loads_invariant(model, path.along) && search::RIGID.on() {
+    if search::left_out(model, path.along) {
         // Not a sample solved for a line that holds no switch.
         return Vec::new();
     }
