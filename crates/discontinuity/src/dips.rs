@@ -48,7 +48,7 @@ pub(crate) fn switches(
     crate::trace::SET_ASIDE.minimising();
     let ev = solved.ev;
     let (model, kind) = (ev.model, d.kind());
-    let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(solved.reactions(k, ws), model, kind, j);
+    let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(solved.forces(k, ws), model, kind, j);
     let mag = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| crate::norm(load(solved, k, ws));
     let squared = |p: f64, ws: &mut Workspace| {
         ev.reactions_at(p, ws).map(|r| {

@@ -42,12 +42,14 @@ mod trace;
 
 pub use minimise::{brent_min, brent_root};
 pub use paths::{Along, Axis, Path, axes, paths};
-pub use search::search_path;
+use search::{Known, search_path_known};
+pub use search::{Sampled, search_path};
 pub use trace::{Loads, Trace, keep_local_minima, keep_local_minima_of, trace, trace_into, trace_loads, traces};
 
 use clearance_grid::SampleSource;
 use clearance_model::{ClearanceKind, Mode};
 use clearance_solver::{JointReactions, Model, PoseResult, Status, Workspace};
+use nalgebra::Vector3;
 use rayon::prelude::*;
 
 /// Locations are refined to this absolute tolerance in the path parameter (rad, m or s).
@@ -108,17 +110,35 @@ pub fn searched_along(model: &Model, along: Along) -> bool {
     !search::loads_invariant(model, along)
 }
 
+/// The forces that decide the take-ups of the forces' kinds: those of
+/// [`JointReactions`], or of a sample the search reads ([`Sampled`]).
+trait Forces {
+    /// `f_Rj`.
+    fn f_r(&self, j: usize) -> Vector3<f64>;
+    /// `f_Sj`.
+    fn f_s(&self, j: usize) -> Vector3<f64>;
+}
+
+impl Forces for JointReactions {
+    fn f_r(&self, j: usize) -> Vector3<f64> {
+        self.f_r[j]
+    }
+    fn f_s(&self, j: usize) -> Vector3<f64> {
+        self.f_s[j]
+    }
+}
+
 /// `f_Rj·y_j`: the scalar load that decides `r_axial` and `r_angular`.
-fn axial(reactions: &JointReactions, model: &Model, j: usize) -> f64 {
-    reactions.f_r[j].dot(&model.geometry.y[j])
+fn axial(reactions: &impl Forces, model: &Model, j: usize) -> f64 {
+    reactions.f_r(j).dot(&model.geometry.y[j])
 }
 
 /// The vector load deciding `s_radial` (`f_Sj`) or `r_radial` (`f⊥`).
-fn vector(reactions: &JointReactions, model: &Model, kind: ClearanceKind, j: usize) -> [f64; 3] {
+fn vector(reactions: &impl Forces, model: &Model, kind: ClearanceKind, j: usize) -> [f64; 3] {
     let v = match kind {
-        ClearanceKind::SRadial => reactions.f_s[j],
+        ClearanceKind::SRadial => reactions.f_s(j),
         ClearanceKind::RRadial => {
-            let (fr, y) = (reactions.f_r[j], model.geometry.y[j]);
+            let (fr, y) = (reactions.f_r(j), model.geometry.y[j]);
             fr - fr.dot(&y) * y
         }
         _ => unreachable!("{kind:?} is searched as a scalar"),
@@ -253,6 +273,9 @@ pub struct Search<'a> {
     /// paths searched so far (the first ones: a path's last sample grows with its
     /// position within its axis).
     axes: Vec<(Vec<Path>, Vec<Discontinuity>, usize)>,
+    /// The values the run's pass solved at the last samples received, where it gave
+    /// them ([`Search::extend_known`]).
+    known: Known,
 }
 
 impl<'a> Search<'a> {
@@ -264,7 +287,24 @@ impl<'a> Search<'a> {
                 _ => axes.push((vec![path], Vec::new(), 0)),
             }
         }
-        Self { model, source, mode, opts: *opts, traces: Vec::new(), axes }
+        Self { model, source, mode, opts: *opts, traces: Vec::new(), axes, known: Known::default() }
+    }
+
+    /// [`Search::extend`] with the values the pass solved at those samples
+    /// (`values`, empty or one per trace): the paths read them rather than solve the
+    /// samples again (the same switches, fewer solves). Holds on to the values of the
+    /// last `keep` samples received, for the paths the next samples complete; returns
+    /// the buffers of values it no longer holds, to reuse.
+    pub fn extend_known(&mut self, traces: &[Trace], values: Vec<Sampled>, keep: u64) -> Vec<Vec<Sampled>> {
+        let mut spare = self.known.push(self.traces.len() as u64, values);
+        self.extend(traces);
+        spare.extend(self.known.trim(self.traces.len() as u64, keep));
+        spare
+    }
+
+    /// Lets go of the values held ([`Search::extend_known`]): the buffers, to reuse.
+    pub fn let_go_known(&mut self) -> Vec<Vec<Sampled>> {
+        self.known.let_go()
     }
 
     /// Adds the traces of the next samples and searches the paths they complete;
@@ -274,7 +314,7 @@ impl<'a> Search<'a> {
         assert!(self.traces.len() as u64 <= self.source.len(), "more traces than samples");
         let have = self.traces.len() as u64;
         let mut count = 0;
-        let Self { model, source, mode, opts, traces, .. } = self;
+        let Self { model, source, mode, opts, traces, known, .. } = self;
         for (paths, found, searched) in &mut self.axes {
             let ready = paths[*searched..].partition_point(|p| p.is_empty() || p.sample_index(p.len() - 1) < have);
             let batch = &paths[*searched..*searched + ready];
@@ -282,7 +322,7 @@ impl<'a> Search<'a> {
                 batch
                     .par_iter()
                     .map_init(Workspace::new, |ws, path| {
-                        search_path(model, source, path, *mode, opts, |i| traces[i as usize], ws)
+                        search_path_known(model, source, path, *mode, opts, |i| traces[i as usize], Some(known), ws)
                     })
                     .flatten_iter(),
             );

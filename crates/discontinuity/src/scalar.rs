@@ -24,7 +24,7 @@ pub(crate) struct Crossing {
 pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize, ws: &mut Workspace) -> Vec<Crossing> {
     let ev = solved.ev;
     let (model, floor) = (ev.model, ev.model.indeterminate_floor);
-    let f = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| axial(solved.reactions(k, ws), model, j);
+    let f = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| axial(solved.forces(k, ws), model, j);
     // An unsolvable point between samples reads zero: the root is where it starts.
     let f_at = |p: f64, ws: &mut Workspace| ev.reactions_at(p, ws).map_or(0.0, |r| axial(&r, model, j));
     let negative = |k: usize| segment.has(k, neg_bit(j));

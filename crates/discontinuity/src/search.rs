@@ -5,14 +5,15 @@
 use clearance_grid::{Sample, SampleSource};
 use clearance_model::{ClearanceKind, KINDS, MechanismKind, Mode};
 use clearance_solver::{
-    JointReactions, Model, PoseError, Workspace, solve_errors, solve_reactions, solve_reactions_if_solvable,
+    JointReactions, Model, PoseError, PoseResult, Workspace, solve_errors, solve_reactions, solve_reactions_if_solvable,
 };
 use std::cell::RefCell;
 use std::collections::HashMap;
 
 use crate::shortcut::Shortcut;
 use crate::trace::{Decider, SOLVABLE, Trace, det_bit, min_bit, neg_bit, turn_bit};
-use crate::{Along, Discontinuity, Path, SearchOptions, dips, margin, scalar};
+use crate::{Along, Discontinuity, Forces, Path, SearchOptions, dips, margin, scalar};
+use nalgebra::Vector3;
 
 /// Leaving out the lines along which no load changes ([`loads_invariant`]).
 pub(crate) static RIGID: Shortcut = Shortcut::new();
@@ -47,9 +48,12 @@ pub(crate) fn skipped(model: &Model, along: Along) -> bool {
     false
 }
 
-fn error_of(errors: &[PoseError; 4], kind: ClearanceKind) -> [f64; 6] {
-    let e = &errors[kind.index()];
-    [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z]
+/// Each kind's error `[Δp; Δα]` (order of `KINDS`): what a switch's jump is the
+/// difference of.
+pub(crate) type KindErrors = [[f64; 6]; 4];
+
+fn kind_errors(errors: &[PoseError; 4]) -> KindErrors {
+    errors.map(|e| [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z])
 }
 
 pub(crate) struct Evaluator<'a> {
@@ -114,8 +118,8 @@ impl<'a> Evaluator<'a> {
     }
 
     /// The per-kind errors at path parameter `p` (for the jump across a switch).
-    pub fn errors_at(&self, p: f64, ws: &mut Workspace) -> [PoseError; 4] {
-        solve_errors(self.model, &self.path.sample_at(self.source, p), self.mode, ws)
+    pub fn errors_at(&self, p: f64, ws: &mut Workspace) -> KindErrors {
+        kind_errors(&solve_errors(self.model, &self.path.sample_at(self.source, p), self.mode, ws))
     }
 
     pub fn record(
@@ -124,13 +128,13 @@ impl<'a> Evaluator<'a> {
         j: usize,
         p: f64,
         ws: &mut Workspace,
-        before: &[PoseError; 4],
-        after: &[PoseError; 4],
+        before: &KindErrors,
+        after: &KindErrors,
     ) -> Discontinuity {
         let s = self.path.sample_at(self.source, p);
         let r = self.reactions_at(p, ws);
         let margin = r.map_or(f64::NAN, |r| margin(&r, self.model, kind, j));
-        let (b, a) = (error_of(before, kind), error_of(after, kind));
+        let (b, a) = (before[kind.index()], after[kind.index()]);
         Discontinuity {
             mode: self.mode,
             limb: j + 1,
@@ -147,10 +151,100 @@ impl<'a> Evaluator<'a> {
     }
 }
 
-/// The samples of one path, solved when first asked for.
+/// The samples of one path, solved when first asked for, unless the run that
+/// traced them still has their values ([`Known`]).
 pub(crate) struct Solved<'a> {
     pub ev: &'a Evaluator<'a>,
+    known: Option<&'a Known>,
     maps: Maps,
+}
+
+/// The values a run's pass solved at consecutive samples, where it still has them:
+/// the same bits as solving the samples again ([`Sampled`]). Held in the buffers the
+/// run solved them into, never copied.
+#[derive(Debug, Default)]
+pub(crate) struct Known {
+    /// Buffers of consecutive samples, oldest first, each with its first sample's index.
+    chunks: std::collections::VecDeque<(u64, Vec<Sampled>)>,
+}
+
+impl Known {
+    /// The values of sample `i`, if held.
+    pub fn get(&self, i: u64) -> Option<&Sampled> {
+        // Newest first: a path's samples are mostly in the buffer that completes it.
+        self.chunks.iter().rev().find(|(first, _)| *first <= i).and_then(|(first, v)| v.get((i - first) as usize))
+    }
+
+    /// Lets go of every buffer held; returns them, to reuse.
+    pub fn let_go(&mut self) -> Vec<Vec<Sampled>> {
+        self.chunks.drain(..).map(|(_, v)| v).collect()
+    }
+
+    /// Holds the values of the samples from `first` on, which must follow those held
+    /// (else the held ones are let go: returned, to reuse).
+    pub fn push(&mut self, first: u64, values: Vec<Sampled>) -> Vec<Vec<Sampled>> {
+        let spare = if self.chunks.back().is_some_and(|(f, v)| f + v.len() as u64 != first) {
+            self.let_go()
+        } else {
+            Vec::new()
+        };
+        if !values.is_empty() {
+            self.chunks.push_back((first, values));
+        }
+        spare
+    }
+
+    /// Lets go of the buffers that hold none of the `keep` samples before `end`;
+    /// returns them, to reuse.
+    pub fn trim(&mut self, end: u64, keep: u64) -> Vec<Vec<Sampled>> {
+        let from = end.saturating_sub(keep);
+        let mut spare = Vec::new();
+        while self.chunks.front().is_some_and(|(f, v)| f + (v.len() as u64) <= from) {
+            spare.extend(self.chunks.pop_front().map(|(_, v)| v));
+        }
+        spare
+    }
+}
+
+/// What the search reads at a sample, as the pass solved it: the forces that decide
+/// the take-ups and the per-kind errors, 336 bytes against a result's kilobyte (the
+/// pass stores them for every pose of a run that searches as it computes).
+/// `solve_reactions` and `solve_errors` give a solvable sample the same bits as its
+/// [`PoseResult`] (tested in the solver crate), so a search that reads them here finds
+/// the switches it finds by solving the sample again.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Sampled {
+    forces: SampleForces,
+    errors: KindErrors,
+}
+
+impl Sampled {
+    #[inline]
+    pub fn of(r: &PoseResult) -> Self {
+        Self { forces: SampleForces::of(&r.reactions), errors: kind_errors(&r.errors) }
+    }
+}
+
+/// `f_Rj` and `f_Sj` of a sample.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct SampleForces {
+    f_r: [Vector3<f64>; 3],
+    f_s: [Vector3<f64>; 3],
+}
+
+impl SampleForces {
+    fn of(r: &JointReactions) -> Self {
+        Self { f_r: r.f_r, f_s: r.f_s }
+    }
+}
+
+impl Forces for SampleForces {
+    fn f_r(&self, j: usize) -> Vector3<f64> {
+        self.f_r[j]
+    }
+    fn f_s(&self, j: usize) -> Vector3<f64> {
+        self.f_s[j]
+    }
 }
 
 /// The solved samples of a path by index: per-kind errors (for the jump across a
@@ -158,8 +252,8 @@ pub(crate) struct Solved<'a> {
 /// candidate (a slot per sample of the path was a quarter of the search's time).
 #[derive(Default)]
 struct Maps {
-    cache: HashMap<usize, [PoseError; 4]>,
-    reactions: HashMap<usize, JointReactions>,
+    cache: HashMap<usize, KindErrors>,
+    reactions: HashMap<usize, SampleForces>,
 }
 
 thread_local! {
@@ -186,23 +280,28 @@ impl Drop for Solved<'_> {
 
 impl<'a> Solved<'a> {
     /// None of the path's samples solved yet.
-    fn new(ev: &'a Evaluator<'a>) -> Self {
-        Self { ev, maps: SPARE_MAPS.take().unwrap_or_default() }
+    fn new(ev: &'a Evaluator<'a>, known: Option<&'a Known>) -> Self {
+        Self { ev, known, maps: SPARE_MAPS.take().unwrap_or_default() }
     }
 
-    /// The reactions at the `k`-th sample (a solvable one).
-    pub fn reactions(&mut self, k: usize, ws: &mut Workspace) -> &JointReactions {
+    /// The forces at the `k`-th sample (a solvable one).
+    pub fn forces(&mut self, k: usize, ws: &mut Workspace) -> &impl Forces {
         let ev = self.ev;
-        self.maps
-            .reactions
-            .entry(k)
-            .or_insert_with(|| solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
+        if let Some(s) = self.known.and_then(|known| known.get(ev.path.sample_index(k))) {
+            return &s.forces;
+        }
+        self.maps.reactions.entry(k).or_insert_with(|| {
+            SampleForces::of(&solve_reactions(ev.model, &ev.node(k), ev.mode, ws).unwrap_or_default())
+        })
     }
 
     /// The per-kind errors at the `k`-th sample of the path.
-    pub fn errors(&mut self, k: usize, ws: &mut Workspace) -> [PoseError; 4] {
+    pub fn errors(&mut self, k: usize, ws: &mut Workspace) -> KindErrors {
         let ev = self.ev;
-        *self.maps.cache.entry(k).or_insert_with(|| solve_errors(ev.model, &ev.node(k), ev.mode, ws))
+        if let Some(s) = self.known.and_then(|known| known.get(ev.path.sample_index(k))) {
+            return s.errors;
+        }
+        *self.maps.cache.entry(k).or_insert_with(|| kind_errors(&solve_errors(ev.model, &ev.node(k), ev.mode, ws)))
     }
 }
 
@@ -263,12 +362,27 @@ pub fn search_path(
     trace_of: impl Fn(u64) -> Trace,
     ws: &mut Workspace,
 ) -> Vec<Discontinuity> {
+    search_path_known(model, source, path, mode, opts, trace_of, None, ws)
+}
+
+/// [`search_path`] that reads the samples' values from `known` where it has them.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn search_path_known(
+    model: &Model,
+    source: &SampleSource,
+    path: &Path,
+    mode: Mode,
+    opts: &SearchOptions,
+    trace_of: impl Fn(u64) -> Trace,
+    known: Option<&Known>,
+    ws: &mut Workspace,
+) -> Vec<Discontinuity> {
     if skipped(model, path.along) {
         return Vec::new();
     }
     let ev = Evaluator::new(model, source, path, mode, opts);
     let trace = |k: usize| trace_of(path.sample_index(k));
-    let mut solved = Solved::new(&ev);
+    let mut solved = Solved::new(&ev, known);
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
@@ -348,7 +462,7 @@ pub(crate) enum Side {
 }
 
 impl Side {
-    pub fn errors(self, solved: &mut Solved<'_>, ws: &mut Workspace) -> [PoseError; 4] {
+    pub fn errors(self, solved: &mut Solved<'_>, ws: &mut Workspace) -> KindErrors {
         match self {
             Side::Sample(k) => solved.errors(k, ws),
             Side::At(p) => solved.ev.errors_at(p, ws),
@@ -358,7 +472,30 @@ impl Side {
 
 #[cfg(test)]
 mod tests {
-    use super::RIGID;
+    use super::{Known, RIGID, Sampled};
+
+    /// `Known` holds consecutive buffers, reads sample `i` from the one that holds it,
+    /// lets go of those that hold none of the last `keep` samples, and of all it holds
+    /// when the next buffer does not follow them.
+    #[test]
+    fn known_values_are_held_while_within_reach() {
+        let buffer = |n: usize| vec![Sampled::default(); n];
+        let mut known = Known::default();
+        assert!(known.push(0, buffer(10)).is_empty());
+        assert!(known.push(10, buffer(5)).is_empty());
+        assert!(known.get(0).is_some() && known.get(14).is_some() && known.get(15).is_none());
+        // The 6 samples before 15 reach into the first buffer: both kept.
+        assert!(known.trim(15, 6).is_empty());
+        let spare = known.trim(15, 5);
+        assert_eq!(spare.iter().map(Vec::len).collect::<Vec<_>>(), [10]);
+        assert!(known.get(9).is_none() && known.get(10).is_some());
+        // Not the next samples: everything held is let go.
+        let spare = known.push(40, buffer(3));
+        assert_eq!(spare.iter().map(Vec::len).collect::<Vec<_>>(), [5]);
+        assert!(known.get(12).is_none() && known.get(41).is_some() && known.get(43).is_none());
+        assert_eq!(known.let_go().len(), 1);
+        assert!(known.get(41).is_none());
+    }
 
     /// Z-lines of vertical rails hold no switch: on a 3-D grid of every kind, with an
     /// uneven limb layout (parasitic motions by Newton), a point mass and an external

@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
 use clearance_discontinuity::{
-    Discontinuity, Loads, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima,
+    Discontinuity, Loads, Sampled, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima,
     keep_local_minima_of, searched_along, trace_into,
 };
 use clearance_grid::{SampleSource, chunks};
@@ -368,6 +368,8 @@ struct Kept<'a> {
     /// Per (group, mode), with [`KeepTraces::Search`]: the last samples of its work so
     /// far, unsettled, with their loads ([`Kept::settle`]).
     seams: std::collections::HashMap<(usize, Mode), Seam>,
+    /// Buffers of [`Sampled`] values the searches let go of, for the next works.
+    spare_sampled: Vec<Vec<Sampled>>,
 }
 
 /// The last samples of a (group, mode)'s work so far, from `start` on: their traces
@@ -383,6 +385,32 @@ struct Seam {
 /// The most samples a [`Seam`] keeps (152 bytes each, 20 MB): grids whose longest
 /// stride the search follows is at most half this (a Z-plane of 65 536 samples).
 const SEAM_SAMPLES: usize = 1 << 17;
+
+/// The most samples before a unit's whose values the search keeps for the lines that
+/// reach back into earlier units (336 bytes each, 44 MB).
+const KNOWN_SAMPLES: u64 = 1 << 17;
+
+/// Whether a path the search follows ends at a sample of `range`.
+fn ends_a_path(model: &Model, source: &SampleSource, range: std::ops::Range<u64>) -> bool {
+    let end = range.end.min(source.len());
+    axes(source).iter().filter(|a| searched_along(model, a.along)).any(|a| {
+        // The paths along `a` end at the samples whose node along it is the last.
+        let (span, last) = (a.stride * a.n, a.stride * (a.n - 1));
+        let first_end = if range.start % span >= last { range.start } else { range.start / span * span + last };
+        first_end < end
+    })
+}
+
+/// How many samples before a unit's the search keeps the values of
+/// ([`Search::extend_known`]): as far back as a searched line reaches (its stride
+/// times its length), if that is at most [`KNOWN_SAMPLES`], else none (the lines
+/// that reach further read the values of the unit that completes them, and solve
+/// the rest).
+fn known_reach(model: &Model, source: &SampleSource) -> u64 {
+    let axes = axes(source);
+    let reach = axes.iter().filter(|a| searched_along(model, a.along)).map(|a| a.stride * a.n.saturating_sub(1)).max();
+    reach.filter(|&r| r <= KNOWN_SAMPLES).unwrap_or(0)
+}
 
 /// What [`Kept`] does with the traces of the units it is given.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -471,6 +499,7 @@ impl<'a> Kept<'a> {
         &mut self,
         key: (usize, Mode),
         traces: &[Trace],
+        sampled: Vec<Sampled>,
         model: &'a Model,
         source: &'a SampleSource,
         opts: &SearchOptions,
@@ -479,9 +508,11 @@ impl<'a> Kept<'a> {
             KeepTraces::No => {}
             KeepTraces::Search => {
                 let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, key.1, opts));
-                search.extend(traces);
+                let spare = search.extend_known(traces, sampled, known_reach(model, source));
+                self.spare_sampled.extend(spare);
                 if search.is_complete() {
-                    let search = self.searches.remove(&key).expect("just used");
+                    let mut search = self.searches.remove(&key).expect("just used");
+                    self.spare_sampled.extend(search.let_go_known());
                     self.found.insert(key, search.finish());
                 }
             }
@@ -702,9 +733,25 @@ struct Ctx<'a> {
     /// from page to page: rayon calls `map_init`'s init for every piece it splits
     /// off, and a fresh page buffer is megabytes to zero and fault in.
     workers: &'a std::sync::Mutex<Vec<(Blocks, PageBuffer)>>,
+    /// How the run keeps its traces.
+    keep: KeepTraces,
 }
 
 impl Ctx<'_> {
+    /// Whether the search reads what the pass solved at the samples of `work`: it
+    /// searches as the run computes, follows this group's first member, the work's
+    /// parts are at most [`KNOWN_SAMPLES`] long (the values take 336 bytes a pose), and
+    /// a path it searches ends within the work or within reach of it ([`known_reach`];
+    /// the first parts of a long trajectory are not worth the stores).
+    fn reads_sampled(&self, work: &Work) -> bool {
+        let (model, source) = &self.models[work.group];
+        let range = &work.units[0].range;
+        self.keep == KeepTraces::Search
+            && work.units[0].variant == self.groups[work.group].first()
+            && range.end - range.start <= KNOWN_SAMPLES
+            && ends_a_path(model, source, range.start..range.end + known_reach(model, source))
+    }
+
     fn take_worker(&self) -> (Blocks, PageBuffer) {
         let worker = self.workers.lock().expect("no panic while held").pop();
         worker.unwrap_or_else(|| (Blocks::default(), self.schema.page_buffer()))
@@ -725,22 +772,51 @@ struct Computed<'a> {
     traces: Vec<Trace>,
     /// The load magnitudes of each pose.
     loads: Vec<Loads>,
+    /// What the search reads at each pose, where the run searches as it computes
+    /// (else empty).
+    sampled: Vec<Sampled>,
     /// Per unit, per page, the statistics of each of its blocks.
     block_stats: Vec<Vec<Vec<SummaryStats>>>,
 }
 
-/// Solves the poses of `work` on the pool into the rows its writer takes.
-/// `loads` is a buffer to reuse.
-fn compute<'a>(ctx: &Ctx<'_>, work: &'a Work, loads: Vec<Loads>) -> Result<Computed<'a>> {
+/// Solves the poses of `work` on the pool into the rows its writer takes, with
+/// `buffers` to reuse.
+fn compute<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<Computed<'a>> {
     match ctx.opts.writer {
-        Writer::Engine => compute_pages(ctx, work, loads),
-        Writer::Arrow => compute_batch(ctx, work, loads),
+        Writer::Engine => compute_pages(ctx, work, buffers),
+        Writer::Arrow => compute_batch(ctx, work, buffers),
     }
 }
 
+/// A work's per-pose buffers, reused from work to work.
+#[derive(Default)]
+struct Buffers {
+    loads: Vec<Loads>,
+    sampled: Vec<Sampled>,
+}
+
+impl Buffers {
+    /// Sized for `n` poses; `sampled` only where the run's search reads them (else
+    /// empty, and never written).
+    fn sized(mut self, n: usize, sampled: bool) -> Self {
+        self.loads.resize(n, Loads::default());
+        self.sampled.resize(if sampled { n } else { 0 }, Sampled::default());
+        self
+    }
+}
+
+/// The first `rows` of `rest` (fewer if it has fewer), the rest left in `rest`.
+fn take_rows<'s, T>(rest: &mut &'s mut [T], rows: usize) -> &'s mut [T] {
+    let rows = rows.min(rest.len());
+    let (head, tail) = std::mem::take(rest).split_at_mut(rows);
+    *rest = tail;
+    head
+}
+
 /// Solves one block of samples, from sample `first`, into rows `row..` of `sink`,
-/// with each pose's trace and load magnitudes (`traces` and `loads` are the
-/// block's); the block's statistics. For a variant solved as itself.
+/// with each pose's trace and load magnitudes, and what the search reads there
+/// (`traces`, `loads` and `sampled` are the block's; `sampled` may be empty); the
+/// block's statistics. For a variant solved as itself.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn solve_block(
@@ -753,6 +829,7 @@ fn solve_block(
     row: usize,
     traces: &mut [Trace],
     loads: &mut [Loads],
+    mut sampled: &mut [Sampled],
 ) -> SummaryStats {
     let mut stats = SummaryStats::with_capacity(traces.len());
     // A few batches at a time, so that results are used while in cache.
@@ -764,6 +841,9 @@ fn solve_block(
             sink.put(at + i, s, r);
             stats.push(r);
             *t = trace_into(r, model, l);
+        }
+        for (out, r) in take_rows(&mut sampled, ts.len()).iter_mut().zip(results) {
+            *out = Sampled::of(r);
         }
     }
     stats
@@ -780,10 +860,14 @@ fn solve_shared<'b>(
     first: u64,
     traces: &mut [Trace],
     loads: &mut [Loads],
+    sampled: &mut [Sampled],
 ) -> Shared<'b> {
     let (samples, results) = blocks.solve(model, source, first..first + traces.len() as u64, mode);
     for ((r, t), l) in results.iter().zip(traces).zip(loads) {
         *t = trace_into(r, model, l);
+    }
+    for (out, r) in sampled.iter_mut().zip(results) {
+        *out = Sampled::of(r);
     }
     Shared { samples, results }
 }
@@ -811,33 +895,35 @@ impl Shared<'_> {
 /// [`compute`] for the engine's writer: a page at a time, each page encoded as
 /// soon as its rows are in. A group's page is solved once and written for each
 /// member.
-fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
+fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<Computed<'a>> {
     let (model, source) = &ctx.models[work.group];
     let group = &ctx.groups[work.group];
     let (mode, range) = (work.units[0].mode, work.units[0].range.clone());
     let n = (range.end - range.start) as usize;
     let mut parts: Vec<PartPages> = work.units.iter().map(|_| ctx.schema.part(mode, n)).collect();
     let mut traces: Vec<Trace> = vec![0; n];
-    loads.resize(n, Loads::default());
+    let Buffers { mut loads, mut sampled } = buffers.sized(n, ctx.reads_sampled(work));
     // Each page with its rows' traces and loads: per page, every unit's writer of it.
     let mut writers: Vec<std::vec::IntoIter<PageWriter<'_>>> =
         parts.iter_mut().map(|p| p.pages(ctx.schema).into_iter()).collect();
-    let (mut rest_traces, mut rest_loads) = (&mut traces[..], &mut loads[..n]);
+    let (mut rest_traces, mut rest_loads, mut rest_sampled) = (&mut traces[..], &mut loads[..], &mut sampled[..]);
     let mut work_pages = Vec::new();
     while let Some(pages) = writers.iter_mut().map(|w| w.next()).collect::<Option<Vec<_>>>() {
         let rows = pages[0].rows();
-        let (page_traces, more) = std::mem::take(&mut rest_traces).split_at_mut(rows);
-        rest_traces = more;
-        let (page_loads, more) = std::mem::take(&mut rest_loads).split_at_mut(rows);
-        rest_loads = more;
-        work_pages.push((work_pages.len(), pages, page_traces, page_loads));
+        let page_traces = take_rows(&mut rest_traces, rows);
+        let page_loads = take_rows(&mut rest_loads, rows);
+        let page_sampled = take_rows(&mut rest_sampled, rows);
+        work_pages.push((work_pages.len(), pages, page_traces, page_loads, page_sampled));
     }
     // Pages are handed out in order, each to the next thread free, so that the
     // short pages at the end go last (`page_spans`): rayon's halving of a list of
     // pages let one thread finish a whole page before the other.
     let queue = std::sync::Mutex::new(work_pages.into_iter());
     let next_page = || queue.lock().expect("no panic while held").next();
-    let compute_page = |pages: Vec<PageWriter<'_>>, page_traces: &mut [Trace], page_loads: &mut [Loads]| {
+    let compute_page = |pages: Vec<PageWriter<'_>>,
+                        page_traces: &mut [Trace],
+                        page_loads: &mut [Loads],
+                        mut page_sampled: &mut [Sampled]| {
         let (mut blocks, mut buf) = ctx.take_worker();
         let first = range.start + pages[0].first() as u64;
         let spare = || ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
@@ -860,13 +946,14 @@ fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
                         row,
                         block_traces,
                         block_loads,
+                        take_rows(&mut page_sampled, BLOCK),
                     ));
                 }
                 all
             })]
         } else {
             let rows = page_traces.len();
-            let shared = solve_shared(&mut blocks, model, source, mode, first, page_traces, page_loads);
+            let shared = solve_shared(&mut blocks, model, source, mode, first, page_traces, page_loads, page_sampled);
             pages
                 .into_iter()
                 .zip(&work.units)
@@ -888,8 +975,8 @@ fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
         .into_par_iter()
         .map(|_| {
             let mut done = Vec::new();
-            while let Some((p, pages, page_traces, page_loads)) = next_page() {
-                done.push((p, compute_page(pages, page_traces, page_loads)));
+            while let Some((p, pages, page_traces, page_loads, page_sampled)) = next_page() {
+                done.push((p, compute_page(pages, page_traces, page_loads, page_sampled)));
             }
             done
         })
@@ -908,20 +995,20 @@ fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
         }
     }
     let bodies = parts.into_iter().map(Body::Pages).collect();
-    Ok(Computed { work, bodies, traces, loads, block_stats })
+    Ok(Computed { work, bodies, traces, loads, sampled, block_stats })
 }
 
 /// [`compute`] for `ArrowWriter`: blocks of rows into column buffers on the pool,
 /// then one record batch per unit. A group's block is solved once and written for
 /// each member.
-fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Result<Computed<'a>> {
+fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<Computed<'a>> {
     let (model, source) = &ctx.models[work.group];
     let group = &ctx.groups[work.group];
     let (mode, range) = (work.units[0].mode, work.units[0].range.clone());
     let n = (range.end - range.start) as usize;
     let mut columns: Vec<_> = work.units.iter().map(|_| ctx.schema.columns(n)).collect();
     let mut traces: Vec<Trace> = vec![0; n];
-    loads.resize(n, Loads::default());
+    let Buffers { mut loads, mut sampled } = buffers.sized(n, ctx.reads_sampled(work));
     let mut sinks: Vec<std::vec::IntoIter<BlockSink<'_>>> =
         columns.iter_mut().map(|c| c.blocks(ctx.schema, BLOCK).into_iter()).collect();
     let mut per_block = Vec::new();
@@ -929,12 +1016,17 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
         per_block.push(block_sinks);
     }
     drop(sinks);
-    let work_blocks: Vec<_> =
-        per_block.into_iter().zip(traces.chunks_mut(BLOCK).zip(loads[..n].chunks_mut(BLOCK))).enumerate().collect();
+    let mut rest_sampled = &mut sampled[..];
+    let work_blocks: Vec<_> = per_block
+        .into_iter()
+        .zip(traces.chunks_mut(BLOCK).zip(loads.chunks_mut(BLOCK)))
+        .map(|(sinks, (t, l))| (sinks, (t, l, take_rows(&mut rest_sampled, BLOCK))))
+        .enumerate()
+        .collect();
     // Per block, each unit's statistics.
     let stats: Vec<Vec<SummaryStats>> = work_blocks
         .into_par_iter()
-        .map(|(b, (mut block_sinks, (block_traces, block_loads)))| {
+        .map(|(b, (mut block_sinks, (block_traces, block_loads, block_sampled)))| {
             let (mut blocks, buf) = ctx.take_worker();
             let first = range.start + (b * BLOCK) as u64;
             let stats = if group.alone() {
@@ -948,10 +1040,12 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
                     0,
                     block_traces,
                     block_loads,
+                    block_sampled,
                 )]
             } else {
                 let rows = block_traces.len();
-                let shared = solve_shared(&mut blocks, model, source, mode, first, block_traces, block_loads);
+                let shared =
+                    solve_shared(&mut blocks, model, source, mode, first, block_traces, block_loads, block_sampled);
                 block_sinks
                     .iter_mut()
                     .zip(&work.units)
@@ -970,14 +1064,14 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, mut loads: Vec<Loads>) -> Re
         }
     }
     let bodies = columns.into_iter().map(|c| Body::Batch(ctx.schema.finish(mode, c))).collect();
-    Ok(Computed { work, bodies, traces, loads, block_stats })
+    Ok(Computed { work, bodies, traces, loads, sampled, block_stats })
 }
 
 /// A computed work's parts, for the writer, with its traces pruned and each unit's
 /// statistics merged (and kept in `kept`); the pruned traces; and its load buffer,
 /// to reuse.
-fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<Trace>, Vec<Loads>) {
-    let Computed { work, bodies, traces, loads, block_stats } = c;
+fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<Trace>, Buffers) {
+    let Computed { work, bodies, traces, loads, sampled, block_stats } = c;
     let (model, source) = &ctx.models[work.group];
     // With the whole unit in hand, most samples are seen not to be load
     // minima, so the search solves only the others.
@@ -1022,7 +1116,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<
             }
         })
         .collect();
-    (parts, traces, loads)
+    (parts, traces, Buffers { loads, sampled })
 }
 
 /// What a run of any kind starts from: its variants and their groups, the prepared
@@ -1182,9 +1276,20 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             Ok(busy)
         });
         let workers = &std::sync::Mutex::new(Vec::new());
-        let ctx = Ctx { schema, models: &models, groups: &groups, variants: &variants, opts, layout, spare, workers };
-        // Load magnitudes of units, reused from unit to unit.
-        let mut spare_loads: Vec<Vec<Loads>> = Vec::new();
+        let ctx = Ctx {
+            schema,
+            models: &models,
+            groups: &groups,
+            variants: &variants,
+            opts,
+            layout,
+            spare,
+            workers,
+            keep: kept.keep,
+        };
+        // Per-pose buffers of units (load magnitudes, the search's values), reused
+        // from unit to unit.
+        let mut spare_buffers: Vec<Buffers> = Vec::new();
         let mut previous: Option<Computed> = None;
         let mut writer_failed = false;
         for work in todo_work.iter().map(Some).chain([None]) {
@@ -1196,7 +1301,11 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 };
                 progress.stage(&format!("variant {} {}{shared}", u.variant, u.mode.name()));
             }
-            let loads = spare_loads.pop().unwrap_or_default();
+            let mut buffers = spare_buffers.pop().unwrap_or_default();
+            if buffers.sampled.capacity() == 0 {
+                // The search holds the last ones: one it let go of, if any.
+                buffers.sampled = kept.spare_sampled.pop().unwrap_or_default();
+            }
             // The previous unit is concluded on the pool while this one computes
             // (alone, its few milliseconds would leave the other threads idle), and
             // its part goes to the writer at once rather than after this unit: at
@@ -1206,7 +1315,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 || {
                     previous.take().map(|c| {
                         let work = c.work;
-                        let (parts, traces, loads) = conclude(&ctx, c, &mut kept);
+                        let (parts, traces, mut buffers) = conclude(&ctx, c, &mut kept);
                         let n = (traces.len() * parts.len()) as u64;
                         let sent = parts.into_iter().all(|part| tx.send(part).is_ok());
                         // Searched after the parts are on their way: the writer need not wait.
@@ -1215,22 +1324,24 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         if kept.keep != KeepTraces::No && work.units[0].variant == groups[work.group].first() {
                             let (model, source) = &models[work.group];
                             let opts = search_options(&variants[groups[work.group].first() as usize]);
-                            kept.add_traces((work.group, work.units[0].mode), &traces, model, source, &opts);
+                            let key = (work.group, work.units[0].mode);
+                            let sampled = std::mem::take(&mut buffers.sampled);
+                            kept.add_traces(key, &traces, sampled, model, source, &opts);
                         }
-                        (n, loads, sent, start.elapsed().as_secs_f64())
+                        (n, buffers, sent, start.elapsed().as_secs_f64())
                     })
                 },
                 || {
                     let start = Instant::now();
-                    (work.map(|w| compute(&ctx, w, loads)).transpose(), start.elapsed().as_secs_f64())
+                    (work.map(|w| compute(&ctx, w, buffers)).transpose(), start.elapsed().as_secs_f64())
                 },
             );
             let (computed, pose_pass) = computed;
             stages.pose_pass += pose_pass;
             previous = computed?;
-            if let Some((n, loads, sent, search)) = concluded {
+            if let Some((n, buffers, sent, search)) = concluded {
                 stages.search += search;
-                spare_loads.push(loads);
+                spare_buffers.push(buffers);
                 if !sent {
                     writer_failed = true; // its error is reported below
                     break;
