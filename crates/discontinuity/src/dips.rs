@@ -172,7 +172,7 @@ pub(crate) fn switches(
         let (lo, hi) = (ev.param(dip.lo), ev.param(dip.hi));
         let p = polish(dip.p, lo, hi, 2.0 * SCAN_TOL * (hi - lo), |p| squared(p, ws));
         let (before, after) = (solved.errors(left, ws), solved.errors(right, ws));
-        out.push(ev.record(kind, j, p, ws, &before, &after));
+        out.push(ev.record(kind, j, p, ev.reactions_at(p, ws), &before, &after));
     }
 }
 

@@ -2,7 +2,7 @@
 //! and in the 3-limb kinds `r_angular`, whose moment is `|A_j − B_j|·(f_Rj·y_j)·u_j`)
 //! flips wherever it changes sign.
 
-use clearance_solver::Workspace;
+use clearance_solver::{JointReactions, Workspace};
 
 use crate::minimise::brent_min_below;
 use crate::search::{Segment, Side, Solved};
@@ -10,9 +10,11 @@ use crate::shortcut::Shortcut;
 use crate::trace::{Decider, min_bit, neg_bit};
 use crate::{LOCATE_TOL, SCAN_TOL, axial, brent_root};
 
-/// One zero of the load, with the points either side that the jump is read between.
+/// One zero of the load, with the points either side that the jump is read between,
+/// and the reactions there (for its margin, under each kind it decides).
 pub(crate) struct Crossing {
     pub p: f64,
+    pub reactions: Option<JointReactions>,
     pub before: Side,
     pub after: Side,
 }
@@ -33,7 +35,9 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
         if negative(a) != negative(b) {
             let (fa, fb) = (f(solved, a, ws), f(solved, b, ws));
             let p = brent_root(ev.param(a), ev.param(b), fa, fb, LOCATE_TOL, |p| f_at(p, ws));
-            out.push(Crossing { p, before: Side::Sample(a), after: Side::Sample(b) });
+            // Mostly the point the root finder evaluated last, so solved already.
+            let reactions = ev.reactions_at(p, ws);
+            out.push(Crossing { p, reactions, before: Side::Sample(a), after: Side::Sample(b) });
         }
     }
     for (a, k, c) in segment.triples() {
@@ -69,9 +73,11 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
             let fm = sign * least;
             let (flo, fhi) = (f(solved, lo, ws), f(solved, hi, ws));
             let first = brent_root(plo, pm, flo, fm, LOCATE_TOL, |p| f_at(p, ws));
+            let at_first = ev.reactions_at(first, ws);
             let second = brent_root(pm, phi, fm, fhi, LOCATE_TOL, |p| f_at(p, ws));
-            out.push(Crossing { p: first, before: Side::Sample(lo), after: Side::At(pm) });
-            out.push(Crossing { p: second, before: Side::At(pm), after: Side::Sample(hi) });
+            let at_second = ev.reactions_at(second, ws);
+            out.push(Crossing { p: first, reactions: at_first, before: Side::Sample(lo), after: Side::At(pm) });
+            out.push(Crossing { p: second, reactions: at_second, before: Side::At(pm), after: Side::Sample(hi) });
         }
     }
     out.sort_by(|x, y| x.p.total_cmp(&y.p));

@@ -63,9 +63,9 @@ pub(crate) struct Evaluator<'a> {
     pub mode: Mode,
     pub opts: &'a SearchOptions,
     /// The reactions at the last few points between samples, by the bits of their
-    /// parameter: a root finder returns a point it has evaluated, and the switch it
-    /// locates is recorded there once for each kind it decides (`r_axial` and
-    /// `r_angular` share theirs).
+    /// parameter: a root finder returns a point it has evaluated, whose reactions the
+    /// switch it locates then carries (for its margin, under each kind it decides:
+    /// `r_axial` and `r_angular` share theirs).
     recent: RefCell<Recent>,
 }
 
@@ -122,17 +122,18 @@ impl<'a> Evaluator<'a> {
         kind_errors(&solve_errors(self.model, &self.path.sample_at(self.source, p), self.mode, ws))
     }
 
+    /// The switch of `kind` at `p`, where the reactions are `r` (as
+    /// [`Evaluator::reactions_at`] gives them), its jump from the errors either side.
     pub fn record(
         &self,
         kind: ClearanceKind,
         j: usize,
         p: f64,
-        ws: &mut Workspace,
+        r: Option<JointReactions>,
         before: &KindErrors,
         after: &KindErrors,
     ) -> Discontinuity {
         let s = self.path.sample_at(self.source, p);
-        let r = self.reactions_at(p, ws);
         let margin = r.map_or(f64::NAN, |r| margin(&r, self.model, kind, j));
         let (b, a) = (before[kind.index()], after[kind.index()]);
         Discontinuity {
@@ -436,7 +437,7 @@ pub(crate) fn search_path_known(
                     for c in found.iter() {
                         let before = c.before.errors(&mut solved, ws);
                         let after = c.after.errors(&mut solved, ws);
-                        out.push(ev.record(kind, j, c.p, ws, &before, &after));
+                        out.push(ev.record(kind, j, c.p, c.reactions, &before, &after));
                     }
                 } else {
                     let d = if kind == ClearanceKind::SRadial { Decider::SRadial } else { Decider::RRadial };
