@@ -296,9 +296,16 @@ fn reactions_only(
         return matches!(r.status, Status::Ok | Status::IndeterminateContact).then_some(r.reactions);
     }
     let (pose, loads, _) = posture(model, sample, mode)?;
-    let reduced = Reduced::new(model, &pose, conditioned);
-    // As `solve_fast` decides: both condition numbers within the limit (NaN is not).
-    let solvable = if conditioned { solved_posture(model, &pose, &reduced) } else { !pose.across && reduced.regular() };
+    // As `solve_fast` decides: both condition numbers within the limit (NaN is not),
+    // shown by a bound where it can be.
+    let (reduced, solvable) = if conditioned {
+        let (reduced, within) = Reduced::new_within(model, &pose, model.singular_cond);
+        (reduced, !pose.across && within)
+    } else {
+        let reduced = Reduced::new(model, &pose, false);
+        let solvable = !pose.across && reduced.regular();
+        (reduced, solvable)
+    };
     solvable.then(|| reduced.reactions(model, &pose, &loads).get(0))
 }
 
