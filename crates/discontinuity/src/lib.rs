@@ -302,6 +302,12 @@ impl<'a> Search<'a> {
         spare
     }
 
+    /// How many values handed to [`Search::extend_known`] its paths have read since
+    /// the last call: whether storing them is worth it.
+    pub fn known_reads(&self) -> u64 {
+        self.known.take_reads()
+    }
+
     /// Lets go of the values held ([`Search::extend_known`]): the buffers, to reuse.
     pub fn let_go_known(&mut self) -> Vec<Vec<Sampled>> {
         self.known.let_go()

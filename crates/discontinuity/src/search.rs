@@ -167,13 +167,25 @@ pub(crate) struct Solved<'a> {
 pub(crate) struct Known {
     /// Buffers of consecutive samples, oldest first, each with its first sample's index.
     chunks: std::collections::VecDeque<(u64, Vec<Sampled>)>,
+    /// How many values were read ([`Known::get`] found them).
+    reads: std::sync::atomic::AtomicU64,
 }
 
 impl Known {
     /// The values of sample `i`, if held.
     pub fn get(&self, i: u64) -> Option<&Sampled> {
         // Newest first: a path's samples are mostly in the buffer that completes it.
-        self.chunks.iter().rev().find(|(first, _)| *first <= i).and_then(|(first, v)| v.get((i - first) as usize))
+        let found =
+            self.chunks.iter().rev().find(|(first, _)| *first <= i).and_then(|(first, v)| v.get((i - first) as usize));
+        if found.is_some() {
+            self.reads.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        found
+    }
+
+    /// How many values were read since the last call.
+    pub fn take_reads(&self) -> u64 {
+        self.reads.swap(0, std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Lets go of every buffer held; returns them, to reuse.
