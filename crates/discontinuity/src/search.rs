@@ -297,10 +297,15 @@ impl<'a> Solved<'a> {
         Self { ev, known, maps: SPARE_MAPS.take().unwrap_or_default() }
     }
 
+    /// What the pass solved at the `k`-th sample, where the run still holds it.
+    fn known(&self, k: usize) -> Option<&'a Sampled> {
+        self.known.and_then(|known| known.get(self.ev.path.sample_index(k)))
+    }
+
     /// The forces at the `k`-th sample (a solvable one).
     pub fn forces(&mut self, k: usize, ws: &mut Workspace) -> &impl Forces {
         let ev = self.ev;
-        if let Some(s) = self.known.and_then(|known| known.get(ev.path.sample_index(k))) {
+        if let Some(s) = self.known(k) {
             return &s.forces;
         }
         self.maps.reactions.entry(k).or_insert_with(|| {
@@ -311,7 +316,7 @@ impl<'a> Solved<'a> {
     /// The per-kind errors at the `k`-th sample of the path.
     pub fn errors(&mut self, k: usize, ws: &mut Workspace) -> KindErrors {
         let ev = self.ev;
-        if let Some(s) = self.known.and_then(|known| known.get(ev.path.sample_index(k))) {
+        if let Some(s) = self.known(k) {
             return s.errors;
         }
         *self.maps.cache.entry(k).or_insert_with(|| kind_errors(&solve_errors(ev.model, &ev.node(k), ev.mode, ws)))

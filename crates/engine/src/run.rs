@@ -766,17 +766,23 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    /// Whether the run searches `work` as it computes: it keeps its traces for the
+    /// search, and the work is its group's first member's (whose traces the search
+    /// follows; the other members share them).
+    fn searched_now(&self, work: &Work) -> bool {
+        self.keep == KeepTraces::Search && work.units[0].variant == self.groups[work.group].first()
+    }
+
     /// Whether the search reads what the pass solved at the samples of `work`: it
-    /// searches as the run computes, follows this group's first member, the work's
-    /// parts are at most [`KNOWN_SAMPLES`] long (the values take 336 bytes a pose), and
-    /// a path it searches ends within the work or within reach of it ([`known_reach`];
+    /// searches `work` as the run computes ([`Ctx::searched_now`]), the work's parts
+    /// are at most [`KNOWN_SAMPLES`] long (the values take 336 bytes a pose), and a
+    /// path it searches ends within the work or within reach of it ([`known_reach`];
     /// the first parts of a long trajectory are not worth the stores).
     fn reads_sampled(&self, work: &Work) -> bool {
         let (model, source) = &self.models[work.group];
         let range = &work.units[0].range;
-        self.keep == KeepTraces::Search
+        self.searched_now(work)
             && self.store_sampled.load(std::sync::atomic::Ordering::Relaxed)
-            && work.units[0].variant == self.groups[work.group].first()
             && range.end - range.start <= KNOWN_SAMPLES
             && ends_a_path(model, source, range.start..range.end + known_reach(model, source))
     }
@@ -1097,8 +1103,8 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<
 }
 
 /// A computed work's parts, for the writer, with its traces pruned and each unit's
-/// statistics merged (and kept in `kept`); the pruned traces; and its load buffer,
-/// to reuse.
+/// statistics merged (and kept in `kept`); the pruned traces; and its per-pose
+/// buffers, to reuse.
 fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<Trace>, Buffers) {
     let Computed { work, bodies, traces, loads, sampled, block_stats } = c;
     let (model, source) = &ctx.models[work.group];
@@ -1108,7 +1114,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<
     let set_aside = search_options(&ctx.variants[ctx.groups[work.group].first() as usize]).set_aside_from(model);
     // The search follows a group's first member (`add_traces`): its traces settle
     // across the seams of its units.
-    let traces = if kept.keep == KeepTraces::Search && work.units[0].variant == ctx.groups[work.group].first() {
+    let traces = if ctx.searched_now(work) {
         kept.settle(
             (work.group, work.units[0].mode),
             (model, source),
@@ -1351,7 +1357,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         // Searched after the parts are on their way: the writer need not wait.
                         let start = Instant::now();
                         // A group's traces once, from the work of its first member.
-                        if kept.keep != KeepTraces::No && work.units[0].variant == groups[work.group].first() {
+                        if ctx.searched_now(work) {
                             let (model, source) = &models[work.group];
                             let opts = search_options(&variants[groups[work.group].first() as usize]);
                             let key = (work.group, work.units[0].mode);

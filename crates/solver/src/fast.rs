@@ -513,12 +513,20 @@ impl Reduced<f64> {
         if lu.regular && bound <= 0.5 * limit {
             return (Self { n, g: lu, ginv: None, cond_g: f64::NAN, cond_m: f64::NAN }, true);
         }
-        let (norm_one, norm_inf) = norms(&g);
-        let (inv_one, inv_inf, _) = lu.inverse_norms();
-        let finite = |k: f64| if lu.regular && k.is_finite() { k } else { f64::INFINITY };
-        let (cond_g, cond_m) = (finite(norm_one * inv_one), finite(norm_inf * inv_inf));
+        let (cond_g, cond_m, _) = condition_numbers(&g, &lu);
         (Self { n, g: lu, ginv: None, cond_g, cond_m }, cond_g <= limit && cond_m <= limit)
     }
+}
+
+/// `κ₁(G)` and `κ₁(M)` (`‖G‖₁·‖G⁻¹‖₁` and `‖G‖∞·‖G⁻¹‖∞`, see [`Reduced`]) from `G` and
+/// its LU, infinite where the LU is not regular or the product not finite; and
+/// `(L·U)⁻¹`, which gives them.
+#[inline(always)]
+fn condition_numbers<L: Lane>(g: &A6<L>, lu: &Lu6<L>) -> (L, L, A6<L>) {
+    let (norm_one, norm_inf) = norms(g);
+    let (inv_one, inv_inf, inv) = lu.inverse_norms();
+    let finite = |k: L| L::select(lu.regular & k.finite(), k, c(f64::INFINITY));
+    (finite(norm_one * inv_one), finite(norm_inf * inv_inf), inv)
 }
 
 /// `5^(5/2)`.
@@ -551,11 +559,9 @@ impl<L: Lane> Reduced<L> {
         let (mut cond_g, mut cond_m) = (c::<L>(f64::NAN), c::<L>(f64::NAN));
         let mut ginv = None;
         let lu = if conditioning {
-            let (norm_one, norm_inf) = norms(&g);
             let lu = Lu6::new(g);
-            let (inv_one, inv_inf, inv) = lu.inverse_norms();
-            let finite = |k: L| L::select(lu.regular & k.finite(), k, c(f64::INFINITY));
-            (cond_g, cond_m) = (finite(norm_one * inv_one), finite(norm_inf * inv_inf));
+            let inv;
+            (cond_g, cond_m, inv) = condition_numbers(&g, &lu);
             if model.envelope {
                 ginv = Some(lu.inverse_of(&inv));
             }
