@@ -22,7 +22,7 @@ use clearance_discontinuity::{SearchOptions, find_discontinuities};
 use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::{Geometry, inverse_kinematics, inverse_kinematics_motion};
 use clearance_model::Mode;
-use clearance_parquet::{Codec, ColumnSet, PAGE_ROWS, PartPages, PoseSchema, WriteOptions, write_parquet, write_part};
+use clearance_parquet::{Codec, ColumnSet, PartPages, PoseSchema, WriteOptions, write_parquet, write_part};
 use clearance_solver::{Model, Workspace, solve_in_blocks, solve_pose};
 use common::{Solve, for_each_solver};
 use criterion::measurement::WallTime;
@@ -162,9 +162,11 @@ fn parquet(c: &mut Criterion) {
     });
     let pages = |rows: &[(Sample, clearance_solver::PoseResult)]| -> PartPages {
         let mut part = schema.part(Mode::Kinetostatic, rows.len());
-        part.pages(&schema).into_par_iter().zip(rows.par_chunks(PAGE_ROWS)).for_each_init(
+        // Pages are not all `PAGE_ROWS` long (the last ones are shorter): each takes its own rows.
+        part.pages(&schema).into_par_iter().for_each_init(
             || schema.page_buffer(),
-            |buf, (page, rows)| {
+            |buf, page| {
+                let rows = &rows[page.first()..page.first() + page.rows()];
                 page.write(buf, Codec::Zstd, Vec::new(), |sink| {
                     for (i, (s, r)) in rows.iter().enumerate() {
                         sink.put(i, s, r);
