@@ -11,6 +11,8 @@
 //! | `parquet/pages_standard` | what `clearance run` does instead of the two above, part one: one solved pose → one row of the standard columns' pages, each page of `PAGE_ROWS` rows encoded (zstd) as soon as it is filled (rayon pool) |
 //! | `parquet/write_part_standard` | part two, on `clearance run`'s writer thread: one row of the encoded 65 536-row part → its Parquet file on disk (the string and sample columns encoded here) |
 //! | `discontinuity/grid_21x21` | `find_discontinuities` on a 21 × 21 grid (element = grid pose; includes the refinement solves) |
+//! | `discontinuity/point_if_solvable` | what the search solves at a point between samples: `solve_reactions_if_solvable`, the reactions and the verdict of the conditioning, one pose of a 100 × 100 grid, one thread |
+//! | `discontinuity/point_reactions` | the same without the verdict (`solve_reactions`), for comparison |
 //!
 //! Run: `cargo bench --bench stages` (filters: `cargo bench --bench stages -- pose/`).
 
@@ -23,7 +25,7 @@ use clearance_grid::{Sample, SampleSource};
 use clearance_kinematics::{Geometry, inverse_kinematics, inverse_kinematics_motion};
 use clearance_model::Mode;
 use clearance_parquet::{Codec, ColumnSet, PartPages, PoseSchema, WriteOptions, write_parquet, write_part};
-use clearance_solver::{Model, Workspace, solve_in_blocks, solve_pose};
+use clearance_solver::{Model, Workspace, solve_in_blocks, solve_pose, solve_reactions, solve_reactions_if_solvable};
 use common::{Solve, for_each_solver};
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
@@ -195,6 +197,25 @@ fn discontinuity(c: &mut Criterion) {
     g.bench_function("grid_21x21", |b| {
         b.iter(|| find_discontinuities(&model, &source, Mode::Kinetostatic, &opts).len())
     });
+    let points_job = common::grid_job(BATCH_SIDE);
+    let points = common::samples(&points_job);
+    let model = Model::from_job(&points_job);
+    g.throughput(Throughput::Elements(points.len() as u64));
+    for (name, solve) in [
+        ("point_if_solvable", solve_reactions_if_solvable as fn(&Model, &Sample, Mode, &mut Workspace) -> _),
+        ("point_reactions", solve_reactions),
+    ] {
+        g.bench_function(name, |b| {
+            let mut ws = Workspace::new();
+            b.iter(|| {
+                let mut acc = 0.0;
+                for s in &points {
+                    acc += solve(&model, black_box(s), Mode::Kinetostatic, &mut ws).map_or(0.0, |r| r.f_r[0].z);
+                }
+                acc
+            })
+        });
+    }
     g.finish();
 }
 
