@@ -7,7 +7,7 @@ use clearance_solver::Workspace;
 use crate::search::{Segment, Solved};
 use crate::shortcut::Shortcut;
 use crate::trace::{Decider, min_bit, turn_bit};
-use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector};
+use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector, vector_min, vector_polish};
 
 /// A refined minimum of the magnitude lying between samples `lo` and `hi` (the
 /// determinate samples either side of it; for a minimum at a sample, its neighbours).
@@ -50,18 +50,25 @@ pub(crate) fn switches(
     let (model, kind) = (ev.model, d.kind());
     let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(solved.forces(k, ws), model, kind, j);
     let mag = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| crate::norm(load(solved, k, ws));
-    let squared = |p: f64, ws: &mut Workspace| {
-        ev.reactions_at(p, ws).map(|r| {
-            let v = vector(&r, model, kind, j);
-            dot(v, v)
-        })
-    };
-    let min_on = |lo: usize, hi: usize, ws: &mut Workspace| {
-        // The squared magnitude has the same minimum and is smooth there (the
-        // magnitude itself is a V when the load passes near zero).
+    let at = |p: f64, ws: &mut Workspace| ev.reactions_at(p, ws).map(|r| vector(&r, model, kind, j));
+    let squared = |p: f64, ws: &mut Workspace| at(p, ws).map(|v| dot(v, v));
+    // The least magnitude on the interval between samples `lo` and `hi`, from the
+    // loads there and at `third` (a sample beyond it, or else the interval's middle).
+    let min_on = |solved: &mut Solved<'_>, lo: usize, hi: usize, third: Option<usize>, ws: &mut Workspace| {
         let (plo, phi) = (ev.param(lo), ev.param(hi));
         WHOLE_SEGMENT.minimising();
-        brent_min(plo, phi, SCAN_TOL * (phi - plo), |p| squared(p, ws).unwrap_or(f64::INFINITY))
+        let third = match third {
+            Some(k) => Some((ev.param(k), load(solved, k, ws))),
+            None => at(0.5 * (plo + phi), ws).map(|v| (0.5 * (plo + phi), v)),
+        };
+        let ends = ((plo, load(solved, lo, ws)), (phi, load(solved, hi, ws)));
+        let xtol = SCAN_TOL * (phi - plo);
+        if let Some(found) = third.and_then(|third| vector_min(ends.0, ends.1, third, xtol, |p| at(p, ws))) {
+            return found;
+        }
+        // The squared magnitude has the same minimum and is smooth there (the
+        // magnitude itself is a V when the load passes near zero).
+        brent_min(plo, phi, xtol, |p| squared(p, ws).unwrap_or(f64::INFINITY))
     };
     let edge = |lo: usize, hi: usize| EDGE * (ev.param(hi) - ev.param(lo));
     let inside = |p: f64, lo: usize, hi: usize| p > ev.param(lo) + edge(lo, hi) && p < ev.param(hi) - edge(lo, hi);
@@ -107,7 +114,7 @@ pub(crate) fn switches(
         if high && dot(la, lk) >= 0.0 && dot(lk, lc) >= 0.0 && dot(la, lc) >= 0.0 {
             continue;
         }
-        let (left, right) = (min_on(a, k, ws), min_on(k, c, ws));
+        let (left, right) = (min_on(solved, a, k, Some(c), ws), min_on(solved, k, c, Some(a), ws));
         let (in_left, in_right) = (inside(left.0, a, k), inside(right.0, k, c));
         if in_left {
             dips.push(Dip { p: left.0, m: left.1.sqrt(), lo: a, hi: k });
@@ -135,7 +142,7 @@ pub(crate) fn switches(
         if dot(load(solved, a, ws), load(solved, b, ws)) >= 0.0 {
             continue;
         }
-        let (p, m2) = min_on(a, b, ws);
+        let (p, m2) = min_on(solved, a, b, None, ws);
         if inside(p, a, b) {
             dips.push(Dip { p, m: m2.sqrt(), lo: a, hi: b });
         }
@@ -170,7 +177,10 @@ pub(crate) fn switches(
             continue;
         }
         let (lo, hi) = (ev.param(dip.lo), ev.param(dip.hi));
-        let p = polish(dip.p, lo, hi, 2.0 * SCAN_TOL * (hi - lo), |p| squared(p, ws));
+        let width = 2.0 * SCAN_TOL * (hi - lo);
+        let vector =
+            at(dip.p, ws).and_then(|fp| vector_polish(dip.p, fp, width.max(DIFF_STEP), (lo, hi), |p| at(p, ws)));
+        let p = vector.unwrap_or_else(|| polish(dip.p, lo, hi, width, |p| squared(p, ws)));
         let (before, after) = (solved.errors(left, ws), solved.errors(right, ws));
         out.push(ev.record(kind, j, p, ev.reactions_at(p, ws), &before, &after));
     }

@@ -40,7 +40,7 @@ mod search;
 mod shortcut;
 mod trace;
 
-pub use minimise::{brent_min, brent_root};
+pub use minimise::{brent_min, brent_root, vector_min, vector_polish};
 pub use paths::{Along, Axis, Path, axes, paths};
 use search::{Known, search_path_known};
 pub use search::{Sampled, search_path};

@@ -161,6 +161,160 @@ pub(crate) fn brent_min_below(a: f64, b: f64, xtol: f64, enough: f64, mut f: imp
     (x, fx)
 }
 
+/// The steps [`vector_min`] takes before it gives up (its caller then minimises the
+/// magnitude alone).
+const VECTOR_STEPS: usize = 24;
+
+/// The minimum of `|f|` on `[a, b]` for a smooth vector `f`, from its values at the
+/// two ends and at a third point (inside or beyond the interval): each step fits
+/// the quadratic through three values, component by component, and evaluates `f`
+/// where the model's magnitude is least on `[a, b]`, in place of the value farthest
+/// from there. It stops when the model's minimum lies within `xtol` of a point
+/// where `f` was evaluated, and returns that point and `|f|²` there: an end where
+/// `|f|` falls all the way to it. The steps converge like Müller's method (order
+/// about 1.8); while the model still leans on distant values, its slope, and so
+/// the point, is good to the model's error only: [`vector_polish`] takes it from
+/// there. Where the model puts the minimum at an end before `f` was evaluated
+/// inside, the middle of `[a, b]` is evaluated first, so that a dip the three
+/// values do not show is looked for there too. `None` where `f` has no value (an
+/// unsolvable pose) or the steps do not settle; the caller then falls back to
+/// [`brent_min`].
+pub fn vector_min(
+    a: (f64, [f64; 3]),
+    b: (f64, [f64; 3]),
+    third: (f64, [f64; 3]),
+    xtol: f64,
+    mut f: impl FnMut(f64) -> Option<[f64; 3]>,
+) -> Option<(f64, f64)> {
+    let (lo, hi) = if a.0 < b.0 { (a.0, b.0) } else { (b.0, a.0) };
+    let mut points = [a, b, third];
+    let mut looked_inside = lo < third.0 && third.0 < hi;
+    for _ in 0..VECTOR_STEPS {
+        let mut s = model_min(&points, lo, hi)?;
+        if let Some(p) = points.iter().find(|p| (lo..=hi).contains(&p.0) && (p.0 - s).abs() <= xtol) {
+            if looked_inside {
+                return Some((p.0, norm2(&p.1)));
+            }
+            s = 0.5 * (lo + hi);
+        }
+        looked_inside |= s > lo && s < hi;
+        let fs = f(s)?;
+        replace_farthest(&mut points, (s, fs));
+    }
+    None
+}
+
+/// The minimum of `|f|` near `p` (where `f` is `fp`), within `[lo, hi]`: the
+/// minimum of the quadratic through the values at `p − width`, `p` and `p + width`,
+/// recentred there while it moves by more than an eighth of `width` (at most
+/// [`VECTOR_STEPS`] times). The stencil may reach beyond `[lo, hi]`; it keeps its width: values closer together
+/// than that would give the model's slope from their round-off. With the model's
+/// slope from values `width` apart, the point is good to about `ε·|f|/(width·|f'|)`
+/// (plus the model's truncation, of order `width²`), where a minimiser of `|f|²`
+/// alone is resolved to about `√ε` of the dip's width. Two evaluations a step;
+/// `None` where `f` has no value (an unsolvable pose) or the model's minimum is
+/// at an end of `[lo, hi]` or of the stencil.
+pub fn vector_polish(
+    p: f64,
+    fp: [f64; 3],
+    width: f64,
+    (lo, hi): (f64, f64),
+    mut f: impl FnMut(f64) -> Option<[f64; 3]>,
+) -> Option<f64> {
+    let (mut p, mut fp) = (p, fp);
+    for step in 0..VECTOR_STEPS {
+        let (a, b) = (p - width, p + width);
+        let s = model_min(&[(a, f(a)?), (p, fp), (b, f(b)?)], a.max(lo), b.min(hi))?;
+        if s <= a.max(lo) || s >= b.min(hi) {
+            return None;
+        }
+        if (s - p).abs() <= 0.125 * width || step + 1 == VECTOR_STEPS {
+            return Some(s);
+        }
+        (p, fp) = (s, f(s)?);
+    }
+    None
+}
+
+fn replace_farthest(points: &mut [(f64, [f64; 3]); 3], new: (f64, [f64; 3])) {
+    let far = (0..3).max_by(|&i, &j| (points[i].0 - new.0).abs().total_cmp(&(points[j].0 - new.0).abs()));
+    points[far.expect("three points")] = new;
+}
+
+fn norm2(v: &[f64; 3]) -> f64 {
+    v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+}
+
+/// Where on `[lo, hi]` the magnitude of the quadratic through three vector values
+/// is least; `None` where two of the points coincide or the model is not finite.
+fn model_min(points: &[(f64, [f64; 3]); 3], lo: f64, hi: f64) -> Option<f64> {
+    let [(s0, f0), (s1, f1), (s2, f2)] = *points;
+    let (h1, h2, h12) = (s1 - s0, s2 - s0, s2 - s1);
+    if h1 == 0.0 || h2 == 0.0 || h12 == 0.0 {
+        return None;
+    }
+    // Newton's form in u = s − s0, then powers: q(u) = A + B·u + C·u².
+    let d01: [f64; 3] = std::array::from_fn(|i| (f1[i] - f0[i]) / h1);
+    let d12: [f64; 3] = std::array::from_fn(|i| (f2[i] - f1[i]) / h12);
+    let c: [f64; 3] = std::array::from_fn(|i| (d12[i] - d01[i]) / h2);
+    let bv: [f64; 3] = std::array::from_fn(|i| d01[i] - c[i] * h1);
+    let dot = |x: &[f64; 3], y: &[f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    // ½·d|q|²/du = g0 + g1·u + g2·u² + g3·u³.
+    let g = [dot(&f0, &bv), dot(&bv, &bv) + 2.0 * dot(&f0, &c), 3.0 * dot(&bv, &c), 2.0 * dot(&c, &c)];
+    if !g.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let slope = |u: f64| g[0] + u * (g[1] + u * (g[2] + u * g[3]));
+    let value = |u: f64| {
+        let q: [f64; 3] = std::array::from_fn(|i| f0[i] + u * (bv[i] + u * c[i]));
+        norm2(&q)
+    };
+    let (ulo, uhi) = (lo - s0, hi - s0);
+    // The slope is monotone between the roots of its derivative g1 + 2·g2·u + 3·g3·u².
+    let mut cuts = vec![ulo];
+    let (qa, qb, qc) = (3.0 * g[3], 2.0 * g[2], g[1]);
+    if qa != 0.0 {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc > 0.0 {
+            let r = -0.5 * (qb + disc.sqrt().copysign(qb));
+            let mut roots = [r / qa, if r != 0.0 { qc / r } else { r / qa }];
+            roots.sort_by(f64::total_cmp);
+            cuts.extend(roots.into_iter().filter(|u| *u > ulo && *u < uhi));
+        }
+    } else if qb != 0.0 {
+        let u = -qc / qb;
+        if u > ulo && u < uhi {
+            cuts.push(u);
+        }
+    }
+    cuts.push(uhi);
+    let mut best = if value(ulo) <= value(uhi) { ulo } else { uhi };
+    for w in cuts.windows(2) {
+        let (mut x, mut y) = (w[0], w[1]);
+        let (sx, sy) = (slope(x), slope(y));
+        // A minimum where the slope rises through zero.
+        if !(sx < 0.0 && sy > 0.0) {
+            continue;
+        }
+        for _ in 0..200 {
+            let m = 0.5 * (x + y);
+            if m <= x || m >= y {
+                break;
+            }
+            if slope(m) < 0.0 {
+                x = m;
+            } else {
+                y = m;
+            }
+        }
+        let u = 0.5 * (x + y);
+        if value(u) < value(best) {
+            best = u;
+        }
+    }
+    Some((s0 + best).clamp(lo, hi))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,6 +345,87 @@ mod tests {
         // A step (an unsolvable stretch reads 0): the root is where f is 0.
         let r = brent_root(0.0, 1.0, -1.0, 1.0, 1e-9, |x| if x < 0.3 { -1.0 } else { 0.0 });
         assert!((0.3..0.3 + 1e-9).contains(&r) || r >= 0.3, "{r}");
+    }
+
+    /// `f(s) = (s − s*, 0.3·(s − s*)² + 1e-9, cos s − cos s*)`: a load through (nearly)
+    /// zero whose magnitude is a V; the minimum of `|f|²`, by bisection of its exact
+    /// derivative, is the yardstick.
+    #[test]
+    fn vector_min_and_polish_locate_a_load_through_zero() {
+        let star = 0.412_345_678_9;
+        let f = |s: f64| [s - star, 0.3 * (s - star).powi(2) + 1e-9, s.cos() - star.cos()];
+        let df = |s: f64| [1.0, 0.6 * (s - star), -s.sin()];
+        let slope = |s: f64| {
+            let (v, d) = (f(s), df(s));
+            v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
+        };
+        let exact = bisect(0.3, 0.5, slope(0.3), 1e-15, slope);
+        let (a, b, c) = (0.4, 0.42, 0.44);
+        let mut calls = 0;
+        let (p, m2) = vector_min((a, f(a)), (b, f(b)), (c, f(c)), 1e-4 * (b - a), |s| {
+            calls += 1;
+            Some(f(s))
+        })
+        .expect("settles");
+        assert!((p - exact).abs() < 1e-4 * (b - a), "{p} {exact}");
+        assert!((m2 - norm2(&f(p))).abs() == 0.0);
+        let polished = vector_polish(p, f(p), 1e-5, (a, b), |s| {
+            calls += 1;
+            Some(f(s))
+        })
+        .expect("settles");
+        assert!((polished - exact).abs() < 1e-13, "{polished} {exact}");
+        let mut brent_calls = 0;
+        brent_min(a, b, 1e-4 * (b - a), |s| {
+            brent_calls += 1;
+            norm2(&f(s))
+        });
+        assert!(calls * 2 < brent_calls, "{calls} evaluations against Brent's {brent_calls}");
+    }
+
+    /// A magnitude falling all the way to an end gives that end, exactly; a dip the
+    /// three values do not show (a narrow one in the middle) is found by the look
+    /// inside the interval.
+    #[test]
+    fn vector_min_gives_an_end_or_a_hidden_dip() {
+        let f = |s: f64| [1.0 + s, 0.01, 0.0];
+        let (p, m2) = vector_min((0.0, f(0.0)), (1.0, f(1.0)), (2.0, f(2.0)), 1e-4, |s| Some(f(s))).expect("settles");
+        assert_eq!((p, m2), (0.0, norm2(&f(0.0))));
+        let g = |s: f64| [1.0 + s - 1.45 * (-((s - 0.5) / 0.1f64).powi(2)).exp(), 0.01, 0.0];
+        let (p, m2) = vector_min((0.0, g(0.0)), (1.0, g(1.0)), (2.0, g(2.0)), 1e-9, |s| Some(g(s))).expect("settles");
+        let (q, n2) = brent_min(0.3, 0.7, 1e-12, |s| norm2(&g(s)));
+        assert!((p - q).abs() < 1e-6 && (m2 - n2).abs() < 1e-12, "{p} {q} {m2} {n2}");
+        // No value (an unsolvable pose): no answer, the caller falls back.
+        assert!(vector_min((0.0, g(0.0)), (1.0, g(1.0)), (2.0, g(2.0)), 1e-9, |_| None).is_none());
+    }
+
+    /// A shallow dip (the load stays 2.4 N) whose values carry round-off of 1e-13:
+    /// the polish, from values a stencil's width apart, lands within 1e-10 of the
+    /// exact minimum, where the minimum of `|f|²` alone by Brent's method does not.
+    #[test]
+    fn vector_polish_resolves_a_shallow_dip_beyond_root_epsilon() {
+        let star = -0.435_366_343_342_577;
+        let noise = |s: f64| 1e-13 * (1e7 * s).sin();
+        let f = |s: f64| {
+            let u = s - star;
+            [-2.39 - 4.32 * u + 3.8 * u * u + noise(s), 0.0, 0.29 - 35.34 * u + 9.8 * u * u + noise(2.0 * s)]
+        };
+        // The exact minimum of the noise-free load.
+        let clean = |s: f64| {
+            let u = s - star;
+            [-2.39 - 4.32 * u + 3.8 * u * u, 0.0, 0.29 - 35.34 * u + 9.8 * u * u]
+        };
+        let slope = |s: f64| {
+            let (v, u) = (clean(s), s - star);
+            v[0] * (-4.32 + 7.6 * u) + v[2] * (-35.34 + 19.6 * u)
+        };
+        let exact = bisect(star - 0.01, star + 0.01, slope(star - 0.01), 1e-16, slope);
+        let (lo, hi) = (star - 0.008, star + 0.009);
+        let start = exact + 2e-9;
+        let p = vector_polish(start, f(start), 1e-5, (lo, hi), |s| Some(f(s))).expect("settles");
+        assert!((p - exact).abs() < 1e-10, "{:e}", p - exact);
+        let (q, _) = brent_min(lo, hi, 1e-12, |s| norm2(&f(s)));
+        assert!((q - exact).abs() > 1e-10, "Brent on |f|² alone: {:e}", q - exact);
     }
 
     #[test]
