@@ -13,7 +13,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_discontinuity::brent_min;
+use clearance_discontinuity::{brent_min, vector_min, vector_polish};
 use clearance_grid::SampleSource;
 use clearance_model::{InputSpec, JobSpec, Mode, RangeSpec, SamplesSpec, Variant};
 use clearance_parquet::{
@@ -112,6 +112,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
     let mut stages = StageTimes::default();
+    let mut known = KnownSamples::default();
     for w in &todo_work {
         let u0 = &w.units[0];
         progress.stage(&format!("variant {} {}", u0.variant, u0.mode.name()));
@@ -119,6 +120,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         let (group, (model, source)) = (&groups[w.group], &models[w.group]);
         let (rows, samples) = samples(source, u0.range.clone());
         let solved = solve_rows(model, &samples, u0.mode);
+        known.keep(w.group, u0.mode, source.len(), u0.range.start, &solved);
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
         for u in &w.units {
             let pose_pass = Instant::now();
@@ -159,7 +161,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     if complete {
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        finalize(layout, job, &variants, &groups, &models, &all, &durable, &mut stages)?;
+        finalize(layout, job, &variants, &groups, &models, &all, &durable, &known, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
@@ -177,6 +179,7 @@ fn finalize(
     models: &[(UpsModel, SampleSource)],
     all: &[Unit],
     write_opts: &WriteOptions,
+    known: &KnownSamples,
     stages: &mut StageTimes,
 ) -> Result<()> {
     let mut summary = Vec::new();
@@ -194,7 +197,7 @@ fn finalize(
             let found: &Vec<UpsSwitch> = found_by_group.entry((g, mode)).or_insert_with(|| {
                 let searching = Instant::now();
                 let first = &variants[group.first() as usize];
-                let found = search(&first.job, group.clearance, model, source, mode);
+                let found = search(&first.job, group.clearance, model, source, mode, known.get(g, mode));
                 stages.search += searching.elapsed().as_secs_f64();
                 found
             });
@@ -325,8 +328,52 @@ fn ups_paths(job: &JobSpec, source: &SampleSource) -> Vec<UpsPath> {
 type SampleLoads = [[Option<nalgebra::Vector3<f64>>; 6]; 2];
 
 /// The most memory the search's table of every sample's loads may take (384 bytes a
-/// sample: about 700 000 samples).
+/// sample: about 700 000 samples), and the pass's tables of what it solved (in all).
 const SHARED_LOADS_BYTES: u64 = 1 << 28;
+
+/// What the search reads of a sample the pass solved: its loads and each searched
+/// kind's error (`s_radial`, `u_radial`), as [`sample_loads`] and [`kind_error`] give them.
+#[derive(Clone, Copy, Debug)]
+struct Known {
+    loads: SampleLoads,
+    errors: [Option<[f64; 6]>; 2],
+}
+
+/// The samples the pass solved, per (group, mode), kept for the search while they
+/// fit in [`SHARED_LOADS_BYTES`] in all: a run that computes every unit reads them
+/// instead of solving them again; samples it did not compute (a resumed or
+/// sharded run) are solved by the search as before, with the same values.
+#[derive(Default)]
+struct KnownSamples {
+    tables: std::collections::HashMap<(usize, Mode), Vec<Option<Known>>>,
+    /// The groups and modes whose table would not fit.
+    refused: std::collections::HashSet<(usize, Mode)>,
+}
+
+impl KnownSamples {
+    fn keep(&mut self, group: usize, mode: Mode, len: u64, first: u64, solved: &[UpsResult]) {
+        if self.refused.contains(&(group, mode)) {
+            return;
+        }
+        if !self.tables.contains_key(&(group, mode)) {
+            let entry = std::mem::size_of::<Option<Known>>() as u64;
+            let held: u64 = self.tables.values().map(|t| t.len() as u64 * entry).sum();
+            if held.saturating_add(len.saturating_mul(entry)) > SHARED_LOADS_BYTES {
+                self.refused.insert((group, mode));
+                return;
+            }
+            self.tables.insert((group, mode), vec![None; len as usize]);
+        }
+        let table = self.tables.get_mut(&(group, mode)).expect("inserted above");
+        for (slot, r) in table[first as usize..].iter_mut().zip(solved) {
+            *slot = Some(Known { loads: sample_loads(r), errors: [kind_error(r, 0), kind_error(r, 1)] });
+        }
+    }
+
+    fn get(&self, group: usize, mode: Mode) -> Option<&[Option<Known>]> {
+        self.tables.get(&(group, mode)).map(Vec::as_slice)
+    }
+}
 
 fn sample_loads(r: &UpsResult) -> SampleLoads {
     std::array::from_fn(|kind| std::array::from_fn(|l| load(r, kind, l)))
@@ -351,7 +398,14 @@ const LOCATE_TOL: f64 = 1e-10;
 
 /// The switches of one (group, mode) with the group's magnitudes (`clearance`, as
 /// [`crate::groups::magnitudes`] orders them): every path, in order, on the rayon pool.
-fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleSource, mode: Mode) -> Vec<UpsSwitch> {
+fn search(
+    job: &JobSpec,
+    clearance: [f64; 4],
+    model: &UpsModel,
+    source: &SampleSource,
+    mode: Mode,
+    known: Option<&[Option<Known>]>,
+) -> Vec<UpsSwitch> {
     let kinds: Vec<usize> = (0..2).filter(|&k| clearance[k] > 0.0).collect();
     if kinds.is_empty() {
         return Vec::new();
@@ -366,7 +420,10 @@ fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleS
     let mut inputs: Vec<&str> = paths.iter().map(|p| p.along).collect();
     inputs.dedup();
     let fits = n.saturating_mul(std::mem::size_of::<SampleLoads>() as u64) <= SHARED_LOADS_BYTES;
-    let shared: Option<Vec<SampleLoads>> = (inputs.len() > 1 && fits).then(|| {
+    // What the pass kept of a sample, where it kept it.
+    let kept = |i: u64| known.and_then(|k| k[i as usize].as_ref());
+    let complete = known.is_some_and(|k| k.iter().all(Option::is_some));
+    let shared: Option<Vec<SampleLoads>> = (inputs.len() > 1 && fits && !complete).then(|| {
         (0..n)
             .into_par_iter()
             .map_init(
@@ -387,12 +444,13 @@ fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleS
                     solve_ups_loads(model, &s, mode, ws)
                 };
                 let sample = |k: usize| source.sample6(path.index(k)).1;
-                let loads: Vec<SampleLoads> = match &shared {
-                    Some(all) => (0..path.len).map(|k| all[path.index(k) as usize]).collect(),
-                    None => {
-                        (0..path.len).map(|k| sample_loads(&solve_ups_loads(model, &sample(k), mode, ws))).collect()
-                    }
-                };
+                let loads: Vec<SampleLoads> = (0..path.len)
+                    .map(|k| match (kept(path.index(k)), &shared) {
+                        (Some(known), _) => known.loads,
+                        (None, Some(all)) => all[path.index(k) as usize],
+                        (None, None) => sample_loads(&solve_ups_loads(model, &sample(k), mode, ws)),
+                    })
+                    .collect();
                 let mut out = Vec::new();
                 for &kind in &kinds {
                     for l in 0..6 {
@@ -401,16 +459,26 @@ fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleS
                             .map(|r| r[kind][l].map(|f| (f.norm(), f)).filter(|(m, _)| *m > floor))
                             .collect();
                         // Each interval refined on its own, then the minima kept (`select`).
+                        let at =
+                            |ws: &mut UpsWorkspace, p: f64| load(&loads_at(ws, p), kind, l).map(|v| [v.x, v.y, v.z]);
                         let refined: Vec<Refined> = minima(&mags)
                             .into_iter()
                             .filter(|&(lo, _)| can_flip(&mags, lo as usize))
                             .map(|(lo, hi)| {
-                                let mut f = |p: f64| load(&loads_at(ws, p), kind, l).map_or(f64::MAX, |v| v.norm());
-                                let (x, m) = brent_min(lo, hi, LOCATE_TOL, &mut f);
+                                let (x, m) = refine(&mags, lo as usize, &mut |p| at(ws, p)).unwrap_or_else(|| {
+                                    brent_min(lo, hi, LOCATE_TOL, |p| at(ws, p).map_or(f64::MAX, norm))
+                                });
                                 Refined { lo, hi, x, m }
                             })
                             .collect();
                         for Refined { x, m, .. } in select(&refined, &mags) {
+                            // A minimum inside its interval, polished to round-off.
+                            let (x, m) = match (x.fract() != 0.0).then(|| at(ws, x)).flatten() {
+                                Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(ws, p))
+                                    .and_then(|p| Some((p, norm(at(ws, p)?))))
+                                    .unwrap_or((x, m)),
+                                None => (x, m),
+                            };
                             if m >= threshold {
                                 continue;
                             }
@@ -420,7 +488,10 @@ fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleS
                             if db.dot(&da) >= 0.0 {
                                 continue; // a dip that does not turn the direction by more than 90°
                             }
-                            let mut error = |k: usize| kind_error(&solve_ups_pose(model, &sample(k), mode, ws), kind);
+                            let mut error = |k: usize| match kept(path.index(k)) {
+                                Some(known) => known.errors[kind],
+                                None => kind_error(&solve_ups_pose(model, &sample(k), mode, ws), kind),
+                            };
                             let jump = match (error(before), error(after)) {
                                 (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
                                 _ => [f64::NAN; 6],
@@ -448,6 +519,38 @@ fn search(job: &JobSpec, clearance: [f64; 4], model: &UpsModel, source: &SampleS
 }
 
 type Mags = [Option<(f64, nalgebra::Vector3<f64>)>];
+
+/// The half-width (in samples) of the stencil that polishes a minimum
+/// ([`vector_polish`]).
+const POLISH_WIDTH: f64 = 1e-3;
+
+/// The tolerance (in samples) of the first location of a minimum ([`vector_min`]),
+/// which [`vector_polish`] takes to round-off.
+const SCAN_TOL: f64 = 1e-6;
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// The least load magnitude on the interval `(k, k + 1)` and where it is, by
+/// [`vector_min`] from the loads at its ends and at the sample beyond the sampled
+/// minimum it borders (else at its middle). `None` where that does not settle.
+fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -> Option<(f64, f64)> {
+    let known = |i: usize| mags.get(i).copied().flatten().map(|(_, v)| (i as f64, [v.x, v.y, v.z]));
+    let (a, b) = (known(k)?, known(k + 1)?);
+    let beyond = if is_min(mags, k + 1) {
+        known(k + 2)
+    } else if is_min(mags, k) {
+        k.checked_sub(1).and_then(known)
+    } else {
+        None
+    };
+    let third = match beyond {
+        Some(third) => third,
+        None => (k as f64 + 0.5, at(k as f64 + 0.5)?),
+    };
+    vector_min(a, b, third, SCAN_TOL, at).map(|(x, m2)| (x, m2.sqrt()))
+}
 
 /// A minimum of the load magnitude found by refining the interval `[lo, hi]`.
 #[derive(Clone, Copy, Debug)]
