@@ -20,7 +20,7 @@ struct Dip {
     hi: usize,
 }
 
-/// A Brent minimum closer than this (relative to its interval) to an end of its
+/// A refined minimum closer than this (relative to its interval) to an end of its
 /// interval is that end's: the magnitude falls all the way to it (ten times the
 /// minimiser's tolerance).
 const EDGE: f64 = 10.0 * SCAN_TOL;

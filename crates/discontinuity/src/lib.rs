@@ -10,18 +10,20 @@
 //! - scalar loads, `f_Rj·y_j` for both `r_axial` and `r_angular` (in the 3-limb
 //!   kinds `m_Rj = |A_j − B_j|·(f_Rj·y_j)·u_j`, so the angular take-up flips exactly
 //!   where the axial load changes sign; its margin is `|m_Rj|`): a switch wherever
-//!   the sign differs between consecutive determinate samples, located by Brent's
-//!   root finder, and two where an interval beside a sampled minimum of `|f_Rj·y_j|`
+//!   the sign differs between consecutive determinate samples, located by
+//!   interpolation ([`interpolated_root`]), and two where an interval beside a sampled minimum of `|f_Rj·y_j|`
 //!   holds an extremum of the opposite sign (two crossings between samples of one
 //!   sign);
 //! - vector loads: every interior sampled minimum of the magnitude is refined on
-//!   each of the two intervals beside it on its own (Brent on the squared
-//!   magnitude), and so is every interval whose end directions differ by more than
+//!   each of the two intervals beside it on its own (from the load vectors,
+//!   [`vector_min`]), and so is every interval whose end directions differ by more than
 //!   90°; a refined minimum below `discontinuity_load_fraction·W` is a switch if the
 //!   take-up directions where the magnitude has risen back to twice that minimum
 //!   (never less than twice the noise floor), at the sampled maximum before another
 //!   dip, or at the path's ends, differ by more than 90°. A switch is then polished
-//!   as the root of `d|f|²/ds` (a five-point difference of the reactions).
+//!   as the root of `f·df/ds` ([`vector_polish`]). Brent's methods
+//!   ([`brent_root`], [`brent_min`]) take over where a pose between samples is
+//!   unsolvable or the interpolation does not settle.
 //!
 //! Samples whose deciding load is within the noise floor are indeterminate and left
 //! out; unreachable and near-singular samples cut a path into separate segments.
@@ -40,7 +42,7 @@ mod search;
 mod shortcut;
 mod trace;
 
-pub use minimise::{brent_min, brent_root, vector_min, vector_polish};
+pub use minimise::{brent_min, brent_root, interpolated_root, vector_min, vector_polish};
 pub use paths::{Along, Axis, Path, axes, paths};
 use search::{Known, search_path_known};
 pub use search::{Sampled, search_path};

@@ -8,7 +8,7 @@ use crate::minimise::brent_min_below;
 use crate::search::{Segment, Side, Solved};
 use crate::shortcut::Shortcut;
 use crate::trace::{Decider, min_bit, neg_bit};
-use crate::{LOCATE_TOL, SCAN_TOL, axial, brent_root};
+use crate::{LOCATE_TOL, SCAN_TOL, axial, interpolated_root};
 
 /// One zero of the load, with the points either side that the jump is read between,
 /// and the reactions there (for its margin, under each kind it decides).
@@ -34,7 +34,7 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
     for (a, b) in segment.pairs() {
         if negative(a) != negative(b) {
             let (fa, fb) = (f(solved, a, ws), f(solved, b, ws));
-            let p = brent_root(ev.param(a), ev.param(b), fa, fb, LOCATE_TOL, |p| f_at(p, ws));
+            let p = interpolated_root(ev.param(a), ev.param(b), fa, fb, LOCATE_TOL, |p| f_at(p, ws));
             // Mostly the point the root finder evaluated last, so solved already.
             let reactions = ev.reactions_at(p, ws);
             out.push(Crossing { p, reactions, before: Side::Sample(a), after: Side::Sample(b) });
@@ -72,9 +72,9 @@ pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize
             }
             let fm = sign * least;
             let (flo, fhi) = (f(solved, lo, ws), f(solved, hi, ws));
-            let first = brent_root(plo, pm, flo, fm, LOCATE_TOL, |p| f_at(p, ws));
+            let first = interpolated_root(plo, pm, flo, fm, LOCATE_TOL, |p| f_at(p, ws));
             let at_first = ev.reactions_at(first, ws);
-            let second = brent_root(pm, phi, fm, fhi, LOCATE_TOL, |p| f_at(p, ws));
+            let second = interpolated_root(pm, phi, fm, fhi, LOCATE_TOL, |p| f_at(p, ws));
             let at_second = ev.reactions_at(second, ws);
             out.push(Crossing { p: first, reactions: at_first, before: Side::Sample(lo), after: Side::At(pm) });
             out.push(Crossing { p: second, reactions: at_second, before: Side::At(pm), after: Side::Sample(hi) });
