@@ -5,9 +5,11 @@
 //! A unit (variant, mode, chunk) is solved whole on the pool and written as one part
 //! file with its statistics beside it. When every unit is in, the discontinuity
 //! search (docs/model.md §8) follows every grid line of every swept input, or the
-//! trajectory, for the vector loads `f_Si` (`s_radial`) and `f_Ui` (`u_radial`); it
-//! solves the poses of each path again rather than keeping traces, so it needs
-//! nothing from the parts and a resumed or sharded run searches the same way.
+//! trajectory, for the vector loads `f_Si` (`s_radial`) and `f_Ui` (`u_radial`). It
+//! reads at samples what the pass solved, where this process computed them and they
+//! fit in memory, and solves the rest again (it keeps no traces, so it needs nothing
+//! from the parts and a resumed or sharded run finds the same switches); minima are
+//! refined and polished from the load vectors ([`vector_min`], [`vector_polish`]).
 
 use std::path::Path;
 use std::time::Instant;
