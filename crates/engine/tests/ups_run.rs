@@ -121,3 +121,41 @@ fn shards_make_the_same_run() {
     assert_eq!(read(&a.summary()), read(&b.summary()));
     assert_eq!(read(&a.discontinuities()), read(&b.discontinuities()));
 }
+
+/// A grid with switches on every kind of line: a single run, whose search reads
+/// every sample's loads and errors from its pass, and shards, whose last one reads
+/// its own units and solves the others' samples again, find the same switches, bit
+/// for bit.
+#[test]
+fn shards_find_the_switches_of_one_run() {
+    let text = r#"
+name = "ups_switches"
+[mechanism]
+kind = "6-UPS"
+[mass]
+points = [ { mass = 5.0, at = [0.05, 0.0, 0.3] } ]
+[clearance]
+s_radial = 1e-4
+u_radial = 1e-4
+[grid]
+x = { start = -0.15, stop = 0.15, n = 13 }
+y = { start = -0.15, stop = 0.15, n = 11 }
+z = { start = 0.6, stop = 0.85, n = 3 }
+phi = 0.05
+psi = 0.1
+theta = -0.1
+"#;
+    let job = JobSpec::from_toml_str(text, "ups.toml").unwrap();
+    let one = tempfile::tempdir().unwrap();
+    run(&job, "ups.toml", &RunOptions { chunk_size: 64, ..common::options(one.path()) }).unwrap();
+    let many = tempfile::tempdir().unwrap();
+    for i in 0..3 {
+        run(&job, "ups.toml", &RunOptions { shard: Some((i, 3)), chunk_size: 64, ..common::options(many.path()) })
+            .unwrap();
+    }
+    let (a, b) = (Layout::new(one.path()), Layout::new(many.path()));
+    let switches = read(&a.discontinuities());
+    assert!(switches.num_rows() > 100, "{} switches", switches.num_rows());
+    assert_eq!(switches, read(&b.discontinuities()));
+    assert_eq!(read(&a.summary()), read(&b.summary()));
+}
