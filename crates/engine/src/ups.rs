@@ -24,7 +24,8 @@ use clearance_parquet::{
 };
 use clearance_solver::Status;
 use clearance_solver::ups::{
-    UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_loads, solve_ups_par, solve_ups_pose,
+    UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_loads, solve_ups_loads_reduced, solve_ups_par,
+    solve_ups_pose,
 };
 use rayon::prelude::*;
 
@@ -441,9 +442,11 @@ fn search(
             |ws, path| {
                 // The loads decide everything but the jumps: the error system is solved
                 // only at the two samples a switch's jump is read from.
+                // Between samples, the legs eliminated in closed form (the same loads
+                // to round-off); at samples, the pass's values or the same solve as its.
                 let loads_at = |ws: &mut UpsWorkspace, p: f64| {
                     let (_, s) = path.sample_at(source, trajectory.as_ref(), p);
-                    solve_ups_loads(model, &s, mode, ws)
+                    solve_ups_loads_reduced(model, &s, mode, ws)
                 };
                 let sample = |k: usize| source.sample6(path.index(k)).1;
                 let loads: Vec<SampleLoads> = (0..path.len)
