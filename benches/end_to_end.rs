@@ -40,6 +40,7 @@ fn run_job(job: &JobSpec, solver: SolverKind, out: &Path) {
         writer: Writer::Engine,
         progress: Reporter::default(),
         direct_io: true,
+        search: true,
     };
     let report = run(job, "bench.toml", &opts).expect("the run succeeds");
     std::hint::black_box(report);

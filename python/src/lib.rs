@@ -298,6 +298,7 @@ fn run(
         writer: Writer::Engine,
         progress: PyProgress::reporter(progress),
         direct_io,
+        search: true,
     };
     let r = py.detach(|| on_pool(threads, || clearance_engine::run(&job.spec, &job.file, &opts)))?.map_err(to_py)?;
     Ok((r.computed, r.total, r.seconds, r.complete))

@@ -93,6 +93,7 @@ pub fn bench(
         writer,
         progress: Default::default(),
         direct_io: crate::buffered_io_not_asked(),
+        search: true,
     };
     let mut e2es = Vec::with_capacity(repeat);
     let mut bytes = 0;
@@ -201,9 +202,23 @@ struct Measured {
     /// The report of the fastest run.
     best: RunReport,
     bytes_per_pose: f64,
+    /// Wall seconds of the fastest run of the job without its search
+    /// ([`RunOptions::search`]).
+    without_search: f64,
 }
 
 impl Measured {
+    /// The share of the fastest run's wall time that its search adds: one less the
+    /// wall time of the fastest run without it against that of the fastest with it
+    /// (noise can make it slightly negative).
+    fn search_added(&self) -> f64 {
+        if self.best.seconds > 0.0 && self.without_search.is_finite() {
+            1.0 - self.without_search / self.best.seconds
+        } else {
+            0.0
+        }
+    }
+
     fn rate(&self) -> f64 {
         self.rates.iter().copied().fold(0.0, f64::max)
     }
@@ -306,6 +321,7 @@ impl SuiteOptions {
             writer: self.writer,
             progress: Default::default(),
             direct_io: crate::buffered_io_not_asked(),
+            search: true,
         }
     }
 }
@@ -323,7 +339,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
         let opts = o.run_options(&dir.0, s.columns, None);
         let rows = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
         let mut rates = Vec::with_capacity(o.repeat);
-        let (mut best, mut bytes) = (RunReport::default(), 0);
+        let (mut best, mut bytes, mut without_search) = (RunReport::default(), 0, f64::INFINITY);
         for _ in 0..o.repeat.max(1) {
             let _ = std::fs::remove_dir_all(&dir.0);
             let start = Instant::now();
@@ -334,6 +350,11 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
                 bytes = dir_size(&dir.0.join("poses"));
             }
             rates.push(rate);
+            // The same run without its search, alternated with the runs above: the wall
+            // time the search adds, where its busy time overlaps the other stages.
+            let _ = std::fs::remove_dir_all(&dir.0);
+            let off = RunOptions { search: false, ..opts.clone() };
+            without_search = without_search.min(run(&job, s.file, &off)?.seconds);
         }
         let _ = std::fs::remove_dir_all(&dir.0);
         measured.push(Measured {
@@ -345,6 +366,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             rates,
             best,
             bytes_per_pose: bytes as f64 / rows.max(1) as f64,
+            without_search,
         });
     }
     let sharded = sharded_run(o, &dir.0)?;
@@ -356,7 +378,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             .map(|m| {
                 let st = &m.best.stages;
                 format!(
-                    "{{\"job\": \"{}\", \"file\": \"{}\", \"mechanism\": \"{}\", \"columns\": \"{}\", \"poses\": {}, \"variants\": {}, \"modes\": {}, \"poses_per_s\": {:.1}, \"seconds\": {:.4}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_writing\": {:.4}, \"stages_timed\": {}, \"bytes_per_pose\": {:.1}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"runs\": {}}}",
+                    "{{\"job\": \"{}\", \"file\": \"{}\", \"mechanism\": \"{}\", \"columns\": \"{}\", \"poses\": {}, \"variants\": {}, \"modes\": {}, \"poses_per_s\": {:.1}, \"seconds\": {:.4}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_search_added\": {:.4}, \"seconds_without_search\": {:.4}, \"share_writing\": {:.4}, \"stages_timed\": {}, \"bytes_per_pose\": {:.1}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"runs\": {}}}",
                     m.job.name,
                     m.job.file,
                     m.mechanism,
@@ -368,6 +390,8 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
                     m.best.seconds,
                     m.share(st.pose_pass),
                     m.share(st.search),
+                    m.search_added(),
+                    m.without_search,
                     m.share(st.writing),
                     m.stages_timed(),
                     m.bytes_per_pose,
@@ -399,14 +423,14 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             o.scale
         );
         println!(
-            "{:<27} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>8} {:>11}",
-            "job", "kind", "columns", "poses", "poses/s", "pose pass", "search", "writing", "bytes/pose"
+            "{:<27} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>12} {:>8} {:>11}",
+            "job", "kind", "columns", "poses", "poses/s", "pose pass", "search", "search adds", "writing", "bytes/pose"
         );
         for m in &measured {
             let st = &m.best.stages;
             let pct = |x: f64| if m.stages_timed() { format!("{:.0} %", 100.0 * x) } else { "-".into() };
             println!(
-                "{:<27} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>8} {:>11.1}",
+                "{:<27} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>12} {:>8} {:>11.1}",
                 m.job.name,
                 m.mechanism,
                 m.job.columns.name(),
@@ -414,6 +438,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
                 m.rate(),
                 pct(m.share(st.pose_pass)),
                 pct(m.share(st.search)),
+                format!("{:.0} %", 100.0 * m.search_added()),
                 pct(m.share(st.writing)),
                 m.bytes_per_pose
             );
@@ -432,6 +457,9 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
         );
         println!(
             "shares: each stage's busy time against the run's wall time; the stages overlap, so they may add up to more than 100 %"
+        );
+        println!(
+            "search adds: one less the wall time of the job's fastest run without its search against its fastest with it, alternated"
         );
         if measured.iter().any(|m| !m.stages_timed()) {
             println!("-: the run timed no stage");

@@ -282,6 +282,7 @@ fn main() -> ExitCode {
                 writer,
                 progress: Reporter::new(std::sync::Arc::new(progress::Display::new(quiet))),
                 direct_io,
+                search: true,
             };
             let run = |()| clearance_engine::run(&spec, &job.display().to_string(), &opts).map_err(anyhow::Error::from);
             init_threads(threads).and_then(run).map(|r| {
@@ -312,6 +313,7 @@ fn main() -> ExitCode {
                     writer: Writer::default(),
                     progress: Reporter::default(),
                     direct_io: buffered_io_not_asked(),
+                    search: true,
                 };
                 let timing = (!no_timing).then_some(&opts);
                 init_threads(threads).and_then(|()| check::check(&spec, &job.display().to_string(), timing))

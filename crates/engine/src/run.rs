@@ -57,6 +57,11 @@ pub struct RunOptions {
     pub progress: Reporter,
     /// Part files past the page cache where the disk allows ([`WriteOptions::direct_io`]).
     pub direct_io: bool,
+    /// Whether the run searches for switches: true for every run a user makes. False
+    /// only to measure what the search costs (`clearance bench --suite` runs each job
+    /// both ways): the run is then written whole but for its switches, and
+    /// `discontinuities.parquet` is empty.
+    pub search: bool,
 }
 
 /// What a run did.
@@ -579,7 +584,8 @@ fn finalize(
             }
             let units: Vec<&Unit> = all.iter().filter(|u| u.variant == first && u.mode == mode).collect();
             let start = Instant::now();
-            let found = search_after(layout, model, source, mode, &search, &units, opts)?;
+            let found =
+                if opts.search { search_after(layout, model, source, mode, &search, &units, opts)? } else { Vec::new() };
             stages.search += start.elapsed().as_secs_f64();
             found_by_group.insert((g, mode), found);
         }
@@ -1357,7 +1363,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         // Searched after the parts are on their way: the writer need not wait.
                         let start = Instant::now();
                         // A group's traces once, from the work of its first member.
-                        if ctx.searched_now(work) {
+                        if opts.search && ctx.searched_now(work) {
                             let (model, source) = &models[work.group];
                             let opts = search_options(&variants[groups[work.group].first() as usize]);
                             let key = (work.group, work.units[0].mode);
@@ -1406,7 +1412,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     })?;
     progress.finish();
 
-    if let Some(shard) = opts.shard {
+    if let Some(shard) = opts.shard.filter(|_| opts.search) {
         let start = Instant::now();
         crate::owned::search_owned(layout, job, &variants, &groups, &models, opts, shard)?;
         stages.search += start.elapsed().as_secs_f64();

@@ -164,7 +164,8 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     if complete {
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        finalize(layout, job, &variants, &groups, &models, &all, &durable, &known, &mut stages)?;
+        let known = opts.search.then_some(&known);
+        finalize(layout, job, &variants, &groups, &models, &all, &durable, known, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
@@ -182,7 +183,7 @@ fn finalize(
     models: &[(UpsModel, SampleSource)],
     all: &[Unit],
     write_opts: &WriteOptions,
-    known: &KnownSamples,
+    known: Option<&KnownSamples>,
     stages: &mut StageTimes,
 ) -> Result<()> {
     let mut summary = Vec::new();
@@ -200,7 +201,11 @@ fn finalize(
             let found: &Vec<UpsSwitch> = found_by_group.entry((g, mode)).or_insert_with(|| {
                 let searching = Instant::now();
                 let first = &variants[group.first() as usize];
-                let found = search(&first.job, group.clearance, model, source, mode, known.get(g, mode));
+                // `None`: the run does not search (`RunOptions::search`).
+                let found = match known {
+                    Some(known) => search(&first.job, group.clearance, model, source, mode, known.get(g, mode)),
+                    None => Vec::new(),
+                };
                 stages.search += searching.elapsed().as_secs_f64();
                 found
             });

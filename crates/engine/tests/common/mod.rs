@@ -26,6 +26,7 @@ pub fn options(out: &Path) -> RunOptions {
         writer: Writer::Engine,
         progress: Reporter::default(),
         direct_io: false,
+        search: true,
     }
 }
 
