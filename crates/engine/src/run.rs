@@ -584,8 +584,11 @@ fn finalize(
             }
             let units: Vec<&Unit> = all.iter().filter(|u| u.variant == first && u.mode == mode).collect();
             let start = Instant::now();
-            let found =
-                if opts.search { search_after(layout, model, source, mode, &search, &units, opts)? } else { Vec::new() };
+            let found = if opts.search {
+                search_after(layout, model, source, mode, &search, &units, opts)?
+            } else {
+                Vec::new()
+            };
             stages.search += start.elapsed().as_secs_f64();
             found_by_group.insert((g, mode), found);
         }
