@@ -775,11 +775,13 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    /// Whether the run searches `work` as it computes: it keeps its traces for the
-    /// search, and the work is its group's first member's (whose traces the search
-    /// follows; the other members share them).
+    /// Whether the run searches `work` as it computes: it searches at all
+    /// ([`RunOptions::search`]), keeps its traces for the search, and the work is its
+    /// group's first member's (whose traces the search follows; the other members
+    /// share them). Everything the pass does for the search alone (settling the
+    /// traces' minima across units, storing what the search reads) hangs on this.
     fn searched_now(&self, work: &Work) -> bool {
-        self.keep == KeepTraces::Search && work.units[0].variant == self.groups[work.group].first()
+        self.opts.search && self.keep == KeepTraces::Search && work.units[0].variant == self.groups[work.group].first()
     }
 
     /// Whether the search reads what the pass solved at the samples of `work`: it
@@ -1366,7 +1368,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         // Searched after the parts are on their way: the writer need not wait.
                         let start = Instant::now();
                         // A group's traces once, from the work of its first member.
-                        if opts.search && ctx.searched_now(work) {
+                        if ctx.searched_now(work) {
                             let (model, source) = &models[work.group];
                             let opts = search_options(&variants[groups[work.group].first() as usize]);
                             let key = (work.group, work.units[0].mode);
