@@ -65,8 +65,8 @@ pub(crate) fn switches(
         };
         let ends = ((plo, load(solved, lo, ws)), (phi, load(solved, hi, ws)));
         let xtol = SCAN_TOL * (phi - plo);
-        if let Some(found) = third.and_then(|third| vector_min(ends.0, ends.1, third, xtol, |p| at(p, ws))) {
-            return found;
+        if let Some((p, fp)) = third.and_then(|third| vector_min(ends.0, ends.1, third, xtol, |p| at(p, ws))) {
+            return (p, dot(fp, fp));
         }
         // The squared magnitude has the same minimum and is smooth there (the
         // magnitude itself is a V when the load passes near zero).

@@ -1,5 +1,7 @@
 //! One-dimensional root and minimum refinement.
 
+use crate::dot;
+
 /// Bisection of a sign change of `f` in `[a, b]` (`f(a)` and `f(b)` of opposite
 /// signs) until the bracket is at most `tol` wide; returns its midpoint. The
 /// yardstick that [`brent_root`] is tested against.
@@ -220,8 +222,8 @@ const VECTOR_STEPS: usize = 24;
 /// the quadratic through three values, component by component, and evaluates `f`
 /// where the model's magnitude is least on `[a, b]`, in place of the value farthest
 /// from there. It stops when the model's minimum lies within `xtol` of a point
-/// where `f` was evaluated, and returns that point and `|f|²` there: an end where
-/// `|f|` falls all the way to it. The steps converge like Müller's method (order
+/// where `f` was evaluated (or given), and returns that point and `f` there: an end
+/// where `|f|` falls all the way to it. The steps converge like Müller's method (order
 /// about 1.8); while the model still leans on distant values, its slope, and so
 /// the point, is good to the model's error only: [`vector_polish`] takes it from
 /// there. Where the model puts the minimum at an end before `f` was evaluated
@@ -235,7 +237,7 @@ pub fn vector_min(
     third: (f64, [f64; 3]),
     xtol: f64,
     mut f: impl FnMut(f64) -> Option<[f64; 3]>,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, [f64; 3])> {
     let (lo, hi) = if a.0 < b.0 { (a.0, b.0) } else { (b.0, a.0) };
     let mut points = [a, b, third];
     let mut looked_inside = lo < third.0 && third.0 < hi;
@@ -243,7 +245,7 @@ pub fn vector_min(
         let mut s = model_min(&points, lo, hi)?;
         if let Some(p) = points.iter().find(|p| (lo..=hi).contains(&p.0) && (p.0 - s).abs() <= xtol) {
             if looked_inside {
-                return Some((p.0, norm2(&p.1)));
+                return Some(*p);
             }
             s = 0.5 * (lo + hi);
         }
@@ -291,10 +293,6 @@ fn replace_farthest(points: &mut [(f64, [f64; 3]); 3], new: (f64, [f64; 3])) {
     points[far.expect("three points")] = new;
 }
 
-fn norm2(v: &[f64; 3]) -> f64 {
-    v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-}
-
 /// Where on `[lo, hi]` the magnitude of the quadratic through three vector values
 /// is least; `None` where two of the points coincide or the model is not finite.
 fn model_min(points: &[(f64, [f64; 3]); 3], lo: f64, hi: f64) -> Option<f64> {
@@ -308,16 +306,15 @@ fn model_min(points: &[(f64, [f64; 3]); 3], lo: f64, hi: f64) -> Option<f64> {
     let d12: [f64; 3] = std::array::from_fn(|i| (f2[i] - f1[i]) / h12);
     let c: [f64; 3] = std::array::from_fn(|i| (d12[i] - d01[i]) / h2);
     let bv: [f64; 3] = std::array::from_fn(|i| d01[i] - c[i] * h1);
-    let dot = |x: &[f64; 3], y: &[f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
     // ½·d|q|²/du = g0 + g1·u + g2·u² + g3·u³.
-    let g = [dot(&f0, &bv), dot(&bv, &bv) + 2.0 * dot(&f0, &c), 3.0 * dot(&bv, &c), 2.0 * dot(&c, &c)];
+    let g = [dot(f0, bv), dot(bv, bv) + 2.0 * dot(f0, c), 3.0 * dot(bv, c), 2.0 * dot(c, c)];
     if !g.iter().all(|x| x.is_finite()) {
         return None;
     }
     let slope = |u: f64| g[0] + u * (g[1] + u * (g[2] + u * g[3]));
     let value = |u: f64| {
         let q: [f64; 3] = std::array::from_fn(|i| f0[i] + u * (bv[i] + u * c[i]));
-        norm2(&q)
+        dot(q, q)
     };
     let (ulo, uhi) = (lo - s0, hi - s0);
     // The slope is monotone between the roots of its derivative g1 + 2·g2·u + 3·g3·u².
@@ -383,6 +380,10 @@ fn model_min(points: &[(f64, [f64; 3]); 3], lo: f64, hi: f64) -> Option<f64> {
 mod tests {
     use super::*;
 
+    fn norm2(v: [f64; 3]) -> f64 {
+        dot(v, v)
+    }
+
     #[test]
     fn bisection_finds_the_root() {
         let r = bisect(0.0, 2.0, -1.0, 1e-12, |x| x * x - 2.0);
@@ -426,13 +427,13 @@ mod tests {
         let exact = bisect(0.3, 0.5, slope(0.3), 1e-15, slope);
         let (a, b, c) = (0.4, 0.42, 0.44);
         let mut calls = 0;
-        let (p, m2) = vector_min((a, f(a)), (b, f(b)), (c, f(c)), 1e-4 * (b - a), |s| {
+        let (p, fp) = vector_min((a, f(a)), (b, f(b)), (c, f(c)), 1e-4 * (b - a), |s| {
             calls += 1;
             Some(f(s))
         })
         .expect("settles");
         assert!((p - exact).abs() < 1e-4 * (b - a), "{p} {exact}");
-        assert!((m2 - norm2(&f(p))).abs() == 0.0);
+        assert_eq!(fp, f(p));
         let polished = vector_polish(p, f(p), 1e-5, (a, b), |s| {
             calls += 1;
             Some(f(s))
@@ -442,7 +443,7 @@ mod tests {
         let mut brent_calls = 0;
         brent_min(a, b, 1e-4 * (b - a), |s| {
             brent_calls += 1;
-            norm2(&f(s))
+            norm2(f(s))
         });
         assert!(calls * 2 < brent_calls, "{calls} evaluations against Brent's {brent_calls}");
     }
@@ -453,11 +454,11 @@ mod tests {
     #[test]
     fn vector_min_gives_an_end_or_a_hidden_dip() {
         let f = |s: f64| [1.0 + s, 0.01, 0.0];
-        let (p, m2) = vector_min((0.0, f(0.0)), (1.0, f(1.0)), (2.0, f(2.0)), 1e-4, |s| Some(f(s))).expect("settles");
-        assert_eq!((p, m2), (0.0, norm2(&f(0.0))));
+        let (p, fp) = vector_min((0.0, f(0.0)), (1.0, f(1.0)), (2.0, f(2.0)), 1e-4, |s| Some(f(s))).expect("settles");
+        assert_eq!((p, fp), (0.0, f(0.0)));
         let g = |s: f64| [1.0 + s - 1.45 * (-((s - 0.5) / 0.1f64).powi(2)).exp(), 0.01, 0.0];
-        let (p, m2) = vector_min((0.0, g(0.0)), (1.0, g(1.0)), (2.0, g(2.0)), 1e-9, |s| Some(g(s))).expect("settles");
-        let (q, n2) = brent_min(0.3, 0.7, 1e-12, |s| norm2(&g(s)));
+        let (p, gp) = vector_min((0.0, g(0.0)), (1.0, g(1.0)), (2.0, g(2.0)), 1e-9, |s| Some(g(s))).expect("settles");
+        let (m2, (q, n2)) = (norm2(gp), brent_min(0.3, 0.7, 1e-12, |s| norm2(g(s))));
         assert!((p - q).abs() < 1e-6 && (m2 - n2).abs() < 1e-12, "{p} {q} {m2} {n2}");
         // No value (an unsolvable pose): no answer, the caller falls back.
         assert!(vector_min((0.0, g(0.0)), (1.0, g(1.0)), (2.0, g(2.0)), 1e-9, |_| None).is_none());
@@ -488,7 +489,7 @@ mod tests {
         let start = exact + 2e-9;
         let p = vector_polish(start, f(start), 1e-5, (lo, hi), |s| Some(f(s))).expect("settles");
         assert!((p - exact).abs() < 1e-10, "{:e}", p - exact);
-        let (q, _) = brent_min(lo, hi, 1e-12, |s| norm2(&f(s)));
+        let (q, _) = brent_min(lo, hi, 1e-12, |s| norm2(f(s)));
         assert!((q - exact).abs() > 1e-10, "Brent on |f|² alone: {:e}", q - exact);
     }
 

@@ -436,7 +436,10 @@ fn search(
             .into_par_iter()
             .map_init(
                 || UpsWorkspace::new(model),
-                |ws, i| sample_loads(&solve_ups_loads(model, &source.sample6(i).1, mode, ws)),
+                |ws, i| match kept(i) {
+                    Some(known) => known.loads,
+                    None => sample_loads(&solve_ups_loads(model, &source.sample6(i).1, mode, ws)),
+                },
             )
             .collect()
     });
@@ -455,9 +458,9 @@ fn search(
                 };
                 let sample = |k: usize| source.sample6(path.index(k)).1;
                 let loads: Vec<SampleLoads> = (0..path.len)
-                    .map(|k| match (kept(path.index(k)), &shared) {
-                        (Some(known), _) => known.loads,
-                        (None, Some(all)) => all[path.index(k) as usize],
+                    .map(|k| match (&shared, kept(path.index(k))) {
+                        (Some(all), _) => all[path.index(k) as usize],
+                        (None, Some(known)) => known.loads,
                         (None, None) => sample_loads(&solve_ups_loads(model, &sample(k), mode, ws)),
                     })
                     .collect();
@@ -474,16 +477,17 @@ fn search(
                         let refined: Vec<Refined> = minima(&mags)
                             .into_iter()
                             .filter(|&(lo, _)| can_flip(&mags, lo as usize))
-                            .map(|(lo, hi)| {
-                                let (x, m) = refine(&mags, lo as usize, &mut |p| at(ws, p)).unwrap_or_else(|| {
-                                    brent_min(lo, hi, LOCATE_TOL, |p| at(ws, p).map_or(f64::MAX, norm))
-                                });
-                                Refined { lo, hi, x, m }
+                            .map(|(lo, hi)| match refine(&mags, lo as usize, &mut |p| at(ws, p)) {
+                                Some((x, f)) => Refined { lo, hi, x, m: norm(f), at_x: Some(f) },
+                                None => {
+                                    let (x, m) = brent_min(lo, hi, LOCATE_TOL, |p| at(ws, p).map_or(f64::MAX, norm));
+                                    Refined { lo, hi, x, m, at_x: None }
+                                }
                             })
                             .collect();
-                        for Refined { x, m, .. } in select(&refined, &mags) {
+                        for Refined { x, m, at_x, .. } in select(&refined, &mags) {
                             // A minimum inside its interval, polished to round-off.
-                            let (x, m) = match (x.fract() != 0.0).then(|| at(ws, x)).flatten() {
+                            let (x, m) = match (x.fract() != 0.0).then(|| at_x.or_else(|| at(ws, x))).flatten() {
                                 Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(ws, p))
                                     .and_then(|p| Some((p, norm(at(ws, p)?))))
                                     .unwrap_or((x, m)),
@@ -542,10 +546,10 @@ fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
-/// The least load magnitude on the interval `(k, k + 1)` and where it is, by
-/// [`vector_min`] from the loads at its ends and at the sample beyond the sampled
-/// minimum it borders (else at its middle). `None` where that does not settle.
-fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -> Option<(f64, f64)> {
+/// Where on the interval `(k, k + 1)` the load magnitude is least, and the load
+/// there, by [`vector_min`] from the loads at its ends and at the sample beyond the
+/// sampled minimum it borders (else at its middle). `None` where that does not settle.
+fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -> Option<(f64, [f64; 3])> {
     let known = |i: usize| mags.get(i).copied().flatten().map(|(_, v)| (i as f64, [v.x, v.y, v.z]));
     let (a, b) = (known(k)?, known(k + 1)?);
     let beyond = if is_min(mags, k + 1) {
@@ -559,7 +563,7 @@ fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -
         Some(third) => third,
         None => (k as f64 + 0.5, at(k as f64 + 0.5)?),
     };
-    vector_min(a, b, third, SCAN_TOL, at).map(|(x, m2)| (x, m2.sqrt()))
+    vector_min(a, b, third, SCAN_TOL, at)
 }
 
 /// A minimum of the load magnitude found by refining the interval `[lo, hi]`.
@@ -569,6 +573,8 @@ struct Refined {
     hi: f64,
     x: f64,
     m: f64,
+    /// The load at `x`, where the refinement evaluated it.
+    at_x: Option<[f64; 3]>,
 }
 
 /// A refined minimum within this of an interval's end sits on that sample.
