@@ -34,6 +34,20 @@ fn options(out: &std::path::Path, shard: Option<(u64, u64)>) -> RunOptions {
     RunOptions { shard, chunk_size: 7, ..common::options(out) }
 }
 
+/// The job run once, and again in three shards one after another, `chunk_size`
+/// samples a part: the two directories.
+fn one_run_and_shards(text: &str, chunk_size: u64) -> (tempfile::TempDir, tempfile::TempDir) {
+    let job = JobSpec::from_toml_str(text, "ups.toml").unwrap();
+    let (one, many) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for (dir, shards) in [(&one, 1), (&many, 3)] {
+        for i in 0..shards {
+            let shard = (shards > 1).then_some((i, shards));
+            run(&job, "ups.toml", &RunOptions { shard, chunk_size, ..common::options(dir.path()) }).unwrap();
+        }
+    }
+    (one, many)
+}
+
 fn poses(layout: &Layout, parts: u64) -> RecordBatch {
     read_parts((0..parts).map(|c| layout.part(0, Mode::Kinetostatic, c)))
 }
@@ -108,13 +122,7 @@ fn a_run_writes_the_kinds_columns_and_solve_gives_the_same_rows() {
 
 #[test]
 fn shards_make_the_same_run() {
-    let job = JobSpec::from_toml_str(JOB, "ups.toml").unwrap();
-    let one = tempfile::tempdir().unwrap();
-    run(&job, "ups.toml", &options(one.path(), None)).unwrap();
-    let many = tempfile::tempdir().unwrap();
-    for i in 0..3 {
-        run(&job, "ups.toml", &options(many.path(), Some((i, 3)))).unwrap();
-    }
+    let (one, many) = one_run_and_shards(JOB, 7);
     let (a, b) = (Layout::new(one.path()), Layout::new(many.path()));
     assert!(b.success().exists());
     assert_eq!(poses(&a, 5), poses(&b, 5));
@@ -145,14 +153,7 @@ phi = 0.05
 psi = 0.1
 theta = -0.1
 "#;
-    let job = JobSpec::from_toml_str(text, "ups.toml").unwrap();
-    let one = tempfile::tempdir().unwrap();
-    run(&job, "ups.toml", &RunOptions { chunk_size: 64, ..common::options(one.path()) }).unwrap();
-    let many = tempfile::tempdir().unwrap();
-    for i in 0..3 {
-        run(&job, "ups.toml", &RunOptions { shard: Some((i, 3)), chunk_size: 64, ..common::options(many.path()) })
-            .unwrap();
-    }
+    let (one, many) = one_run_and_shards(text, 64);
     let (a, b) = (Layout::new(one.path()), Layout::new(many.path()));
     let switches = read(&a.discontinuities());
     assert!(switches.num_rows() > 100, "{} switches", switches.num_rows());
