@@ -6,7 +6,7 @@ use clearance_solver::Workspace;
 
 use crate::search::{Segment, Solved};
 use crate::shortcut::Shortcut;
-use crate::trace::{Decider, min_bit, turn_bit};
+use crate::trace::{Decider, Trace, min_bit, turn_bit};
 use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector, vector_min, vector_polish};
 
 /// A refined minimum of the magnitude lying between samples `lo` and `hi` (the
@@ -41,7 +41,7 @@ const DIFF_STEP: f64 = 1e-5;
 
 pub(crate) fn switches(
     solved: &mut Solved<'_>,
-    segment: &Segment<'_>,
+    segment: &Segment<'_, impl Fn(usize) -> Trace>,
     d: Decider,
     j: usize,
     ws: &mut Workspace,

@@ -289,7 +289,10 @@ impl<'a> Search<'a> {
                 _ => axes.push((vec![path], Vec::new(), 0)),
             }
         }
-        Self { model, source, mode, opts: *opts, traces: Vec::new(), axes, known: Known::default() }
+        // Every sample's trace comes in, unit by unit: grown as they came, the traces
+        // of a 3-D grid were copied and faulted in again at each doubling.
+        let traces = Vec::with_capacity(source.len() as usize);
+        Self { model, source, mode, opts: *opts, traces, axes, known: Known::default() }
     }
 
     /// [`Search::extend`] with the values the pass solved at those samples

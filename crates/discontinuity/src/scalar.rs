@@ -7,7 +7,7 @@ use clearance_solver::{JointReactions, Workspace};
 use crate::minimise::brent_min_below;
 use crate::search::{Segment, Side, Solved};
 use crate::shortcut::Shortcut;
-use crate::trace::{Decider, min_bit, neg_bit};
+use crate::trace::{Decider, Trace, min_bit, neg_bit};
 use crate::{LOCATE_TOL, SCAN_TOL, axial, interpolated_root};
 
 /// One zero of the load, with the points either side that the jump is read between,
@@ -23,7 +23,12 @@ pub(crate) struct Crossing {
 /// determinate samples of opposite signs, and two where an interval beside a
 /// sampled minimum of its magnitude (with ends of one sign) holds an extremum of
 /// the opposite sign, determinate there, as a finer sampling would show.
-pub(crate) fn crossings(solved: &mut Solved<'_>, segment: &Segment<'_>, j: usize, ws: &mut Workspace) -> Vec<Crossing> {
+pub(crate) fn crossings(
+    solved: &mut Solved<'_>,
+    segment: &Segment<'_, impl Fn(usize) -> Trace>,
+    j: usize,
+    ws: &mut Workspace,
+) -> Vec<Crossing> {
     let ev = solved.ev;
     let (model, floor) = (ev.model, ev.model.indeterminate_floor);
     let f = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| axial(solved.forces(k, ws), model, j);

@@ -11,7 +11,7 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 
 use crate::shortcut::Shortcut;
-use crate::trace::{Decider, SOLVABLE, Trace, det_bit, min_bit, neg_bit, turn_bit};
+use crate::trace::{Decider, SOLVABLE, Trace, det_bit, min_bit, neg_bit, settled_bits, turn_bit};
 use crate::{Along, Discontinuity, Forces, Path, SearchOptions, dips, margin, scalar};
 use nalgebra::Vector3;
 
@@ -158,6 +158,25 @@ pub(crate) struct Solved<'a> {
     pub ev: &'a Evaluator<'a>,
     known: Option<&'a Known>,
     maps: Maps,
+    /// How many values `known` gave.
+    reads: u64,
+}
+
+/// Brings the cache lines of `value` towards the core, without waiting for them.
+#[inline(always)]
+fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let at = (value as *const T).cast::<i8>();
+        for line in (0..size_of::<T>()).step_by(64) {
+            // SAFETY: SSE is part of x86_64; a prefetch reads nothing and cannot
+            // fault, and the address is within `value`.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(at.wrapping_add(line)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
 }
 
 /// The values a run's pass solved at consecutive samples, where it still has them:
@@ -167,7 +186,7 @@ pub(crate) struct Solved<'a> {
 pub(crate) struct Known {
     /// Buffers of consecutive samples, oldest first, each with its first sample's index.
     chunks: std::collections::VecDeque<(u64, Vec<Sampled>)>,
-    /// How many values were read ([`Known::get`] found them).
+    /// How many values were read ([`Known::get`] found them, [`Known::count_reads`]).
     reads: std::sync::atomic::AtomicU64,
 }
 
@@ -175,12 +194,15 @@ impl Known {
     /// The values of sample `i`, if held.
     pub fn get(&self, i: u64) -> Option<&Sampled> {
         // Newest first: a path's samples are mostly in the buffer that completes it.
-        let found =
-            self.chunks.iter().rev().find(|(first, _)| *first <= i).and_then(|(first, v)| v.get((i - first) as usize));
-        if found.is_some() {
-            self.reads.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.chunks.iter().rev().find(|(first, _)| *first <= i).and_then(|(first, v)| v.get((i - first) as usize))
+    }
+
+    /// Counts `n` values read (by a path's search, once it is done: one count per
+    /// read, shared by the threads, kept their caches busy).
+    fn count_reads(&self, n: u64) {
+        if n > 0 {
+            self.reads.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
         }
-        found
     }
 
     /// How many values were read since the last call.
@@ -277,11 +299,24 @@ thread_local! {
     static SPARE_MAPS: std::cell::Cell<Option<Maps>> = const { std::cell::Cell::new(None) };
 }
 
+thread_local! {
+    /// Each thread's buffer of a path's traces ([`search_path_known`]).
+    static SPARE_TRACES: std::cell::Cell<Vec<Trace>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// Paths of up to this many samples (every grid line) have their traces gathered
+/// before the search reads them; longer ones (a trajectory) are read where they lie,
+/// so that a path takes no memory per sample.
+const GATHERED: usize = 1 << 16;
+
 /// Maps that grew past this many entries (a long trajectory's) are dropped, not kept.
 const KEPT_ENTRIES: usize = 1 << 12;
 
 impl Drop for Solved<'_> {
     fn drop(&mut self) {
+        if let Some(known) = self.known {
+            known.count_reads(self.reads);
+        }
         let mut maps = std::mem::take(&mut self.maps);
         if maps.cache.capacity() <= KEPT_ENTRIES && maps.reactions.capacity() <= KEPT_ENTRIES {
             maps.cache.clear();
@@ -294,12 +329,34 @@ impl Drop for Solved<'_> {
 impl<'a> Solved<'a> {
     /// None of the path's samples solved yet.
     fn new(ev: &'a Evaluator<'a>, known: Option<&'a Known>) -> Self {
-        Self { ev, known, maps: SPARE_MAPS.take().unwrap_or_default() }
+        Self { ev, known, maps: SPARE_MAPS.take().unwrap_or_default(), reads: 0 }
     }
 
     /// What the pass solved at the `k`-th sample, where the run still holds it.
-    fn known(&self, k: usize) -> Option<&'a Sampled> {
-        self.known.and_then(|known| known.get(self.ev.path.sample_index(k)))
+    fn known(&mut self, k: usize) -> Option<&'a Sampled> {
+        let found = self.known.and_then(|known| known.get(self.ev.path.sample_index(k)));
+        self.reads += u64::from(found.is_some());
+        found
+    }
+
+    /// Asks the memory for the forces of the samples the rules will read, from the
+    /// path's `traces`: either side of a sign change of an axial load, and at and
+    /// beside a candidate minimum or turn. The pass's values of a 3-D grid are far
+    /// more than the caches hold and a grid line reads them a stride apart: read one
+    /// by one, each waited on the memory (a fifth of `grid_3d`'s search).
+    fn prefetch(&self, traces: &[Trace], along: Along) {
+        let Some(known) = self.known else { return };
+        let candidates = settled_bits(Some(along));
+        let signs = (0..3).fold(0, |m, j| m | neg_bit(j));
+        let sampled = |k: usize| traces.get(k).and_then(|_| known.get(self.ev.path.sample_index(k)));
+        for (k, t) in traces.iter().enumerate() {
+            if k > 0 && (t ^ traces[k - 1]) & signs != 0 {
+                // A crossing: its jump reads the errors there too.
+                (k - 1..=k).filter_map(sampled).for_each(prefetch);
+            } else if t & candidates != 0 {
+                (k.saturating_sub(1)..=k + 1).filter_map(sampled).for_each(|s| prefetch(&s.forces));
+            }
+        }
     }
 
     /// The forces at the `k`-th sample (a solvable one).
@@ -325,8 +382,8 @@ impl<'a> Solved<'a> {
 
 /// The samples `start..end` of a path (one segment: all solvable) whose deciding
 /// load of one limb is determinate, found from their traces as needed.
-pub(crate) struct Segment<'a> {
-    pub trace: &'a dyn Fn(usize) -> Trace,
+pub(crate) struct Segment<'a, F: Fn(usize) -> Trace> {
+    pub trace: &'a F,
     pub start: usize,
     pub end: usize,
     pub det: Trace,
@@ -334,7 +391,7 @@ pub(crate) struct Segment<'a> {
     pub along: Along,
 }
 
-impl Segment<'_> {
+impl<F: Fn(usize) -> Trace> Segment<'_, F> {
     /// The determinate samples from `from` on, in order.
     pub fn after(&self, from: usize) -> impl Iterator<Item = usize> + '_ {
         (from..self.end).filter(|&k| (self.trace)(k) & self.det != 0)
@@ -399,8 +456,17 @@ pub(crate) fn search_path_known(
         return Vec::new();
     }
     let ev = Evaluator::new(model, source, path, mode, opts);
-    let trace = |k: usize| trace_of(path.sample_index(k));
+    // The path's traces side by side: a segment's rules read each a dozen times
+    // (every limb and kind), and a grid line's lie a stride apart in the run's.
+    let mut gathered = SPARE_TRACES.take();
+    gathered.clear();
+    if path.len() <= GATHERED {
+        gathered.extend((0..path.len()).map(|k| trace_of(path.sample_index(k))));
+    }
+    let in_place = gathered.is_empty();
+    let trace = |k: usize| if in_place { trace_of(path.sample_index(k)) } else { gathered[k] };
     let mut solved = Solved::new(&ev, known);
+    solved.prefetch(&gathered, path.along);
     let mut out = Vec::new();
     // Unreachable or near-singular samples cut the path into segments.
     let mut start = 0;
@@ -468,6 +534,7 @@ pub(crate) fn search_path_known(
         }
         start = end;
     }
+    SPARE_TRACES.set(gathered);
     out
 }
 

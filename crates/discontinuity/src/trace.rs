@@ -96,7 +96,7 @@ pub(crate) fn turn_bit(d: Decider, j: usize, along: Along) -> Trace {
 const INPUTS: [Along; 3] = [Along::Z, Along::Psi, Along::Theta];
 
 /// Every candidate bit of one slot's input, or of all three.
-fn settled_bits(along: Option<Along>) -> Trace {
+pub(crate) fn settled_bits(along: Option<Along>) -> Trace {
     let mut m = 0;
     for a in INPUTS {
         if along.is_some_and(|x| slot(x) != slot(a)) {
