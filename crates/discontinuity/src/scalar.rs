@@ -4,7 +4,7 @@
 
 use clearance_solver::{JointReactions, Workspace};
 
-use crate::minimise::brent_min_below;
+use crate::minimise::{brent_min_below, interpolated_root_from, inverse_interpolation};
 use crate::search::{Segment, Side, Solved};
 use crate::shortcut::Shortcut;
 use crate::trace::{Decider, Trace, min_bit, neg_bit};
@@ -39,7 +39,15 @@ pub(crate) fn crossings(
     for (a, b) in segment.pairs() {
         if negative(a) != negative(b) {
             let (fa, fb) = (f(solved, a, ws), f(solved, b, ws));
-            let p = interpolated_root(ev.param(a), ev.param(b), fa, fb, LOCATE_TOL, |p| f_at(p, ws));
+            // The first step from the samples either side too (the pass has them).
+            let mut points = [(0.0, 0.0); 4];
+            let mut n = 0;
+            for k in segment.before(a).take(1).chain([a, b]).chain(segment.after(b + 1).take(1)) {
+                points[n] = (ev.param(k), f(solved, k, ws));
+                n += 1;
+            }
+            let guess = inverse_interpolation(&points[..n]);
+            let p = interpolated_root_from(ev.param(a), ev.param(b), fa, fb, guess, LOCATE_TOL, |p| f_at(p, ws));
             // Mostly the point the root finder evaluated last, so solved already.
             let reactions = ev.reactions_at(p, ws);
             out.push(Crossing { p, reactions, before: Side::Sample(a), after: Side::Sample(b) });

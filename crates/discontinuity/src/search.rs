@@ -351,8 +351,10 @@ impl<'a> Solved<'a> {
         let sampled = |k: usize| traces.get(k).and_then(|_| known.get(self.ev.path.sample_index(k)));
         for (k, t) in traces.iter().enumerate() {
             if k > 0 && (t ^ traces[k - 1]) & signs != 0 {
-                // A crossing: its jump reads the errors there too.
+                // A crossing: its jump reads the errors there too, its first step
+                // the forces of a sample beyond each side.
                 (k - 1..=k).filter_map(sampled).for_each(prefetch);
+                [k.wrapping_sub(2), k + 1].into_iter().filter_map(sampled).for_each(|s| prefetch(&s.forces));
             } else if t & candidates != 0 {
                 (k.saturating_sub(1)..=k + 1).filter_map(sampled).for_each(|s| prefetch(&s.forces));
             }
