@@ -182,9 +182,15 @@ pub(crate) fn switches(
         let width = 2.0 * SCAN_TOL * (hi - lo);
         let vector =
             at(dip.p, ws).and_then(|fp| vector_polish(dip.p, fp, width.max(DIFF_STEP), (lo, hi), |p| at(p, ws)));
-        let p = vector.unwrap_or_else(|| polish(dip.p, lo, hi, width, |p| squared(p, ws)));
         let (before, after) = (solved.errors(left, ws), solved.errors(right, ws));
-        out.push(ev.record(kind, j, p, ev.reactions_at(p, ws), &before, &after));
+        out.push(match vector {
+            // The load at the point from the polish's model: no solve of its own.
+            Some((p, fp)) => ev.record_margin(kind, j, p, crate::norm(fp), &before, &after),
+            None => {
+                let p = polish(dip.p, lo, hi, width, |p| squared(p, ws));
+                ev.record(kind, j, p, ev.reactions_at(p, ws), &before, &after)
+            }
+        });
     }
 }
 

@@ -307,26 +307,45 @@ pub fn vector_min(
 /// alone is resolved to about `√ε` of the dip's width. Two evaluations a step;
 /// `None` where `f` has no value (an unsolvable pose) or the model's minimum is
 /// at an end of `[lo, hi]` or of the stencil.
+///
+/// Returns the point and the model's value there, which is `f`'s to the model's
+/// error (`|f'''|·width³/6` at most inside the stencil's middle quarter: below the
+/// round-off of `f` for the loads and widths of the search), so that the point
+/// needs no evaluation of its own.
 pub fn vector_polish(
     p: f64,
     fp: [f64; 3],
     width: f64,
     (lo, hi): (f64, f64),
     mut f: impl FnMut(f64) -> Option<[f64; 3]>,
-) -> Option<f64> {
+) -> Option<(f64, [f64; 3])> {
     let (mut p, mut fp) = (p, fp);
     for step in 0..VECTOR_STEPS {
         let (a, b) = (p - width, p + width);
-        let s = model_min(&[(a, f(a)?), (p, fp), (b, f(b)?)], a.max(lo), b.min(hi))?;
+        let stencil = [(a, f(a)?), (p, fp), (b, f(b)?)];
+        let s = model_min(&stencil, a.max(lo), b.min(hi))?;
         if s <= a.max(lo) || s >= b.min(hi) {
             return None;
         }
-        if (s - p).abs() <= 0.125 * width || step + 1 == VECTOR_STEPS {
-            return Some(s);
+        if (s - p).abs() <= 0.125 * width {
+            return Some((s, model_at(&stencil, s)));
+        }
+        if step + 1 == VECTOR_STEPS {
+            return Some((s, f(s)?));
         }
         (p, fp) = (s, f(s)?);
     }
     None
+}
+
+/// The value at `s` of the quadratic through three vector values.
+fn model_at(points: &[(f64, [f64; 3]); 3], s: f64) -> [f64; 3] {
+    let [(s0, f0), (s1, f1), (s2, f2)] = *points;
+    std::array::from_fn(|i| {
+        let d01 = (f1[i] - f0[i]) / (s1 - s0);
+        let d012 = ((f2[i] - f1[i]) / (s2 - s1) - d01) / (s2 - s0);
+        f0[i] + (s - s0) * (d01 + (s - s1) * d012)
+    })
 }
 
 fn replace_farthest(points: &mut [(f64, [f64; 3]); 3], new: (f64, [f64; 3])) {
@@ -475,12 +494,15 @@ mod tests {
         .expect("settles");
         assert!((p - exact).abs() < 1e-4 * (b - a), "{p} {exact}");
         assert_eq!(fp, f(p));
-        let polished = vector_polish(p, f(p), 1e-5, (a, b), |s| {
+        let (polished, there) = vector_polish(p, f(p), 1e-5, (a, b), |s| {
             calls += 1;
             Some(f(s))
         })
         .expect("settles");
         assert!((polished - exact).abs() < 1e-13, "{polished} {exact}");
+        // The model's value is the load's to its round-off.
+        let load = f(polished);
+        assert!((0..3).all(|i| (there[i] - load[i]).abs() <= 1e-13 * norm2(f(a)).sqrt()), "{there:?} {load:?}");
         let mut brent_calls = 0;
         brent_min(a, b, 1e-4 * (b - a), |s| {
             brent_calls += 1;
@@ -528,7 +550,7 @@ mod tests {
         let exact = bisect(star - 0.01, star + 0.01, slope(star - 0.01), 1e-16, slope);
         let (lo, hi) = (star - 0.008, star + 0.009);
         let start = exact + 2e-9;
-        let p = vector_polish(start, f(start), 1e-5, (lo, hi), |s| Some(f(s))).expect("settles");
+        let (p, _) = vector_polish(start, f(start), 1e-5, (lo, hi), |s| Some(f(s))).expect("settles");
         assert!((p - exact).abs() < 1e-10, "{:e}", p - exact);
         let (q, _) = brent_min(lo, hi, 1e-12, |s| norm2(f(s)));
         assert!((q - exact).abs() > 1e-10, "Brent on |f|² alone: {:e}", q - exact);

@@ -133,8 +133,21 @@ impl<'a> Evaluator<'a> {
         before: &KindErrors,
         after: &KindErrors,
     ) -> Discontinuity {
-        let s = self.path.sample_at(self.source, p);
         let margin = r.map_or(f64::NAN, |r| margin(&r, self.model, kind, j));
+        self.record_margin(kind, j, p, margin, before, after)
+    }
+
+    /// [`Evaluator::record`] with the deciding load's magnitude there, `margin`.
+    pub fn record_margin(
+        &self,
+        kind: ClearanceKind,
+        j: usize,
+        p: f64,
+        margin: f64,
+        before: &KindErrors,
+        after: &KindErrors,
+    ) -> Discontinuity {
+        let s = self.path.sample_at(self.source, p);
         let (b, a) = (before[kind.index()], after[kind.index()]);
         Discontinuity {
             mode: self.mode,

@@ -489,8 +489,7 @@ fn search(
                             // A minimum inside its interval, polished to round-off.
                             let (x, m) = match (x.fract() != 0.0).then(|| at_x.or_else(|| at(ws, x))).flatten() {
                                 Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(ws, p))
-                                    .and_then(|p| Some((p, norm(at(ws, p)?))))
-                                    .unwrap_or((x, m)),
+                                    .map_or((x, m), |(p, fp)| (p, norm(fp))),
                                 None => (x, m),
                             };
                             if m >= threshold {
