@@ -150,6 +150,65 @@ pub(crate) fn interpolated_root_from(
     brent_root(lo, hi, flo, fhi, tol, f)
 }
 
+/// [`brent_min_below`] started from values in hand (`known`, `(x, f(x))`, finite,
+/// inside or beside `[lo, hi]`): successive parabolic interpolation through the
+/// three lowest points, each step to the vertex, until a value is below `enough`
+/// (returned at once) or the vertex comes within `xtol` of a point already
+/// evaluated (the least value inside `[lo, hi]` is returned); a vertex beyond an
+/// end is looked for just inside it. Three to five evaluations where Brent's
+/// method, which stops on a bracket `2·xtol` wide, takes up to twenty; Brent takes
+/// over where the parabola opens downwards or eight steps do not settle.
+pub(crate) fn parabolic_min_below(
+    known: &[(f64, f64)],
+    lo: f64,
+    hi: f64,
+    xtol: f64,
+    enough: f64,
+    mut f: impl FnMut(f64) -> f64,
+) -> (f64, f64) {
+    const STEPS: usize = 8;
+    const HELD: usize = 16;
+    let mut points = [(0.0, 0.0); HELD];
+    let mut n = 0;
+    for &(x, y) in known.iter().filter(|(x, y)| x.is_finite() && y.is_finite()).take(HELD - STEPS) {
+        points[n] = (x, y);
+        n += 1;
+    }
+    for _ in 0..STEPS {
+        let held = &mut points[..n];
+        held.sort_by(|p, q| p.1.total_cmp(&q.1));
+        let [(x0, y0), (x1, y1), (x2, y2)] = match *held {
+            [a, b, c, ..] if a.0 != b.0 && a.0 != c.0 && b.0 != c.0 => [a, b, c],
+            _ => break,
+        };
+        let d01 = (y1 - y0) / (x1 - x0);
+        let d012 = ((y2 - y1) / (x2 - x1) - d01) / (x2 - x0);
+        if d012.is_nan() || d012 <= 0.0 {
+            break;
+        }
+        // A vertex beyond an end: the least value is at that end, as far as the
+        // parabola tells; looked at just inside it.
+        let vertex = (0.5 * (x0 + x1) - d01 / (2.0 * d012)).clamp(lo + xtol, hi - xtol);
+        if !(vertex > lo && vertex < hi) {
+            break;
+        }
+        if held.iter().any(|(x, _)| (x - vertex).abs() <= xtol) {
+            let inside = held.iter().filter(|(x, _)| *x >= lo && *x <= hi);
+            if let Some(&best) = inside.min_by(|p, q| p.1.total_cmp(&q.1)) {
+                return best;
+            }
+            break;
+        }
+        let y = f(vertex);
+        if y < enough {
+            return (vertex, y);
+        }
+        points[n] = (vertex, y);
+        n += 1;
+    }
+    brent_min_below(lo, hi, xtol, enough, f)
+}
+
 /// Where the function through `points` (`(x, f(x))`, three or four, in order of
 /// `x`) is zero, by interpolating `x` as a polynomial in `f`: the root to the order
 /// of the samples' spacing to the fourth power (four points). `None` where `f` is
@@ -618,6 +677,51 @@ mod tests {
         }
         assert!(ours * 4 < bracket_only * 3, "{ours} evaluations against {bracket_only}");
         assert_eq!(inverse_interpolation(&[(0.0, 1.0), (1.0, -1.0), (2.0, -0.5), (3.0, -2.0)]), None);
+    }
+
+    /// From the values in hand, the minimum to `xtol` (or a value below `enough`) in
+    /// fewer evaluations than Brent's, half as many in all, on dips that stay clear,
+    /// that cross, and that end at the interval's end; a parabola opening downwards
+    /// hands over to Brent.
+    #[test]
+    fn parabolic_steps_find_the_least_value_in_few_evaluations() {
+        type Case = (fn(f64) -> f64, f64);
+        let cases: [Case; 3] = [
+            // Clear of zero, the minimum inside (0.2, 0.3).
+            (|x| 0.2 + 4.0 * (x - 0.262).powi(2) + (x - 0.262).powi(3), f64::NEG_INFINITY),
+            // Below zero between the samples: any value below -1e-9 will do.
+            (|x| 0.01 + 3.0 * (x - 0.27).powi(2) - 0.0003 * (-(x - 0.255).powi(2) / 1e-4).exp() * 40.0, -1e-9),
+            // Clear, the minimum near the sample at 0.3.
+            (|x| 1.0 + (x - 0.299).powi(2) * (2.0 + x), f64::NEG_INFINITY),
+        ];
+        let (mut total, mut total_brent) = (0, 0);
+        for (f, enough) in cases {
+            let (lo, hi, xtol) = (0.2, 0.3, 1e-4 * 0.1);
+            let known = [0.1, 0.2, 0.25, 0.3].map(|x| (x, f(x)));
+            let (mut ours, mut brents) = (0, 0);
+            let (x, y) = parabolic_min_below(&known, lo, hi, xtol, enough, |x| {
+                ours += 1;
+                f(x)
+            });
+            let (bx, by) = brent_min_below(lo, hi, xtol, enough, |x| {
+                brents += 1;
+                f(x)
+            });
+            assert_eq!(y, f(x));
+            if enough.is_finite() {
+                assert!(y < enough && by < enough, "{y} {by}");
+            } else {
+                assert!((x - bx).abs() < 2.0 * xtol && (y - by).abs() < 1e-9, "{x} {bx} {y} {by}");
+            }
+            assert!(ours < brents, "{ours} evaluations against Brent's {brents}");
+            (total, total_brent) = (total + ours, total_brent + brents);
+        }
+        assert!(total * 2 <= total_brent, "{total} evaluations against Brent's {total_brent}");
+        // Concave: Brent's answer, with Brent's evaluations.
+        let f = |x: f64| 1.0 - (x - 0.25).powi(2);
+        let known = [0.2, 0.25, 0.3].map(|x| (x, f(x)));
+        let ours = parabolic_min_below(&known, 0.2, 0.3, 1e-5, f64::NEG_INFINITY, f);
+        assert_eq!(ours, brent_min_below(0.2, 0.3, 1e-5, f64::NEG_INFINITY, f));
     }
 
     #[test]

@@ -4,7 +4,7 @@
 
 use clearance_solver::{JointReactions, Workspace};
 
-use crate::minimise::{brent_min_below, interpolated_root_from, inverse_interpolation};
+use crate::minimise::{brent_min_below, interpolated_root_from, inverse_interpolation, parabolic_min_below};
 use crate::search::{Segment, Side, Solved};
 use crate::shortcut::Shortcut;
 use crate::trace::{Decider, Trace, min_bit, neg_bit};
@@ -77,9 +77,18 @@ pub(crate) fn crossings(
             MIDPOINT.minimising();
             // One point of the other sign is enough; narrower excursions than the
             // tolerance are too narrow for any sampling.
-            let (pm, least) = brent_min_below(plo, phi, SCAN_TOL * (phi - plo), -floor, |p| {
+            let (xtol, mut g) = (SCAN_TOL * (phi - plo), |p| {
                 ev.reactions_at(p, ws).map_or(f64::INFINITY, |r| sign * axial(&r, model, j))
             });
+            // Whether the load takes the other sign, from the three samples and the
+            // midpoint in a few parabolic steps (most of these intervals stay clear).
+            let known = [samples[0], samples[1], samples[2], (mid, at_mid.unwrap_or(f64::NAN))];
+            if parabolic_min_below(&known, plo, phi, xtol, -floor, &mut g).1 >= -floor {
+                continue;
+            }
+            // Where it does, the point of the other sign the crossings are read from
+            // (and the jumps read at) is Brent's, as it always was.
+            let (pm, least) = brent_min_below(plo, phi, xtol, -floor, g);
             if least >= -floor {
                 continue;
             }
