@@ -122,10 +122,7 @@ pub(crate) fn interpolated_root_from(
         let x = if step == 0 {
             guess.filter(|g| *g > lo && *g < hi).unwrap_or(lo - flo * (hi - lo) / (fhi - flo))
         } else {
-            let [(x0, f0), (x1, f1), (x2, f2)] = points;
-            x0 * f1 * f2 / ((f0 - f1) * (f0 - f2))
-                + x1 * f0 * f2 / ((f1 - f0) * (f1 - f2))
-                + x2 * f0 * f1 / ((f2 - f0) * (f2 - f1))
+            inverse_lagrange(&points)
         };
         if !(x > lo && x < hi) {
             break;
@@ -220,17 +217,26 @@ pub(crate) fn inverse_interpolation(points: &[(f64, f64)]) -> Option<f64> {
     if !(rising || falling) {
         return None;
     }
-    let mut x = 0.0;
-    for (i, &(xi, fi)) in points.iter().enumerate() {
-        let mut weight = 1.0;
+    let x = inverse_lagrange(points);
+    x.is_finite().then_some(x)
+}
+
+/// The `x` at which the polynomial in `f` through `points` (`(x, f(x))`) gives
+/// `f = 0`, in Lagrange's form: `Σᵢ xᵢ·Πₖ (−fₖ) / Πₖ (fᵢ − fₖ)` over `k ≠ i`. Inverse
+/// quadratic interpolation through three points, and its first step from four.
+fn inverse_lagrange(points: &[(f64, f64)]) -> f64 {
+    let term = |i: usize| {
+        let (xi, fi) = points[i];
+        let (mut num, mut den) = (xi, 1.0);
         for (k, &(_, fk)) in points.iter().enumerate() {
             if k != i {
-                weight *= fk / (fk - fi);
+                num *= -fk;
+                den *= fi - fk;
             }
         }
-        x += xi * weight;
-    }
-    x.is_finite().then_some(x)
+        num / den
+    };
+    (1..points.len()).fold(term(0), |x, i| x + term(i))
 }
 
 /// Brent's bounded minimisation of `f` on `[a, b]` (golden section with parabolic
