@@ -405,12 +405,18 @@ pub fn vector_polish(
 
 /// The value at `s` of the quadratic through three vector values.
 fn model_at(points: &[(f64, [f64; 3]); 3], s: f64) -> [f64; 3] {
+    let [(s0, f0), (s1, _), _] = *points;
+    let (d01, d012) = divided_differences(points);
+    std::array::from_fn(|i| f0[i] + (s - s0) * (d01[i] + (s - s1) * d012[i]))
+}
+
+/// The first and second divided differences of three vector values: the quadratic
+/// through them is `f0 + (s − s0)·(d01 + (s − s1)·d012)`.
+fn divided_differences(points: &[(f64, [f64; 3]); 3]) -> ([f64; 3], [f64; 3]) {
     let [(s0, f0), (s1, f1), (s2, f2)] = *points;
-    std::array::from_fn(|i| {
-        let d01 = (f1[i] - f0[i]) / (s1 - s0);
-        let d012 = ((f2[i] - f1[i]) / (s2 - s1) - d01) / (s2 - s0);
-        f0[i] + (s - s0) * (d01 + (s - s1) * d012)
-    })
+    let d01: [f64; 3] = std::array::from_fn(|i| (f1[i] - f0[i]) / (s1 - s0));
+    let d12: [f64; 3] = std::array::from_fn(|i| (f2[i] - f1[i]) / (s2 - s1));
+    (d01, std::array::from_fn(|i| (d12[i] - d01[i]) / (s2 - s0)))
 }
 
 fn replace_farthest(points: &mut [(f64, [f64; 3]); 3], new: (f64, [f64; 3])) {
@@ -421,15 +427,13 @@ fn replace_farthest(points: &mut [(f64, [f64; 3]); 3], new: (f64, [f64; 3])) {
 /// Where on `[lo, hi]` the magnitude of the quadratic through three vector values
 /// is least; `None` where two of the points coincide or the model is not finite.
 fn model_min(points: &[(f64, [f64; 3]); 3], lo: f64, hi: f64) -> Option<f64> {
-    let [(s0, f0), (s1, f1), (s2, f2)] = *points;
+    let [(s0, f0), (s1, _), (s2, _)] = *points;
     let (h1, h2, h12) = (s1 - s0, s2 - s0, s2 - s1);
     if h1 == 0.0 || h2 == 0.0 || h12 == 0.0 {
         return None;
     }
     // Newton's form in u = s − s0, then powers: q(u) = A + B·u + C·u².
-    let d01: [f64; 3] = std::array::from_fn(|i| (f1[i] - f0[i]) / h1);
-    let d12: [f64; 3] = std::array::from_fn(|i| (f2[i] - f1[i]) / h12);
-    let c: [f64; 3] = std::array::from_fn(|i| (d12[i] - d01[i]) / h2);
+    let (d01, c) = divided_differences(points);
     let bv: [f64; 3] = std::array::from_fn(|i| d01[i] - c[i] * h1);
     // ½·d|q|²/du = g0 + g1·u + g2·u² + g3·u³.
     let g = [dot(f0, bv), dot(bv, bv) + 2.0 * dot(f0, c), 3.0 * dot(bv, c), 2.0 * dot(c, c)];

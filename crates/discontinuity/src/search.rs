@@ -177,7 +177,7 @@ pub(crate) struct Solved<'a> {
 
 /// Brings the cache lines of `value` towards the core, without waiting for them.
 #[inline(always)]
-fn prefetch<T>(value: &T) {
+fn prefetch_lines<T>(value: &T) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
@@ -310,9 +310,6 @@ thread_local! {
     /// search's threads wait on the allocator's locks (a third of the search's
     /// samples on `grid_3d`, `perf`).
     static SPARE_MAPS: std::cell::Cell<Option<Maps>> = const { std::cell::Cell::new(None) };
-}
-
-thread_local! {
     /// Each thread's buffer of a path's traces ([`search_path_known`]).
     static SPARE_TRACES: std::cell::Cell<Vec<Trace>> = const { std::cell::Cell::new(Vec::new()) };
 }
@@ -366,10 +363,10 @@ impl<'a> Solved<'a> {
             if k > 0 && (t ^ traces[k - 1]) & signs != 0 {
                 // A crossing: its jump reads the errors there too, its first step
                 // the forces of a sample beyond each side.
-                (k - 1..=k).filter_map(sampled).for_each(prefetch);
-                [k.wrapping_sub(2), k + 1].into_iter().filter_map(sampled).for_each(|s| prefetch(&s.forces));
+                (k - 1..=k).filter_map(sampled).for_each(prefetch_lines);
+                [k.wrapping_sub(2), k + 1].into_iter().filter_map(sampled).for_each(|s| prefetch_lines(&s.forces));
             } else if t & candidates != 0 {
-                (k.saturating_sub(1)..=k + 1).filter_map(sampled).for_each(|s| prefetch(&s.forces));
+                (k.saturating_sub(1)..=k + 1).filter_map(sampled).for_each(|s| prefetch_lines(&s.forces));
             }
         }
     }
