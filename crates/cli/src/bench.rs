@@ -24,6 +24,27 @@ fn dir_size(dir: &std::path::Path) -> u64 {
         .sum()
 }
 
+/// CPU seconds this process has used so far, user and system, every thread (the
+/// pool, the writer thread, the caller's); `None` where the system will not say.
+fn process_cpu_seconds() -> Option<f64> {
+    // SAFETY: `getrusage` only writes the `rusage` it is given, which is plain data.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+        return None;
+    }
+    let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    Some(seconds(usage.ru_utime) + seconds(usage.ru_stime))
+}
+
+/// Runs `f`, returning its result and the CPU seconds the process used meanwhile
+/// (NaN where the system will not say).
+fn with_cpu<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let before = process_cpu_seconds();
+    let out = f();
+    let used = before.zip(process_cpu_seconds()).map_or(f64::NAN, |(b, a)| a - b);
+    (out, used)
+}
+
 /// The fastest of `rates` (the run least slowed by whatever else the machine
 /// was doing), and all of them as a JSON list.
 fn best(rates: &[f64]) -> (f64, String) {
@@ -205,6 +226,10 @@ struct Measured {
     /// Wall seconds of the fastest run of the job without its search
     /// ([`RunOptions::search`]).
     without_search: f64,
+    /// CPU seconds (every thread) of the run that used the least, with its search
+    /// and without it.
+    cpu: f64,
+    cpu_without_search: f64,
 }
 
 impl Measured {
@@ -214,6 +239,17 @@ impl Measured {
     fn search_added(&self) -> f64 {
         if self.best.seconds > 0.0 && self.without_search.is_finite() {
             1.0 - self.without_search / self.best.seconds
+        } else {
+            0.0
+        }
+    }
+
+    /// The share of the run's CPU time (every thread) that its search costs: one less
+    /// the least CPU seconds of a run without it against the least of a run with it.
+    /// Unlike the wall time, this does not depend on what the search overlaps.
+    fn search_cpu(&self) -> f64 {
+        if self.cpu > 0.0 && self.cpu_without_search.is_finite() {
+            1.0 - self.cpu_without_search / self.cpu
         } else {
             0.0
         }
@@ -340,10 +376,13 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
         let rows = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
         let mut rates = Vec::with_capacity(o.repeat);
         let (mut best, mut bytes, mut without_search) = (RunReport::default(), 0, f64::INFINITY);
+        let (mut cpu, mut cpu_without_search) = (f64::INFINITY, f64::INFINITY);
         for _ in 0..o.repeat.max(1) {
             let _ = std::fs::remove_dir_all(&dir.0);
             let start = Instant::now();
-            let report = run(&job, s.file, &opts)?;
+            let (report, used) = with_cpu(|| run(&job, s.file, &opts));
+            let report = report?;
+            cpu = cpu.min(used);
             let rate = rows as f64 / start.elapsed().as_secs_f64();
             if rate > rates.iter().copied().fold(0.0, f64::max) {
                 best = report;
@@ -354,7 +393,9 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             // time the search adds, where its busy time overlaps the other stages.
             let _ = std::fs::remove_dir_all(&dir.0);
             let off = RunOptions { search: false, ..opts.clone() };
-            without_search = without_search.min(run(&job, s.file, &off)?.seconds);
+            let (report, used) = with_cpu(|| run(&job, s.file, &off));
+            without_search = without_search.min(report?.seconds);
+            cpu_without_search = cpu_without_search.min(used);
         }
         let _ = std::fs::remove_dir_all(&dir.0);
         measured.push(Measured {
@@ -367,6 +408,8 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             best,
             bytes_per_pose: bytes as f64 / rows.max(1) as f64,
             without_search,
+            cpu,
+            cpu_without_search,
         });
     }
     let sharded = sharded_run(o, &dir.0)?;
@@ -378,7 +421,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             .map(|m| {
                 let st = &m.best.stages;
                 format!(
-                    "{{\"job\": \"{}\", \"file\": \"{}\", \"mechanism\": \"{}\", \"columns\": \"{}\", \"poses\": {}, \"variants\": {}, \"modes\": {}, \"poses_per_s\": {:.1}, \"seconds\": {:.4}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_search_added\": {:.4}, \"seconds_without_search\": {:.4}, \"share_writing\": {:.4}, \"stages_timed\": {}, \"bytes_per_pose\": {:.1}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"runs\": {}}}",
+                    "{{\"job\": \"{}\", \"file\": \"{}\", \"mechanism\": \"{}\", \"columns\": \"{}\", \"poses\": {}, \"variants\": {}, \"modes\": {}, \"poses_per_s\": {:.1}, \"seconds\": {:.4}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_search_added\": {:.4}, \"seconds_without_search\": {:.4}, \"share_search_cpu\": {:.4}, \"cpu_seconds\": {:.6}, \"cpu_seconds_without_search\": {:.6}, \"share_writing\": {:.4}, \"stages_timed\": {}, \"bytes_per_pose\": {:.1}, \"threads\": {threads}, \"isa\": \"{isa}\", \"writer\": \"{}\", \"runs\": {}}}",
                     m.job.name,
                     m.job.file,
                     m.mechanism,
@@ -392,6 +435,9 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
                     m.share(st.search),
                     m.search_added(),
                     m.without_search,
+                    m.search_cpu(),
+                    m.cpu,
+                    m.cpu_without_search,
                     m.share(st.writing),
                     m.stages_timed(),
                     m.bytes_per_pose,
@@ -423,14 +469,24 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
             o.scale
         );
         println!(
-            "{:<27} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>12} {:>8} {:>11}",
-            "job", "kind", "columns", "poses", "poses/s", "pose pass", "search", "search adds", "writing", "bytes/pose"
+            "{:<27} {:<6} {:<9} {:>9} {:>12} {:>10} {:>7} {:>12} {:>11} {:>8} {:>11}",
+            "job",
+            "kind",
+            "columns",
+            "poses",
+            "poses/s",
+            "pose pass",
+            "search",
+            "search adds",
+            "search CPU",
+            "writing",
+            "bytes/pose"
         );
         for m in &measured {
             let st = &m.best.stages;
             let pct = |x: f64| if m.stages_timed() { format!("{:.0} %", 100.0 * x) } else { "-".into() };
             println!(
-                "{:<27} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>12} {:>8} {:>11.1}",
+                "{:<27} {:<6} {:<9} {:>9} {:>12.0} {:>10} {:>7} {:>12} {:>11} {:>8} {:>11.1}",
                 m.job.name,
                 m.mechanism,
                 m.job.columns.name(),
@@ -439,6 +495,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
                 pct(m.share(st.pose_pass)),
                 pct(m.share(st.search)),
                 format!("{:.0} %", 100.0 * m.search_added()),
+                format!("{:.0} %", 100.0 * m.search_cpu()),
                 pct(m.share(st.writing)),
                 m.bytes_per_pose
             );
@@ -460,6 +517,9 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
         );
         println!(
             "search adds: one less the wall time of the job's fastest run without its search against its fastest with it, alternated"
+        );
+        println!(
+            "search CPU: the same with the CPU seconds of the process (every thread), the least of each: the search's share of the work"
         );
         if measured.iter().any(|m| !m.stages_timed()) {
             println!("-: the run timed no stage");

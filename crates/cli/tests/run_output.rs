@@ -377,6 +377,13 @@ fn bench_suite_reports_every_job_and_cleans_up() {
                 assert!((0.0..=most).contains(&share), "{key} {share}: {j}");
             }
             assert_eq!(j["stages_timed"], true, "every kind times its stages: {j}");
+            // The search's share of the CPU time: the least CPU seconds of the runs
+            // without it against the least of the runs with it (both the process's).
+            let (cpu, without) =
+                (j["cpu_seconds"].as_f64().unwrap(), j["cpu_seconds_without_search"].as_f64().unwrap());
+            assert!(cpu > 0.0 && without > 0.0, "{j}");
+            let share = j["share_search_cpu"].as_f64().unwrap();
+            assert!((share - (1.0 - without / cpu)).abs() < 2e-3 && share < 1.0, "share_search_cpu {share}: {j}");
             assert!(j["share_pose_pass"].as_f64().unwrap() > 0.0 && j["share_writing"].as_f64().unwrap() > 0.0);
             assert!(j["poses"].as_u64().unwrap() > 0 && j["bytes_per_pose"].as_f64().unwrap() > 10.0, "{j}");
             assert_eq!(j["threads"], 1);
