@@ -301,9 +301,8 @@ impl<'a> Search<'a> {
     /// last `keep` samples received, for the paths the next samples complete; returns
     /// the buffers of values it no longer holds, to reuse.
     pub fn extend_known(&mut self, traces: &[Trace], values: Vec<Sampled>, keep: u64) -> Vec<Vec<Sampled>> {
-        let mut spare = self.known.push(self.traces.len() as u64, values);
-        self.extend(traces);
-        spare.extend(self.known.trim(self.traces.len() as u64, keep));
+        let mut spare = self.receive(traces, values);
+        spare.extend(self.search_ready(keep).1);
         spare
     }
 
@@ -321,26 +320,91 @@ impl<'a> Search<'a> {
     /// Adds the traces of the next samples and searches the paths they complete;
     /// returns how many that was.
     pub fn extend(&mut self, traces: &[Trace]) -> usize {
+        self.receive(traces, Vec::new());
+        self.search_ready(self.source.len()).0
+    }
+
+    /// Adds the traces of the next samples, with the values the pass solved there
+    /// (`values`, empty or one per trace), without searching the paths they complete:
+    /// those are the next [`Search::batches`]. Returns the buffers of values let go of
+    /// (the values held must be of the samples just before these, else they go).
+    pub fn receive(&mut self, traces: &[Trace], values: Vec<Sampled>) -> Vec<Vec<Sampled>> {
+        let spare = self.known.push(self.traces.len() as u64, values);
         self.traces.extend_from_slice(traces);
         assert!(self.traces.len() as u64 <= self.source.len(), "more traces than samples");
+        spare
+    }
+
+    /// The paths whose traces are all in and that are not searched yet, in path
+    /// order, as about `most` batches of consecutive paths of one axis (a batch
+    /// a path at most): tasks that [`Search::search_batch`] runs on any thread.
+    pub fn batches(&self, most: usize) -> Vec<Batch> {
         let have = self.traces.len() as u64;
-        let mut count = 0;
-        let Self { model, source, mode, opts, traces, known, .. } = self;
-        for (paths, found, searched) in &mut self.axes {
-            let ready = paths[*searched..].partition_point(|p| p.is_empty() || p.sample_index(p.len() - 1) < have);
-            let batch = &paths[*searched..*searched + ready];
-            found.par_extend(
-                batch
-                    .par_iter()
-                    .map_init(Workspace::new, |ws, path| {
-                        search_path_known(model, source, path, *mode, opts, |i| traces[i as usize], Some(known), ws)
-                    })
-                    .flatten_iter(),
-            );
-            *searched += ready;
-            count += ready;
+        let ready: Vec<(usize, std::ops::Range<usize>)> = self
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(axis, (paths, _, searched))| {
+                let n = paths[*searched..].partition_point(|p| p.is_empty() || p.sample_index(p.len() - 1) < have);
+                (axis, *searched..*searched + n)
+            })
+            .collect();
+        let size = ready.iter().map(|(_, r)| r.len()).sum::<usize>().div_ceil(most.max(1)).max(1);
+        let mut out = Vec::new();
+        for (axis, range) in ready {
+            for first in range.clone().step_by(size) {
+                out.push(Batch { axis, paths: first..(first + size).min(range.end) });
+            }
         }
-        count
+        out
+    }
+
+    /// The switches on the paths of `batch` (one of [`Search::batches`]), in path
+    /// order: for [`Search::searched`].
+    pub fn search_batch(&self, batch: &Batch) -> Vec<Discontinuity> {
+        let (model, source, mode, opts) = (self.model, self.source, self.mode, &self.opts);
+        let (traces, known) = (&self.traces, &self.known);
+        // A batch is a few lines: a fresh workspace (its matrices) for each was a
+        // few percent of a sweep's search.
+        let mut ws = SPARE_WORKSPACE.take().unwrap_or_default();
+        let mut out = Vec::new();
+        for path in &self.axes[batch.axis].0[batch.paths.clone()] {
+            out.extend(search_path_known(
+                model,
+                source,
+                path,
+                mode,
+                opts,
+                |i| traces[i as usize],
+                Some(known),
+                &mut ws,
+            ));
+        }
+        SPARE_WORKSPACE.set(Some(ws));
+        out
+    }
+
+    /// Takes the switches of `batches` (all of the last [`Search::batches`], in their
+    /// order), `found` one vector per batch: their paths are searched. Lets go of the
+    /// values of all but the last `keep` samples received; returns their buffers.
+    pub fn searched(&mut self, batches: &[Batch], found: Vec<Vec<Discontinuity>>, keep: u64) -> Vec<Vec<Sampled>> {
+        assert_eq!(batches.len(), found.len(), "the switches of every batch");
+        for (batch, switches) in batches.iter().zip(found) {
+            let (_, all, searched) = &mut self.axes[batch.axis];
+            assert_eq!(*searched, batch.paths.start, "batches taken in order");
+            all.extend(switches);
+            *searched = batch.paths.end;
+        }
+        self.known.trim(self.traces.len() as u64, keep)
+    }
+
+    /// The paths ready ([`Search::batches`]) searched in parallel on the rayon pool;
+    /// how many that was, and the buffers of values let go of.
+    fn search_ready(&mut self, keep: u64) -> (usize, Vec<Vec<Sampled>>) {
+        let batches = self.batches(BATCHES_PER_THREAD * rayon::current_num_threads());
+        let found: Vec<Vec<Discontinuity>> = batches.par_iter().map(|b| self.search_batch(b)).collect();
+        let count = batches.iter().map(|b| b.paths.len()).sum();
+        (count, self.searched(&batches, found, keep))
     }
 
     /// Clears in the traces received from sample `first` on the bits that `traces`
@@ -365,6 +429,33 @@ impl<'a> Search<'a> {
     pub fn finish(self) -> Vec<Discontinuity> {
         assert!(self.is_complete(), "the search ends with every sample traced");
         self.axes.into_iter().flat_map(|(_, found, _)| found).collect()
+    }
+}
+
+thread_local! {
+    /// Each thread's workspace for [`Search::search_batch`], kept from batch to batch.
+    static SPARE_WORKSPACE: std::cell::Cell<Option<Workspace>> = const { std::cell::Cell::new(None) };
+}
+
+/// Batches of paths a search splits its ready paths into, per thread of the pool
+/// ([`Search::batches`]): enough that no thread waits long on another's last one.
+pub const BATCHES_PER_THREAD: usize = 16;
+
+/// Consecutive paths of one axis of a [`Search`], completed and not searched yet.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Batch {
+    axis: usize,
+    paths: std::ops::Range<usize>,
+}
+
+impl Batch {
+    /// How many paths.
+    pub fn len(&self) -> usize {
+        self.paths.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.paths.is_empty()
     }
 }
 

@@ -2,10 +2,12 @@
 //! their forces and errors rather than solving the samples again, and finds the
 //! switches, bit for bit, of the search that solves every sample itself
 //! (`find_discontinuities`): whatever the parts the samples arrive in and however far
-//! back their values are kept. On a 3-PRS 3-D grid with a mass (vector and axial
-//! switches), a 3-RPS grid (whose Z-lines are searched) and a dynamic trajectory. A
-//! control run with every sample's errors doubled changes the jumps: the values are
-//! read, not ignored.
+//! back their values are kept, and however the paths each part completes are cut into
+//! batches and in whatever order, on whichever thread, the batches are searched
+//! (`Search::receive`, `batches`, `search_batch`, `searched`, as a run does). On a
+//! 3-PRS 3-D grid with a mass (vector and axial switches), a 3-RPS grid (whose Z-lines
+//! are searched) and a dynamic trajectory. A control run with every sample's errors
+//! doubled changes the jumps: the values are read, not ignored.
 
 mod common;
 
@@ -41,6 +43,36 @@ fn in_parts(
     search.finish()
 }
 
+/// [`in_parts`] as a run searches: each part's paths cut into about `most` batches,
+/// searched last first, each on a thread of its own, then taken in order.
+#[allow(clippy::too_many_arguments)]
+fn in_batches(
+    model: &Model,
+    source: &SampleSource,
+    mode: Mode,
+    opts: &SearchOptions,
+    traced: &[u64],
+    values: &[Sampled],
+    part: usize,
+    keep: u64,
+    most: usize,
+) -> Vec<Discontinuity> {
+    let mut search = Search::new(model, source, mode, opts);
+    for (t, v) in traced.chunks(part).zip(values.chunks(part)) {
+        search.receive(t, v.to_vec());
+        let batches = search.batches(most);
+        assert!(batches.len() <= most.max(1) + 2, "{} batches for about {most}", batches.len());
+        let search_ref = &search;
+        let mut found: Vec<Vec<Discontinuity>> = std::thread::scope(|s| {
+            let handles: Vec<_> = batches.iter().rev().map(|b| s.spawn(move || search_ref.search_batch(b))).collect();
+            handles.into_iter().map(|h| h.join().expect("a batch searched")).collect()
+        });
+        found.reverse();
+        search.searched(&batches, found, keep);
+    }
+    search.finish()
+}
+
 fn check(text: &str, mode: Mode) {
     let (job, model, source) = common::job(text);
     let opts = SearchOptions { dip_threshold: job.analysis.discontinuity_load_fraction * job.weight() };
@@ -56,6 +88,10 @@ fn check(text: &str, mode: Mode) {
     for (part, keep) in [(n, 0), (n / 3 + 1, 0), (n / 7 + 5, 97), (499, 2_000), (97, n as u64)] {
         let found = in_parts(&model, &source, mode, &opts, &traced, &values, part, keep);
         assert_eq!(bits(&found), bits(&expected), "parts of {part}, keeping {keep}");
+    }
+    for (part, keep, most) in [(n, 0, 1), (n / 3 + 1, n as u64, 5), (499, 2_000, 64), (n / 7 + 5, 97, 10_000)] {
+        let found = in_batches(&model, &source, mode, &opts, &traced, &values, part, keep, most);
+        assert_eq!(bits(&found), bits(&expected), "parts of {part}, keeping {keep}, about {most} batches");
     }
     // The control: errors doubled at every sample move the jumps read at samples.
     let doubled: Vec<Sampled> = results
