@@ -9,7 +9,8 @@
 //! work whose number is `I` modulo `N`. Within a work, poses are spread over the
 //! rayon pool; each unit's part goes to a writer thread as soon as it is concluded,
 //! and the grid lines the work completes are searched for discontinuities
-//! ([`Search`]), once for its group, while the next work computes.
+//! ([`Search`]), once for its group, in batches that the threads take up as the
+//! next work's computation runs out of pages.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::sync_channel;
@@ -17,8 +18,8 @@ use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
 use clearance_discontinuity::{
-    Discontinuity, Loads, Sampled, Search, SearchOptions, Trace, axes, find_discontinuities_read, keep_local_minima,
-    keep_local_minima_of, searched_along, trace_into,
+    BATCHES_PER_THREAD, Batch, Discontinuity, Loads, Sampled, Search, SearchOptions, Trace, axes,
+    find_discontinuities_read, keep_local_minima, keep_local_minima_of, searched_along, trace_into,
 };
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
@@ -78,18 +79,19 @@ pub struct RunReport {
 }
 
 /// Busy seconds of each stage of a run, measured on the run's own clock. The stages
-/// overlap (the writer thread works beside the pool, and the search of a unit's
-/// grid lines beside the computation of the next unit), so their sum may exceed
-/// [`RunReport::seconds`]; each against it is the share of the run's wall time
-/// that stage was under way.
+/// overlap (the writer thread works beside the pool, a work is concluded while the
+/// next computes, and the grid lines it completes are searched as that computation
+/// runs out of pages), so their sum may exceed [`RunReport::seconds`]; each against
+/// it is the share of the run's wall time that stage was under way.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StageTimes {
     /// Solving the poses and putting them into columns, on the pool; with
     /// [`Writer::Engine`] this includes encoding their pages, which the thread that
     /// computed the rows does at once.
     pub pose_pass: f64,
-    /// The discontinuity search: the grid lines or path each unit completes, and
-    /// the search at the end of a sharded, resumed or very long run.
+    /// The discontinuity search: taking each work's traces in, and from the start of
+    /// the first batch of the grid lines or path they complete to the end of the last
+    /// ([`run`]); the search at the end of a sharded, resumed or very long run.
     pub search: f64,
     /// The writer thread (part files, statistics and trace files; with
     /// [`Writer::Arrow`] the part's encoding too), `discontinuities.parquet` and
@@ -463,7 +465,9 @@ impl<'a> Kept<'a> {
     /// crosses from one unit into the next then has its neighbours in hand at the seam
     /// (a Z-line of a 3-D grid crosses a seam at every other node or so). Those earlier
     /// samples within a stride of the seam, settled again, refine the search's traces
-    /// (its paths not searched yet see fewer candidates; the switches are the same).
+    /// (its paths not searched yet see fewer candidates; the switches are the same):
+    /// returned with the first of them, for [`Search::refine`] once the search is
+    /// done with the paths of the unit before.
     /// Keeps the last samples for the next unit: twice the longest stride of an input
     /// the search follows, if that is at most [`SEAM_SAMPLES`].
     fn settle(
@@ -474,7 +478,7 @@ impl<'a> Kept<'a> {
         traces: &[Trace],
         loads: &[Loads],
         set_aside: Option<f64>,
-    ) -> Vec<Trace> {
+    ) -> (Vec<Trace>, Option<(u64, Vec<Trace>)>) {
         let axes = axes(source);
         let stride = axes.iter().filter(|a| searched_along(model, a.along)).map(|a| a.stride as usize).max();
         // Beyond the cap, the longest stride's neighbours would not be in hand: none kept.
@@ -493,11 +497,7 @@ impl<'a> Kept<'a> {
         seam_loads.extend_from_slice(&loads[..n.min(keep)]);
         let across = |which| keep_local_minima_of(&axes, seam_start, &seam_traces, &seam_loads, set_aside, which);
         let again = before.saturating_sub(half);
-        if again < before
-            && let Some(search) = self.searches.get_mut(&key)
-        {
-            search.refine(seam_start + again as u64, &across(again..before));
-        }
+        let refine = (again < before).then(|| (seam_start + again as u64, across(again..before)));
         let mut settled = across(before..before + n.min(half));
         // The rest of the unit has its neighbours in hand within it.
         settled.extend(keep_local_minima_of(&axes, start, traces, loads, set_aside, n.min(half)..n));
@@ -516,36 +516,63 @@ impl<'a> Kept<'a> {
             };
             self.seams.insert(key, seam);
         }
-        settled
+        (settled, refine)
     }
 
-    /// The traces of a work's samples, which its group's variants share.
-    fn add_traces(
+    /// The traces of a work's samples, which its group's variants share, and the
+    /// values the pass solved there (`sampled`), once its search is done with the
+    /// paths of the work before (`refine`, from [`Kept::settle`], first): the paths
+    /// they complete, as [`Search::batches`] for the tasks of the next step.
+    #[allow(clippy::too_many_arguments)]
+    fn receive(
         &mut self,
         key: (usize, Mode),
+        refine: Option<(u64, Vec<Trace>)>,
         traces: &[Trace],
         sampled: Vec<Sampled>,
         model: &'a Model,
         source: &'a SampleSource,
         opts: &SearchOptions,
-    ) -> Option<KnownReads> {
-        match self.keep {
-            KeepTraces::No => None,
-            KeepTraces::Search => {
-                let search = self.searches.entry(key).or_insert_with(|| Search::new(model, source, key.1, opts));
-                let stored = sampled.len() as u64;
-                let spare = search.extend_known(traces, sampled, known_reach(model, source));
-                let reads = KnownReads { stored, read: search.known_reads() };
-                self.spare_sampled.extend(spare);
-                if search.is_complete() {
-                    let mut search = self.searches.remove(&key).expect("just used");
-                    self.spare_sampled.extend(search.let_go_known());
-                    self.found.insert(key, search.finish());
-                }
-                Some(reads)
-            }
+    ) -> Pending<'a> {
+        let mut search = self.searches.remove(&key).unwrap_or_else(|| Search::new(model, source, key.1, opts));
+        if let Some((first, settled)) = refine {
+            search.refine(first, &settled);
         }
+        let stored = sampled.len() as u64;
+        let spare = search.receive(traces, sampled);
+        self.spare_sampled.extend(spare);
+        let batches = search.batches(BATCHES_PER_THREAD * rayon::current_num_threads());
+        Pending { key, search, batches, stored, keep: known_reach(model, source) }
     }
+
+    /// Takes the switches of a search's batches (`found`, one vector per batch): its
+    /// search goes back with the others, or is finished; returns how many values the
+    /// pass stored for it and its paths read.
+    fn searched(&mut self, p: Pending<'a>, found: Vec<Vec<Discontinuity>>) -> KnownReads {
+        let Pending { key, mut search, batches, stored, keep } = p;
+        let spare = search.searched(&batches, found, keep);
+        self.spare_sampled.extend(spare);
+        let reads = KnownReads { stored, read: search.known_reads() };
+        if search.is_complete() {
+            self.spare_sampled.extend(search.let_go_known());
+            self.found.insert(key, search.finish());
+        } else {
+            self.searches.insert(key, search);
+        }
+        reads
+    }
+}
+
+/// A search whose next paths are ready, as batches for the threads of the pool as
+/// the pass leaves them ([`run`]).
+struct Pending<'a> {
+    key: (usize, Mode),
+    search: Search<'a>,
+    batches: Vec<Batch>,
+    /// Values the pass stored for the work that completed these paths.
+    stored: u64,
+    /// How many samples back the search keeps values ([`known_reach`]).
+    keep: u64,
 }
 
 /// The discontinuity search and the summary, then `discontinuities.parquet` and
@@ -827,9 +854,12 @@ struct Computed<'a> {
 
 /// Solves the poses of `work` on the pool into the rows its writer takes, with
 /// `buffers` to reuse.
-fn compute<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<Computed<'a>> {
+/// `idle` is called when a thread finds no page of the work left to compute (at
+/// the end, with the arrow writer): what the pool does next fills the time until the
+/// last page is done.
+fn compute<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers, idle: &(dyn Fn() + Sync)) -> Result<Computed<'a>> {
     match ctx.opts.writer {
-        Writer::Engine => compute_pages(ctx, work, buffers),
+        Writer::Engine => compute_pages(ctx, work, buffers, idle),
         Writer::Arrow => compute_batch(ctx, work, buffers),
     }
 }
@@ -941,7 +971,12 @@ impl Shared<'_> {
 /// [`compute`] for the engine's writer: a page at a time, each page encoded as
 /// soon as its rows are in. A group's page is solved once and written for each
 /// member.
-fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<Computed<'a>> {
+fn compute_pages<'a>(
+    ctx: &Ctx<'_>,
+    work: &'a Work,
+    buffers: Buffers,
+    idle: &(dyn Fn() + Sync),
+) -> Result<Computed<'a>> {
     let (model, source) = &ctx.models[work.group];
     let group = &ctx.groups[work.group];
     let (mode, range) = (work.units[0].mode, work.units[0].range.clone());
@@ -965,7 +1000,13 @@ fn compute_pages<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<
     // short pages at the end go last (`page_spans`): rayon's halving of a list of
     // pages let one thread finish a whole page before the other.
     let queue = std::sync::Mutex::new(work_pages.into_iter());
-    let next_page = || queue.lock().expect("no panic while held").next();
+    let next_page = || {
+        let page = queue.lock().expect("no panic while held").next();
+        if page.is_none() {
+            idle();
+        }
+        page
+    };
     let compute_page = |pages: Vec<PageWriter<'_>>,
                         page_traces: &mut [Trace],
                         page_loads: &mut [Loads],
@@ -1116,7 +1157,7 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<
 /// A computed work's parts, for the writer, with its traces pruned and each unit's
 /// statistics merged (and kept in `kept`); the pruned traces; and its per-pose
 /// buffers, to reuse.
-fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<Trace>, Buffers) {
+fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> Concluded {
     let Computed { work, bodies, traces, loads, sampled, block_stats } = c;
     let (model, source) = &ctx.models[work.group];
     // With the whole unit in hand, most samples are seen not to be load
@@ -1125,7 +1166,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<
     let set_aside = search_options(&ctx.variants[ctx.groups[work.group].first() as usize]).set_aside_from(model);
     // The search follows a group's first member (`add_traces`): its traces settle
     // across the seams of its units.
-    let traces = if ctx.searched_now(work) {
+    let (traces, refine) = if ctx.searched_now(work) {
         kept.settle(
             (work.group, work.units[0].mode),
             (model, source),
@@ -1135,7 +1176,7 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<
             set_aside,
         )
     } else {
-        keep_local_minima(&axes(source), start, &traces, &loads[..traces.len()], set_aside)
+        (keep_local_minima(&axes(source), start, &traces, &loads[..traces.len()], set_aside), None)
     };
     let layout = ctx.layout;
     let parts = work
@@ -1162,7 +1203,87 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> (Vec<Part>, Vec<
             }
         })
         .collect();
-    (parts, traces, Buffers { loads, sampled })
+    Concluded { parts, traces, refine, buffers: Buffers { loads, sampled } }
+}
+
+/// The search of one step of a run ([`run`]): the paths the work concluded in it
+/// completes, searched in batches on the pool once both they are ready and the
+/// pass has run out of pages.
+struct StepSearch<'a> {
+    start: Instant,
+    ready: std::sync::OnceLock<Pending<'a>>,
+    /// How many of the two (ready, out of pages) have happened.
+    arrived: std::sync::atomic::AtomicU8,
+    /// Each batch's switches, with its index.
+    found: std::sync::Mutex<Vec<(usize, Vec<Discontinuity>)>>,
+    /// Nanoseconds from `start` to the start of the first batch and to the end of
+    /// the last.
+    from: std::sync::atomic::AtomicU64,
+    to: std::sync::atomic::AtomicU64,
+    /// Seconds the search took the work's traces in ([`Kept::receive`]).
+    receive: std::sync::OnceLock<f64>,
+}
+
+impl<'a> StepSearch<'a> {
+    fn new() -> Self {
+        Self {
+            start: Instant::now(),
+            ready: std::sync::OnceLock::new(),
+            arrived: std::sync::atomic::AtomicU8::new(0),
+            found: std::sync::Mutex::new(Vec::new()),
+            from: std::sync::atomic::AtomicU64::new(u64::MAX),
+            to: std::sync::atomic::AtomicU64::new(0),
+            receive: std::sync::OnceLock::new(),
+        }
+    }
+
+    fn since_start(&self, at: Instant) -> u64 {
+        at.saturating_duration_since(self.start).as_nanos() as u64
+    }
+
+    /// The search's paths, ready after `receive` seconds taking the work's traces in.
+    fn ready(&self, pending: Pending<'a>, receive: f64) {
+        assert!(self.ready.set(pending).is_ok() && self.receive.set(receive).is_ok(), "one search a step");
+    }
+
+    /// One of the two has happened (the work concluded, with or without a search;
+    /// the pass out of pages): at the second, the batches go out on `scope`.
+    fn arrive<'s>(&'s self, scope: &rayon::ScopeFifo<'s>) {
+        if self.arrived.fetch_add(1, std::sync::atomic::Ordering::AcqRel) != 1 {
+            return;
+        }
+        let Some(p) = self.ready.get() else { return };
+        for (i, batch) in p.batches.iter().enumerate() {
+            scope.spawn_fifo(move |_| {
+                self.from.fetch_min(self.since_start(Instant::now()), std::sync::atomic::Ordering::Relaxed);
+                let switches = p.search.search_batch(batch);
+                self.found.lock().expect("no panic while held").push((i, switches));
+                self.to.fetch_max(self.since_start(Instant::now()), std::sync::atomic::Ordering::Relaxed);
+            });
+        }
+    }
+
+    /// The search with its batches' switches in order, and its seconds: taking the
+    /// work's traces in, and from the start of its first batch to the end of its
+    /// last; `None` without a search.
+    fn into_found(self) -> Option<(Pending<'a>, Vec<Vec<Discontinuity>>, f64)> {
+        let p = self.ready.into_inner()?;
+        let mut found = self.found.into_inner().expect("no panic while held");
+        found.sort_unstable_by_key(|(i, _)| *i);
+        let (from, to) = (self.from.into_inner(), self.to.into_inner());
+        let receive = self.receive.into_inner().unwrap_or(0.0);
+        let seconds = to.saturating_sub(from) as f64 * 1e-9 + receive;
+        Some((p, found.into_iter().map(|(_, f)| f).collect(), seconds))
+    }
+}
+
+/// A work concluded: its parts for the writer, its settled traces and the
+/// refinement of the traces before them ([`Kept::settle`]), its buffers to reuse.
+struct Concluded {
+    parts: Vec<Part>,
+    traces: Vec<Trace>,
+    refine: Option<(u64, Vec<Trace>)>,
+    buffers: Buffers,
 }
 
 /// What a run of any kind starts from: its variants and their groups, the prepared
@@ -1353,46 +1474,65 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 // The search holds the last ones: one it let go of, if any.
                 buffers.sampled = kept.spare_sampled.pop().unwrap_or_default();
             }
-            // The previous unit is concluded on the pool while this one computes
-            // (alone, its few milliseconds would leave the other threads idle), and
-            // its part goes to the writer at once rather than after this unit: at
-            // the end of the run, the writer then has one part left to write, not two.
+            // One step on the pool. The previous work is concluded while this one
+            // computes (alone, its few milliseconds would leave the other threads
+            // idle), and its parts go to the writer at once rather than after this
+            // work: at the end of the run the writer then has one part left to write,
+            // not two. The paths it completes are then searched in batches, which
+            // the threads take up as the pass runs out of pages: beside the pass, on
+            // one thread while the pass had the others, the search was under way for
+            // a quarter of a sweep's wall time; this way it fills the time the last
+            // pages leave the other threads, then has every thread.
             let tx = &tx;
-            let (concluded, computed) = rayon::join(
-                || {
-                    previous.take().map(|c| {
+            let step = StepSearch::new();
+            let mut concluded = None;
+            let mut computed = None;
+            rayon::scope_fifo(|s| {
+                let (ctx, step, concluded, kept, previous) = (&ctx, &step, &mut concluded, &mut kept, &mut previous);
+                let (models, variants, groups) = (&models, &variants, &groups);
+                s.spawn_fifo(move |s| {
+                    *concluded = previous.take().map(|c| {
                         let work = c.work;
-                        let (parts, traces, mut buffers) = conclude(&ctx, c, &mut kept);
+                        let Concluded { parts, traces, refine, mut buffers } = conclude(ctx, c, kept);
                         let n = (traces.len() * parts.len()) as u64;
                         let sent = parts.into_iter().all(|part| tx.send(part).is_ok());
-                        // Searched after the parts are on their way: the writer need not wait.
-                        let start = Instant::now();
                         // A group's traces once, from the work of its first member.
                         if ctx.searched_now(work) {
+                            let start = Instant::now();
                             let (model, source) = &models[work.group];
                             let opts = search_options(&variants[groups[work.group].first() as usize]);
                             let key = (work.group, work.units[0].mode);
                             let sampled = std::mem::take(&mut buffers.sampled);
-                            let reads = kept.add_traces(key, &traces, sampled, model, source, &opts);
-                            if let Some(reads) = reads.filter(|r| r.stored > 0)
-                                && !reads.paid()
-                            {
-                                ctx.store_sampled.store(false, std::sync::atomic::Ordering::Relaxed);
-                            }
+                            let pending = kept.receive(key, refine, &traces, sampled, model, source, &opts);
+                            step.ready(pending, start.elapsed().as_secs_f64());
                         }
-                        (n, buffers, sent, start.elapsed().as_secs_f64())
-                    })
-                },
-                || {
+                        (n, buffers, sent)
+                    });
+                    step.arrive(s);
+                });
+                let computed = &mut computed;
+                s.spawn_fifo(move |s| {
                     let start = Instant::now();
-                    (work.map(|w| compute(&ctx, w, buffers)).transpose(), start.elapsed().as_secs_f64())
-                },
-            );
-            let (computed, pose_pass) = computed;
+                    let once = std::sync::Once::new();
+                    let idle = || once.call_once(|| step.arrive(s));
+                    let result = work.map(|w| compute(ctx, w, buffers, &idle)).transpose();
+                    let pose_pass = start.elapsed().as_secs_f64();
+                    idle();
+                    *computed = Some((result, pose_pass));
+                });
+            });
+            let (computed, pose_pass) = computed.expect("the step computes");
             stages.pose_pass += pose_pass;
+            let start = Instant::now();
+            if let Some((p, found, seconds)) = step.into_found() {
+                let reads = kept.searched(p, found);
+                if reads.stored > 0 && !reads.paid() {
+                    ctx.store_sampled.store(false, std::sync::atomic::Ordering::Relaxed);
+                }
+                stages.search += seconds + start.elapsed().as_secs_f64();
+            }
             previous = computed?;
-            if let Some((n, buffers, sent, search)) = concluded {
-                stages.search += search;
+            if let Some((n, buffers, sent)) = concluded {
                 spare_buffers.push(buffers);
                 if !sent {
                     writer_failed = true; // its error is reported below
