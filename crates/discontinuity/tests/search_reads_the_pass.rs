@@ -61,7 +61,8 @@ fn in_batches(
     for (t, v) in traced.chunks(part).zip(values.chunks(part)) {
         search.receive(t, v.to_vec());
         let batches = search.batches(most);
-        assert!(batches.len() <= most.max(1) + 2, "{} batches for about {most}", batches.len());
+        // About `most`: one more at most for each of the (up to three) axes.
+        assert!(batches.len() <= most.max(1) + 3, "{} batches for about {most}", batches.len());
         let search_ref = &search;
         let mut found: Vec<Vec<Discontinuity>> = std::thread::scope(|s| {
             let handles: Vec<_> = batches.iter().rev().map(|b| s.spawn(move || search_ref.search_batch(b))).collect();
