@@ -442,21 +442,10 @@ thread_local! {
 pub const BATCHES_PER_THREAD: usize = 16;
 
 /// Consecutive paths of one axis of a [`Search`], completed and not searched yet.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub struct Batch {
     axis: usize,
     paths: std::ops::Range<usize>,
-}
-
-impl Batch {
-    /// How many paths.
-    pub fn len(&self) -> usize {
-        self.paths.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.paths.is_empty()
-    }
 }
 
 /// The switches along one path whose samples' traces are not at hand (a grid line

@@ -24,7 +24,10 @@ fn bits(found: &[Discontinuity]) -> String {
 }
 
 /// The switches of a search fed `values` in parts of `part` samples, keeping the
-/// values of the last `keep` samples before each part.
+/// values of the last `keep` samples before each part. With `batches`, as a run
+/// searches: each part's paths cut into about that many batches, searched last
+/// first, each on a thread of its own, then taken in order; else in one call
+/// (`Search::extend_known`).
 #[allow(clippy::too_many_arguments)]
 fn in_parts(
     model: &Model,
@@ -35,30 +38,14 @@ fn in_parts(
     values: &[Sampled],
     part: usize,
     keep: u64,
+    batches: Option<usize>,
 ) -> Vec<Discontinuity> {
     let mut search = Search::new(model, source, mode, opts);
     for (t, v) in traced.chunks(part).zip(values.chunks(part)) {
-        search.extend_known(t, v.to_vec(), keep);
-    }
-    search.finish()
-}
-
-/// [`in_parts`] as a run searches: each part's paths cut into about `most` batches,
-/// searched last first, each on a thread of its own, then taken in order.
-#[allow(clippy::too_many_arguments)]
-fn in_batches(
-    model: &Model,
-    source: &SampleSource,
-    mode: Mode,
-    opts: &SearchOptions,
-    traced: &[u64],
-    values: &[Sampled],
-    part: usize,
-    keep: u64,
-    most: usize,
-) -> Vec<Discontinuity> {
-    let mut search = Search::new(model, source, mode, opts);
-    for (t, v) in traced.chunks(part).zip(values.chunks(part)) {
+        let Some(most) = batches else {
+            search.extend_known(t, v.to_vec(), keep);
+            continue;
+        };
         search.receive(t, v.to_vec());
         let batches = search.batches(most);
         // About `most`: one more at most for each of the (up to three) axes.
@@ -87,11 +74,11 @@ fn check(text: &str, mode: Mode) {
     let traced = traces(&model, &source, mode, 0..n, &opts);
     let n = n as usize;
     for (part, keep) in [(n, 0), (n / 3 + 1, 0), (n / 7 + 5, 97), (499, 2_000), (97, n as u64)] {
-        let found = in_parts(&model, &source, mode, &opts, &traced, &values, part, keep);
+        let found = in_parts(&model, &source, mode, &opts, &traced, &values, part, keep, None);
         assert_eq!(bits(&found), bits(&expected), "parts of {part}, keeping {keep}");
     }
     for (part, keep, most) in [(n, 0, 1), (n / 3 + 1, n as u64, 5), (499, 2_000, 64), (n / 7 + 5, 97, 10_000)] {
-        let found = in_batches(&model, &source, mode, &opts, &traced, &values, part, keep, most);
+        let found = in_parts(&model, &source, mode, &opts, &traced, &values, part, keep, Some(most));
         assert_eq!(bits(&found), bits(&expected), "parts of {part}, keeping {keep}, about {most} batches");
     }
     // The control: errors doubled at every sample move the jumps read at samples.
@@ -106,7 +93,7 @@ fn check(text: &str, mode: Mode) {
             Sampled::of(&r)
         })
         .collect();
-    let found = in_parts(&model, &source, mode, &opts, &traced, &doubled, n, 0);
+    let found = in_parts(&model, &source, mode, &opts, &traced, &doubled, n, 0, None);
     assert_eq!(found.len(), expected.len());
     assert_ne!(bits(&found), bits(&expected), "the search read none of the values");
 }

@@ -854,6 +854,7 @@ struct Computed<'a> {
 
 /// Solves the poses of `work` on the pool into the rows its writer takes, with
 /// `buffers` to reuse.
+///
 /// `idle` is called when a thread finds no page of the work left to compute (at
 /// the end, with the arrow writer): what the pool does next fills the time until the
 /// last page is done.
@@ -1211,7 +1212,9 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> Concluded {
 /// pass has run out of pages.
 struct StepSearch<'a> {
     start: Instant,
-    ready: std::sync::OnceLock<Pending<'a>>,
+    /// The search's paths, and the seconds it took the work's traces in
+    /// ([`Kept::receive`]).
+    ready: std::sync::OnceLock<(Pending<'a>, f64)>,
     /// How many of the two (ready, out of pages) have happened.
     arrived: std::sync::atomic::AtomicU8,
     /// Each batch's switches, with its index.
@@ -1220,8 +1223,6 @@ struct StepSearch<'a> {
     /// the last.
     from: std::sync::atomic::AtomicU64,
     to: std::sync::atomic::AtomicU64,
-    /// Seconds the search took the work's traces in ([`Kept::receive`]).
-    receive: std::sync::OnceLock<f64>,
 }
 
 impl<'a> StepSearch<'a> {
@@ -1233,7 +1234,6 @@ impl<'a> StepSearch<'a> {
             found: std::sync::Mutex::new(Vec::new()),
             from: std::sync::atomic::AtomicU64::new(u64::MAX),
             to: std::sync::atomic::AtomicU64::new(0),
-            receive: std::sync::OnceLock::new(),
         }
     }
 
@@ -1243,7 +1243,7 @@ impl<'a> StepSearch<'a> {
 
     /// The search's paths, ready after `receive` seconds taking the work's traces in.
     fn ready(&self, pending: Pending<'a>, receive: f64) {
-        assert!(self.ready.set(pending).is_ok() && self.receive.set(receive).is_ok(), "one search a step");
+        assert!(self.ready.set((pending, receive)).is_ok(), "one search a step");
     }
 
     /// One of the two has happened (the work concluded, with or without a search;
@@ -1252,7 +1252,7 @@ impl<'a> StepSearch<'a> {
         if self.arrived.fetch_add(1, std::sync::atomic::Ordering::AcqRel) != 1 {
             return;
         }
-        let Some(p) = self.ready.get() else { return };
+        let Some((p, _)) = self.ready.get() else { return };
         for (i, batch) in p.batches.iter().enumerate() {
             scope.spawn_fifo(move |_| {
                 self.from.fetch_min(self.since_start(Instant::now()), std::sync::atomic::Ordering::Relaxed);
@@ -1267,11 +1267,10 @@ impl<'a> StepSearch<'a> {
     /// work's traces in, and from the start of its first batch to the end of its
     /// last; `None` without a search.
     fn into_found(self) -> Option<(Pending<'a>, Vec<Vec<Discontinuity>>, f64)> {
-        let p = self.ready.into_inner()?;
+        let (p, receive) = self.ready.into_inner()?;
         let mut found = self.found.into_inner().expect("no panic while held");
         found.sort_unstable_by_key(|(i, _)| *i);
         let (from, to) = (self.from.into_inner(), self.to.into_inner());
-        let receive = self.receive.into_inner().unwrap_or(0.0);
         let seconds = to.saturating_sub(from) as f64 * 1e-9 + receive;
         Some((p, found.into_iter().map(|(_, f)| f).collect(), seconds))
     }
