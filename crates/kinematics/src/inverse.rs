@@ -103,7 +103,7 @@ impl Geometry {
     pub fn reaches(&self, disc: f64) -> bool {
         match self.kind {
             MechanismKind::Prs3 => disc >= 0.0,
-            MechanismKind::Rps3 | MechanismKind::Ups6 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                 let q = disc.sqrt();
                 q >= self.stroke.0 && q <= self.stroke.1
             }
@@ -325,7 +325,7 @@ fn solve<T: Real>(geom: &Geometry, z: T, psi: T, theta: T) -> Result<Generic<T>,
         (q[j], b[j]) = slider(geom, j, a[j], disc);
         ell[j] = match geom.kind {
             MechanismKind::Prs3 => T::constant(geom.leg_length),
-            MechanismKind::Rps3 | MechanismKind::Ups6 => q[j],
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => q[j],
         };
     }
     Ok(Generic { x, y, phi, rot, a, b, q, ell })
@@ -351,7 +351,7 @@ pub fn limb<T: Elementary>(geom: &Geometry, j: usize, p: [T; 3], rot: &[[T; 3]; 
             let t = d.scale(c) - a[2].scale(s);
             (a, T::constant(geom.leg_length * geom.leg_length) - t * t)
         }
-        MechanismKind::Rps3 | MechanismKind::Ups6 => {
+        MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
             let b = [T::constant(geom.base_radius * xj.x), T::constant(geom.base_radius * xj.y)];
             let (dx, dy) = (a[0] - b[0], a[1] - b[1]);
             (a, dx * dx + dy * dy + a[2] * a[2])
@@ -379,7 +379,7 @@ pub fn slider<T: Elementary>(geom: &Geometry, j: usize, a: [T; 3], disc: T) -> (
             let along = q.scale(s);
             (q, [b0[0] + along.scale(xj.x), b0[1] + along.scale(xj.y), q.scale(c)])
         }
-        MechanismKind::Rps3 | MechanismKind::Ups6 => (disc.sqrt(), [b0[0], b0[1], T::constant(0.0)]),
+        MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => (disc.sqrt(), [b0[0], b0[1], T::constant(0.0)]),
     }
 }
 
@@ -452,7 +452,7 @@ pub fn inverse_kinematics_motion(
                 let l = geom.leg_length;
                 ((d(g.a[j]) - d(g.b[j])) / l, (dd(g.a[j]) - dd(g.b[j])) / l)
             }
-            MechanismKind::Rps3 | MechanismKind::Ups6 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                 // e = (A − B)/q with a varying q: the quotient's jet.
                 let e: [Jet; 3] = std::array::from_fn(|k| (g.a[j][k] - g.b[j][k]) / g.ell[j]);
                 (d(e), dd(e))

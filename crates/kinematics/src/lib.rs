@@ -28,6 +28,7 @@
 
 #![allow(non_snake_case)]
 
+pub mod custom;
 mod inverse;
 mod jet;
 pub mod ups;

@@ -7,6 +7,7 @@ use std::fmt;
 
 use crate::error::JobError;
 use crate::kinds::{ClearanceKind, KINDS};
+use crate::custom::Magnitude;
 use crate::mechanism::{MassSpec, MechanismKind, MechanismSpec};
 
 /// One job: a mechanism, its loads and clearances, what to analyse, and where.
@@ -48,9 +49,9 @@ pub struct LoadSpec {
 
 /// Clearance magnitudes at full take-up (docs/model.md §5). 0 (the default) is rigid.
 /// The 3-limb kinds take `s_radial` and the `r_*` kinds, the 6-UPS `s_radial` and the
-/// `u_*` kinds (docs/model.md §10.3).
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+/// `u_*` kinds (docs/model.md §10.3), a custom mechanism `<joint>_<group>` for its
+/// joint groups, each a number or a list of one per limb (docs/model.md §12.5).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ClearanceSpec {
     /// Spherical joints, radial (m).
     pub s_radial: f64,
@@ -64,15 +65,57 @@ pub struct ClearanceSpec {
     pub u_radial: f64,
     /// 6-UPS: universal joints, angular play about `n_i` (rad); harmless, its error is zero.
     pub u_angular: f64,
+    /// Every key as the file gives it, in file order: a custom mechanism's magnitudes.
+    pub given: Vec<(String, Magnitude)>,
     /// Whether the job is a 6-UPS (set by [`JobSpec::fill_defaults`]): the kinds written
     /// out for provenance are that kind's own, so that `job.toml` runs again.
-    #[serde(skip)]
     pub ups: bool,
+    /// Whether the job is a custom mechanism: the keys written out are [`Self::given`].
+    pub custom: bool,
+}
+
+impl<'de> Deserialize<'de> for ClearanceSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = ClearanceSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a table of clearance magnitudes")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<ClearanceSpec, A::Error> {
+                let mut out = ClearanceSpec::default();
+                while let Some(key) = map.next_key::<String>()? {
+                    let value: Magnitude = map.next_value()?;
+                    if let Magnitude::All(v) = value {
+                        match key.as_str() {
+                            "s_radial" => out.s_radial = v,
+                            "r_radial" => out.r_radial = v,
+                            "r_axial" => out.r_axial = v,
+                            "r_angular" => out.r_angular = v,
+                            "u_radial" => out.u_radial = v,
+                            "u_angular" => out.u_angular = v,
+                            _ => {}
+                        }
+                    }
+                    out.given.push((key, value));
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_map(V)
+    }
 }
 
 impl Serialize for ClearanceSpec {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeStruct;
+        use serde::ser::{SerializeMap, SerializeStruct};
+        if self.custom {
+            let mut m = s.serialize_map(Some(self.given.len()))?;
+            for (k, v) in &self.given {
+                m.serialize_entry(k, v)?;
+            }
+            return m.end();
+        }
         let mut t = s.serialize_struct("ClearanceSpec", 4)?;
         t.serialize_field("s_radial", &self.s_radial)?;
         if self.ups {
@@ -384,7 +427,22 @@ impl JobSpec {
     pub fn from_toml_str(text: &str, file: &str) -> Result<JobSpec, JobError> {
         let table: toml::Table = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
         crate::keys::check_keys(file, &table)?;
-        let mut job: JobSpec = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
+        let kind = crate::keys::kind_of(file, &table)?;
+        let mut job: JobSpec = if kind == MechanismKind::Custom {
+            // A custom mechanism's grid or trajectory gives only its inputs: the
+            // coordinates the types require are filled with 0 (never read).
+            let mut table = table.clone();
+            for (section, fill) in [("grid", toml::Value::Float(0.0)), ("trajectory", toml::Value::Float(0.0))] {
+                if let Some(toml::Value::Table(t)) = table.get_mut(section) {
+                    for key in ["z", "psi", "theta"] {
+                        t.entry(key).or_insert(fill.clone());
+                    }
+                }
+            }
+            table.try_into().map_err(|e: toml::de::Error| toml_error(file, text, &e))?
+        } else {
+            toml::from_str(text).map_err(|e| toml_error(file, text, &e))?
+        };
         // The platform's default mass is the kind's: the typed struct cannot tell a
         // 9.8 left out from one written.
         let platform_given = table.get("mass").and_then(|m| m.get("platform")).is_some();
@@ -443,6 +501,7 @@ impl JobSpec {
         self.mass.fill_defaults(self.mechanism.kind);
         let ups = self.mechanism.kind == MechanismKind::Ups6;
         self.clearance.ups = ups;
+        self.clearance.custom = self.mechanism.kind == MechanismKind::Custom;
         if ups {
             // Written out, so that a sweep can name every input.
             if let Some(g) = &mut self.grid {
@@ -461,9 +520,21 @@ impl JobSpec {
     /// Total moving mass: platform, point masses and every limb's bodies (kg).
     pub fn total_mass(&self) -> f64 {
         let kind = self.mechanism.kind;
-        self.mass.platform
-            + self.mass.points.iter().map(|p| p.mass).sum::<f64>()
-            + kind.limbs() as f64 * self.mass.limb(kind)
+        let limbs = match kind {
+            MechanismKind::Custom => {
+                crate::custom::limb_mass(&crate::custom::expand(self.mechanism.limb.as_deref().unwrap_or(&[])))
+            }
+            _ => kind.limbs() as f64 * self.mass.limb(kind),
+        };
+        self.mass.platform + self.mass.points.iter().map(|p| p.mass).sum::<f64>() + limbs
+    }
+
+    /// A custom mechanism's description, expanded and checked (docs/model.md §12);
+    /// `None` for the built-in kinds.
+    pub fn description(&self, file: &str) -> Option<Result<crate::custom::Description, JobError>> {
+        let m = &self.mechanism;
+        (m.kind == MechanismKind::Custom)
+            .then(|| crate::custom::describe(file, &m.inputs, &m.home, &m.limb, &self.clearance.given))
     }
 
     /// `W = m_total·|g|`, the natural load scale of docs/model.md §8 (N).
@@ -474,7 +545,17 @@ impl JobSpec {
 
     /// Serialises the job (after defaults) as TOML, for provenance.
     pub fn to_toml_string(&self) -> String {
-        toml::to_string(self).expect("a job always serialises")
+        let mut table = toml::Table::try_from(self).expect("a job always serialises");
+        if self.mechanism.kind == MechanismKind::Custom {
+            // Only the inputs: the other coordinates are parasitic.
+            let inputs = self.mechanism.inputs.clone().unwrap_or_default();
+            for section in ["grid", "trajectory"] {
+                if let Some(toml::Value::Table(t)) = table.get_mut(section) {
+                    t.retain(|k, _| k == "time" || inputs.iter().any(|i| i == k));
+                }
+            }
+        }
+        toml::to_string(&table).expect("a job always serialises")
     }
 
     /// Checks every value against its physical range. Errors name the dotted key.
@@ -507,6 +588,14 @@ impl JobSpec {
             for (k, v) in arr.iter().enumerate() {
                 finite(file, &format!("load.{name}.{k}"), *v)?;
             }
+        }
+        if let Some(d) = self.description(file) {
+            d?;
+        } else if let Some((key, _)) = self.clearance.given.iter().find(|(_, m)| matches!(m, Magnitude::PerLimb(_))) {
+            return err(
+                &format!("clearance.{key}"),
+                "must be a number: one value per limb is for custom mechanisms (kind = \"custom\")".into(),
+            );
         }
         for kind in KINDS {
             let unit = if kind == ClearanceKind::RAngular { "rad" } else { "m" };
@@ -664,12 +753,20 @@ impl JobSpec {
             .iter()
             .filter(|(key, set)| {
                 let (table, name) = key.split_once('.').expect("dotted");
-                *set && !kind.section_keys(table).contains(&name)
+                // A custom mechanism's clearance keys are checked against its joints.
+                let custom_clearance = kind == MechanismKind::Custom && table == "clearance";
+                *set && !custom_clearance && !kind.section_keys(table).contains(&name)
             })
             .map(|(key, _)| *key)
             .collect();
         if let Some(first) = foreign.first() {
             return Err(JobError::new(file, *first, crate::keys::foreign_reason(kind, &foreign)));
+        }
+        if kind == MechanismKind::Custom {
+            for (i, v) in m.gravity.iter().enumerate() {
+                finite(file, &format!("mechanism.gravity.{i}"), *v)?;
+            }
+            return Ok(());
         }
         let lengths = [
             ("mechanism.base_radius", Some(m.base_radius())),

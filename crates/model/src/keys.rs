@@ -26,7 +26,13 @@ fn allowed(path: &str) -> Option<&'static [&'static str]> {
             "base_points",
             "platform_points",
             "u_axes",
+            "inputs",
+            "home",
+            "limb",
         ],
+        "mechanism.limb.*" => &["repeat", "rotate_deg", "joints", "bodies"],
+        "mechanism.limb.*.joints.*" => &["type", "name", "at", "axis", "axes", "actuated", "range"],
+        "mechanism.limb.*.bodies.*" => &["mass", "com", "inertia"],
         "mass" => &["platform", "leg", "cylinder", "piston", "platform_inertia", "points"],
         "mass.points.*" => &["mass", "at"],
         "load" => &["force", "moment", "at"],
@@ -79,17 +85,42 @@ pub fn suggest<'a>(key: &str, options: &[&'a str]) -> Option<&'a str> {
 /// the keys of `[mechanism]`, `[mass]`, `[clearance]`, `[grid]` and `[trajectory]`
 /// against the mechanism kind.
 pub fn check_keys(file: &str, table: &toml::Table) -> Result<(), JobError> {
-    walk(file, table, "", "")?;
     let kind = kind_of(file, table)?;
+    walk(file, table, "", "", kind)?;
+    // A custom mechanism's grid and trajectory take its inputs; its clearance keys are
+    // its joint groups, checked against the description.
+    let custom_inputs: Vec<&str> = match table.get("mechanism").and_then(|m| m.get("inputs")) {
+        Some(toml::Value::Array(a)) => a.iter().filter_map(|v| v.as_str()).collect(),
+        _ => Vec::new(),
+    };
     let mut foreign = Vec::new();
     for section in SECTIONS {
-        let keys = kind.section_keys(section);
+        let custom_keys: Vec<&str>;
+        let keys = match (kind, section) {
+            (MechanismKind::Custom, "clearance") => continue,
+            (MechanismKind::Custom, "grid") => &custom_inputs[..],
+            (MechanismKind::Custom, "trajectory") => {
+                custom_keys = std::iter::once("time").chain(custom_inputs.iter().copied()).collect();
+                &custom_keys[..]
+            }
+            _ => kind.section_keys(section),
+        };
         if let Some(toml::Value::Table(t)) = table.get(section) {
             foreign.extend(t.keys().filter(|k| !keys.contains(&k.as_str())).map(|k| format!("{section}.{k}")));
         }
     }
     match foreign.first() {
         None => Ok(()),
+        Some(first) if kind == MechanismKind::Custom && (first.starts_with("grid.") || first.starts_with("trajectory.")) => {
+            Err(JobError::new(
+                file,
+                first.clone(),
+                format!(
+                    "is not an input of this mechanism (its inputs are {}; the other platform coordinates are parasitic, solved at every pose)",
+                    custom_inputs.join(", ")
+                ),
+            ))
+        }
         Some(first) => {
             let names: Vec<&str> = foreign.iter().map(String::as_str).collect();
             Err(JobError::new(file, first.clone(), foreign_reason(kind, &names)))
@@ -138,7 +169,10 @@ pub(crate) fn foreign_reason(kind: MechanismKind, keys: &[&str]) -> String {
     )
 }
 
-fn walk(file: &str, table: &toml::Table, path: &str, pattern: &str) -> Result<(), JobError> {
+fn walk(file: &str, table: &toml::Table, path: &str, pattern: &str, kind: MechanismKind) -> Result<(), JobError> {
+    if kind == MechanismKind::Custom && pattern == "clearance" {
+        return Ok(());
+    }
     let Some(options) = allowed(pattern) else { return Ok(()) };
     for (key, value) in table {
         let here = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
@@ -154,11 +188,11 @@ fn walk(file: &str, table: &toml::Table, path: &str, pattern: &str) -> Result<()
         }
         let sub = if pattern.is_empty() { key.clone() } else { format!("{pattern}.{key}") };
         match value {
-            toml::Value::Table(t) => walk(file, t, &here, &sub)?,
+            toml::Value::Table(t) => walk(file, t, &here, &sub, kind)?,
             toml::Value::Array(items) => {
                 for (i, item) in items.iter().enumerate() {
                     if let toml::Value::Table(t) = item {
-                        walk(file, t, &format!("{here}.{i}"), &format!("{sub}.*"))?;
+                        walk(file, t, &format!("{here}.{i}"), &format!("{sub}.*"), kind)?;
                     }
                 }
             }

@@ -21,6 +21,7 @@
 //! assert_eq!(job.sample_count(), 3);
 //! ```
 
+pub mod custom;
 mod error;
 mod job;
 mod keys;

@@ -24,10 +24,14 @@ pub enum MechanismKind {
     /// spherical joint; six limbs and six inputs.
     #[serde(rename = "6-UPS")]
     Ups6,
+    /// Any parallel mechanism described by its joints (docs/model.md §12).
+    #[serde(rename = "custom")]
+    Custom,
 }
 
 /// Every kind, in the order error messages list them.
-pub const MECHANISM_KINDS: [MechanismKind; 3] = [MechanismKind::Prs3, MechanismKind::Rps3, MechanismKind::Ups6];
+pub const MECHANISM_KINDS: [MechanismKind; 4] =
+    [MechanismKind::Prs3, MechanismKind::Rps3, MechanismKind::Ups6, MechanismKind::Custom];
 
 impl MechanismKind {
     /// The name used in job files (`3-PRS`).
@@ -36,6 +40,7 @@ impl MechanismKind {
             Self::Prs3 => "3-PRS",
             Self::Rps3 => "3-RPS",
             Self::Ups6 => "6-UPS",
+            Self::Custom => "custom",
         }
     }
 
@@ -43,11 +48,12 @@ impl MechanismKind {
         MECHANISM_KINDS.into_iter().find(|k| k.name() == name)
     }
 
-    /// Number of limbs.
+    /// Number of limbs of a built-in kind (a custom mechanism's are its description's: 0 here).
     pub fn limbs(self) -> usize {
         match self {
             Self::Prs3 | Self::Rps3 => 3,
             Self::Ups6 => 6,
+            Self::Custom => 0,
         }
     }
 
@@ -56,15 +62,17 @@ impl MechanismKind {
     pub fn inputs(self) -> &'static [&'static str] {
         match self {
             Self::Prs3 | Self::Rps3 => &["z", "psi", "theta"],
-            Self::Ups6 => &["x", "y", "z", "phi", "psi", "theta"],
+            Self::Ups6 | Self::Custom => &["x", "y", "z", "phi", "psi", "theta"],
         }
     }
 
-    /// The keys of `[clearance]` this kind takes.
+    /// The keys of `[clearance]` this kind takes (a custom mechanism's are its joint
+    /// groups, checked against its description).
     pub fn clearance_keys(self) -> &'static [&'static str] {
         match self {
             Self::Prs3 | Self::Rps3 => &["s_radial", "r_radial", "r_axial", "r_angular"],
             Self::Ups6 => &["s_radial", "u_radial", "u_angular"],
+            Self::Custom => &[],
         }
     }
 
@@ -77,7 +85,7 @@ impl MechanismKind {
             "grid" => self.inputs(),
             "trajectory" => match self {
                 Self::Prs3 | Self::Rps3 => &["time", "z", "psi", "theta"],
-                Self::Ups6 => &["time", "x", "y", "z", "phi", "psi", "theta"],
+                Self::Ups6 | Self::Custom => &["time", "x", "y", "z", "phi", "psi", "theta"],
             },
             _ => self.mechanism_keys(),
         }
@@ -123,6 +131,7 @@ impl MechanismKind {
                 "platform_points",
                 "u_axes",
             ],
+            Self::Custom => &["kind", "gravity", "inputs", "home", "limb"],
         }
     }
 
@@ -131,6 +140,7 @@ impl MechanismKind {
         match self {
             Self::Prs3 => &["platform", "leg", "platform_inertia", "points"],
             Self::Rps3 | Self::Ups6 => &["platform", "cylinder", "piston", "platform_inertia", "points"],
+            Self::Custom => &["platform", "platform_inertia", "points"],
         }
     }
 }
@@ -199,6 +209,15 @@ pub struct MechanismSpec {
     /// 3-RPS: longest leg. Default `cylinder_length + piston_length` (fully extended).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_length: Option<f64>,
+    /// Custom: the platform coordinates the grid or trajectory gives; the others are parasitic.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inputs: Option<Vec<String>>,
+    /// Custom: the platform pose `x, y, z, phi, psi, theta` at which the joints are given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub home: Option<[f64; 6]>,
+    /// Custom: the limbs, each a chain of joints from the ground to the platform.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub limb: Option<Vec<crate::custom::LimbSpec>>,
 }
 
 impl Default for MechanismSpec {
@@ -220,6 +239,9 @@ impl Default for MechanismSpec {
             piston_length: None,
             min_length: None,
             max_length: None,
+            inputs: None,
+            home: None,
+            limb: None,
         }
     }
 }
@@ -235,6 +257,7 @@ impl MechanismSpec {
             MechanismKind::Prs3 => 0.18,
             MechanismKind::Rps3 => 0.3,
             MechanismKind::Ups6 => 0.5,
+            MechanismKind::Custom => f64::NAN,
         })
     }
 
@@ -243,6 +266,7 @@ impl MechanismSpec {
             MechanismKind::Prs3 => 0.36,
             MechanismKind::Rps3 => 0.2,
             MechanismKind::Ups6 => 0.3,
+            MechanismKind::Custom => f64::NAN,
         })
     }
 
@@ -250,7 +274,7 @@ impl MechanismSpec {
     pub fn leg_length(&self) -> f64 {
         match self.kind {
             MechanismKind::Prs3 => self.leg_length.unwrap_or(1.0),
-            MechanismKind::Rps3 | MechanismKind::Ups6 => f64::NAN,
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => f64::NAN,
         }
     }
 
@@ -296,11 +320,33 @@ impl MechanismSpec {
         match self.kind {
             MechanismKind::Prs3 => self.leg_length(),
             MechanismKind::Rps3 | MechanismKind::Ups6 => self.max_length(),
+            MechanismKind::Custom => self.custom_length_scale(),
         }
+    }
+
+    /// A custom mechanism's length scale: the largest distance of a joint's centre from
+    /// the home position of P (1 m if there is none).
+    fn custom_length_scale(&self) -> f64 {
+        let home = self.home.unwrap_or([0.0; 6]);
+        let far = self
+            .limb
+            .iter()
+            .flatten()
+            .flat_map(|l| &l.joints)
+            .map(|j| {
+                let d = [j.at[0] - home[0], j.at[1] - home[1], j.at[2] - home[2]];
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            })
+            .fold(0.0, f64::max);
+        if far > 0.0 { far } else { 1.0 }
     }
 
     /// Writes the kind's defaults into the keys left out that follow no other key.
     pub fn fill_defaults(&mut self) {
+        if self.kind == MechanismKind::Custom {
+            self.home.get_or_insert([0.0; 6]);
+            return;
+        }
         self.base_radius = Some(self.base_radius());
         self.platform_radius = Some(self.platform_radius());
         if self.kind != MechanismKind::Ups6 {
@@ -315,6 +361,7 @@ impl MechanismSpec {
                 self.cylinder_length = Some(self.cylinder_length());
                 self.piston_length = Some(self.piston_length());
             }
+            MechanismKind::Custom => {}
             MechanismKind::Ups6 => {
                 self.cylinder_length = Some(self.cylinder_length());
                 self.piston_length = Some(self.piston_length());
@@ -371,7 +418,7 @@ impl MassSpec {
     pub fn leg(&self, kind: MechanismKind) -> f64 {
         match kind {
             MechanismKind::Prs3 => self.leg.unwrap_or(3.0),
-            MechanismKind::Rps3 | MechanismKind::Ups6 => 0.0,
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => 0.0,
         }
     }
 
@@ -380,7 +427,7 @@ impl MassSpec {
         match kind {
             MechanismKind::Rps3 => self.cylinder.unwrap_or(2.0),
             MechanismKind::Ups6 => self.cylinder.unwrap_or(1.5),
-            MechanismKind::Prs3 => 0.0,
+            MechanismKind::Prs3 | MechanismKind::Custom => 0.0,
         }
     }
 
@@ -389,15 +436,16 @@ impl MassSpec {
         match kind {
             MechanismKind::Rps3 => self.piston.unwrap_or(1.0),
             MechanismKind::Ups6 => self.piston.unwrap_or(0.75),
-            MechanismKind::Prs3 => 0.0,
+            MechanismKind::Prs3 | MechanismKind::Custom => 0.0,
         }
     }
 
-    /// The mass of one limb's moving bodies.
+    /// The mass of one limb's moving bodies (a custom mechanism's bodies are in its limbs: 0 here).
     pub fn limb(&self, kind: MechanismKind) -> f64 {
         match kind {
             MechanismKind::Prs3 => self.leg(kind),
             MechanismKind::Rps3 | MechanismKind::Ups6 => self.cylinder(kind) + self.piston(kind),
+            MechanismKind::Custom => 0.0,
         }
     }
 
@@ -405,6 +453,7 @@ impl MassSpec {
     pub fn fill_defaults(&mut self, kind: MechanismKind) {
         match kind {
             MechanismKind::Prs3 => self.leg = Some(self.leg(kind)),
+            MechanismKind::Custom => {}
             MechanismKind::Rps3 | MechanismKind::Ups6 => {
                 self.cylinder = Some(self.cylinder(kind));
                 self.piston = Some(self.piston(kind));

@@ -1,0 +1,673 @@
+//! Kinematics of a mechanism described by its joints (docs/model.md §12.2).
+//!
+//! Screws are spatial twists `[ω; v_O]` (angular velocity, velocity of the point at
+//! the world origin). Each joint is one or more *columns*, a unit screw fixed in the
+//! body before it: R one rotation, P one translation, U a rotation about `a1` then
+//! one about `a2`, S three rotations about the world axes at home. A body's
+//! displacement from home is the product of its joints' motions from the ground
+//! (`G_j = G_{j−1}·T_j`); closure asks the last body's displacement to equal the
+//! platform's, `D = T(pose)·T(home)⁻¹`. Newton on every limb's closure at once
+//! (unknowns: the parasitic coordinates and every joint variable) follows the branch
+//! of home by continuation along the straight segment of the inputs. Rates come from
+//! the same Jacobian: `J·θ̇ − V_par·ẋ_par = V_in·ẋ_in`, and with the columns' drift
+//! `ξ̇_k = [V_(k−1), ξ_k]` (the Lie bracket with the twist of the body before) the
+//! accelerations.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3, Vector6};
+
+use clearance_model::custom::{BodySpec, JointType, Limb};
+
+type V3 = Vector3<f64>;
+
+/// A rigid motion `x ↦ r·x + t`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rigid {
+    pub r: Matrix3<f64>,
+    pub t: V3,
+}
+
+impl Rigid {
+    pub const IDENTITY: Rigid = Rigid { r: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), t: V3::new(0.0, 0.0, 0.0) };
+
+    pub fn apply(&self, x: &V3) -> V3 {
+        self.r * x + self.t
+    }
+
+    pub fn then(&self, other: &Rigid) -> Rigid {
+        // self ∘ other: apply `other` first.
+        Rigid { r: self.r * other.r, t: self.r * other.t + self.t }
+    }
+
+    pub fn inverse(&self) -> Rigid {
+        let rt = self.r.transpose();
+        Rigid { r: rt, t: -(rt * self.t) }
+    }
+
+    /// The rotation `r` about the point `c`.
+    pub fn about(c: &V3, r: Matrix3<f64>) -> Rigid {
+        Rigid { r, t: c - r * c }
+    }
+
+    /// A spatial screw `[ω; v_O]` moved by this motion (the adjoint).
+    pub fn screw(&self, s: &Vector6<f64>) -> Vector6<f64> {
+        let w = self.r * s.fixed_rows::<3>(0);
+        let v = self.r * s.fixed_rows::<3>(3) + self.t.cross(&w);
+        Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z)
+    }
+}
+
+/// `R = R_y(θ)·R_x(ψ)·R_z(φ)` of docs/model.md §1.
+pub fn orientation(phi: f64, psi: f64, theta: f64) -> Matrix3<f64> {
+    let ry = Rotation3::from_axis_angle(&V3::y_axis(), theta);
+    let rx = Rotation3::from_axis_angle(&V3::x_axis(), psi);
+    let rz = Rotation3::from_axis_angle(&V3::z_axis(), phi);
+    (ry * rx * rz).into_inner()
+}
+
+/// The platform's placement at pose `c = (x, y, z, φ, ψ, θ)`.
+pub fn placement(c: &[f64; 6]) -> Rigid {
+    Rigid { r: orientation(c[3], c[4], c[5]), t: V3::new(c[0], c[1], c[2]) }
+}
+
+/// The rotation of angle `|v|` about `v`.
+pub fn exp_so3(v: &V3) -> Matrix3<f64> {
+    Rotation3::new(*v).into_inner()
+}
+
+fn rotation_screw(axis: &V3, c: &V3) -> Vector6<f64> {
+    let v = c.cross(axis);
+    Vector6::new(axis.x, axis.y, axis.z, v.x, v.y, v.z)
+}
+
+fn translation_screw(d: &V3) -> Vector6<f64> {
+    Vector6::new(0.0, 0.0, 0.0, d.x, d.y, d.z)
+}
+
+/// `[a, b]` for spatial twists: the rate of change of `b` carried by a body moving with `a`.
+pub fn bracket(a: &Vector6<f64>, b: &Vector6<f64>) -> Vector6<f64> {
+    let (wa, va) = (a.fixed_rows::<3>(0).into_owned(), a.fixed_rows::<3>(3).into_owned());
+    let (wb, vb) = (b.fixed_rows::<3>(0).into_owned(), b.fixed_rows::<3>(3).into_owned());
+    let w = wa.cross(&wb);
+    let v = wa.cross(&vb) - wb.cross(&va);
+    Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z)
+}
+
+/// One joint at home, with unit axes.
+#[derive(Clone, Debug)]
+pub struct JointGeom {
+    pub joint: JointType,
+    pub name: String,
+    pub actuated: bool,
+    pub centre: V3,
+    /// R: `a`; P: `d`; U: `a1` (zero for S).
+    pub axis: V3,
+    /// U: `a2` (zero otherwise).
+    pub axis2: V3,
+    pub range: Option<(f64, f64)>,
+}
+
+impl JointGeom {
+    /// Variables: R, P 1; U 2; S 3.
+    pub fn dof(&self) -> usize {
+        match self.joint {
+            JointType::R | JointType::P => 1,
+            JointType::U => 2,
+            JointType::S => 3,
+        }
+    }
+}
+
+/// A body at home: mass, centre of mass and inertia about it in world axes.
+#[derive(Clone, Debug)]
+pub struct BodyGeom {
+    pub mass: f64,
+    pub com: V3,
+    pub inertia: Matrix3<f64>,
+}
+
+/// One limb at home.
+#[derive(Clone, Debug)]
+pub struct LimbGeom {
+    pub joints: Vec<JointGeom>,
+    /// `joints − 1`: body `b` lies between joints `b` and `b + 1`.
+    pub bodies: Vec<BodyGeom>,
+}
+
+impl LimbGeom {
+    pub fn dof(&self) -> usize {
+        self.joints.iter().map(JointGeom::dof).sum()
+    }
+}
+
+/// A custom mechanism's geometry at home (docs/model.md §12.1).
+#[derive(Clone, Debug)]
+pub struct CustomGeometry {
+    /// Indices of the inputs among `x, y, z, φ, ψ, θ`, in that order.
+    pub inputs: Vec<usize>,
+    /// The others, parasitic.
+    pub parasitic: Vec<usize>,
+    pub home: [f64; 6],
+    pub limbs: Vec<LimbGeom>,
+    /// A length scale (m): the largest distance of a joint from P at home.
+    pub length: f64,
+}
+
+fn v3(a: [f64; 3]) -> V3 {
+    V3::new(a[0], a[1], a[2])
+}
+
+fn body_geom(spec: &BodySpec, from: &V3, to: &V3) -> BodyGeom {
+    let com = spec.com.map(v3).unwrap_or((from + to) / 2.0);
+    let inertia = match spec.inertia {
+        Some(i) => Matrix3::from_fn(|r, c| i[r][c]),
+        None => {
+            let seg = to - from;
+            let l = seg.norm();
+            if l == 0.0 {
+                Matrix3::zeros()
+            } else {
+                let u = seg / l;
+                (Matrix3::identity() - u * u.transpose()) * (spec.mass * l * l / 12.0)
+            }
+        }
+    };
+    BodyGeom { mass: spec.mass, com, inertia }
+}
+
+impl CustomGeometry {
+    /// The geometry of an expanded, checked description.
+    pub fn new(inputs: &[usize], home: [f64; 6], limbs: &[Limb]) -> Self {
+        let limbs: Vec<LimbGeom> = limbs
+            .iter()
+            .map(|l| {
+                let joints: Vec<JointGeom> = l
+                    .joints
+                    .iter()
+                    .map(|j| {
+                        let (axis, axis2) = match (j.axis, j.axes) {
+                            (Some(a), _) => (v3(a).normalize(), V3::zeros()),
+                            (None, Some([a1, a2])) => (v3(a1).normalize(), v3(a2).normalize()),
+                            _ => (V3::zeros(), V3::zeros()),
+                        };
+                        JointGeom {
+                            joint: j.joint,
+                            name: j.name(),
+                            actuated: j.actuated,
+                            centre: v3(j.at),
+                            axis,
+                            axis2,
+                            range: j.range.map(|[lo, hi]| (lo, hi)),
+                        }
+                    })
+                    .collect();
+                let bodies = l
+                    .bodies
+                    .iter()
+                    .enumerate()
+                    .map(|(b, spec)| body_geom(spec, &joints[b].centre, &joints[b + 1].centre))
+                    .collect();
+                LimbGeom { joints, bodies }
+            })
+            .collect();
+        let p = V3::new(home[0], home[1], home[2]);
+        let length =
+            limbs.iter().flat_map(|l| &l.joints).map(|j| (j.centre - p).norm()).fold(0.0, f64::max).max(1e-3);
+        let parasitic = (0..6).filter(|k| !inputs.contains(k)).collect();
+        Self { inputs: inputs.to_vec(), parasitic, home, limbs, length }
+    }
+
+    /// The default platform inertia's radius: the mean distance from P, in the
+    /// platform's plane at home, of the platform-side joints' centres.
+    pub fn platform_radius(&self) -> f64 {
+        let home = placement(&self.home);
+        let w = home.r.column(2).into_owned();
+        let p = home.t;
+        let n = self.limbs.len().max(1) as f64;
+        self.limbs
+            .iter()
+            .filter_map(|l| l.joints.last())
+            .map(|j| {
+                let d = j.centre - p;
+                (d - w * w.dot(&d)).norm()
+            })
+            .sum::<f64>()
+            / n
+    }
+}
+
+/// The state of one joint: R, P one value; U two; S a rotation matrix (its motion
+/// about the centre at home).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum JointState {
+    Scalar(f64),
+    Pair(f64, f64),
+    Ball(Matrix3<f64>),
+}
+
+impl JointState {
+    fn home(j: &JointGeom) -> Self {
+        match j.joint {
+            JointType::R | JointType::P => Self::Scalar(0.0),
+            JointType::U => Self::Pair(0.0, 0.0),
+            JointType::S => Self::Ball(Matrix3::identity()),
+        }
+    }
+
+    /// Adds the increments of the joint's columns.
+    fn step(&mut self, d: &[f64]) {
+        match self {
+            Self::Scalar(v) => *v += d[0],
+            Self::Pair(a, b) => {
+                *a += d[0];
+                *b += d[1];
+            }
+            Self::Ball(r) => *r = exp_so3(&V3::new(d[0], d[1], d[2])) * *r,
+        }
+    }
+
+    /// The scalar variable of an R or P joint.
+    pub fn value(&self) -> f64 {
+        match self {
+            Self::Scalar(v) => *v,
+            _ => f64::NAN,
+        }
+    }
+}
+
+/// One joint at a pose: its current centre and axes, and its columns' screws.
+#[derive(Clone, Debug, Default)]
+pub struct PosedJoint {
+    pub centre: V3,
+    pub axis: V3,
+    pub axis2: V3,
+    /// `n = a1 × a2` for a U joint (current), else zero.
+    pub normal: V3,
+    /// The columns' spatial screws, at the pose.
+    pub columns: Vec<Vector6<f64>>,
+    /// The twist of the body before each column (rates), for the columns' drift.
+    pub before: Vec<Vector6<f64>>,
+}
+
+/// One body at a pose.
+#[derive(Clone, Debug, Default)]
+pub struct PosedBody {
+    /// Its displacement from home.
+    pub motion: Option<Rigid>,
+    pub com: V3,
+    pub inertia: Matrix3<f64>,
+    /// Spatial twist and its time derivative (zero in statics).
+    pub twist: Vector6<f64>,
+    pub accel: Vector6<f64>,
+}
+
+/// The mechanism solved at one pose.
+#[derive(Clone, Debug)]
+pub struct CustomPosture {
+    /// `x, y, z, φ, ψ, θ` (inputs and parasitic).
+    pub coords: [f64; 6],
+    pub platform: Rigid,
+    /// Platform twist and its derivative.
+    pub twist: Vector6<f64>,
+    pub accel: Vector6<f64>,
+    pub joints: Vec<Vec<PosedJoint>>,
+    pub bodies: Vec<Vec<PosedBody>>,
+    pub states: Vec<Vec<JointState>>,
+}
+
+impl CustomPosture {
+    /// The actuated joints' variables, in limb order (from home).
+    pub fn actuators(&self, geom: &CustomGeometry) -> Vec<f64> {
+        let mut out = Vec::new();
+        for (l, limb) in geom.limbs.iter().enumerate() {
+            for (j, joint) in limb.joints.iter().enumerate() {
+                if joint.actuated {
+                    out.push(self.states[l][j].value());
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Why a pose has no configuration on the branch of home.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unsolved {
+    /// Continuation from home failed (the branch ends, or turns back).
+    Unreachable,
+    /// A joint left its range.
+    OutOfRange,
+}
+
+/// The displacement of each body of a limb and the columns' screws at `states`.
+fn chain(limb: &LimbGeom, states: &[JointState]) -> (Vec<Rigid>, Vec<PosedJoint>) {
+    let mut g = Rigid::IDENTITY;
+    let mut bodies = Vec::with_capacity(limb.joints.len());
+    let mut joints = Vec::with_capacity(limb.joints.len());
+    for (j, s) in limb.joints.iter().zip(states) {
+        let mut pj = PosedJoint { centre: g.apply(&j.centre), ..Default::default() };
+        match (j.joint, s) {
+            (JointType::R, JointState::Scalar(v)) => {
+                pj.axis = g.r * j.axis;
+                pj.columns.push(g.screw(&rotation_screw(&j.axis, &j.centre)));
+                g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis * *v))));
+            }
+            (JointType::P, JointState::Scalar(v)) => {
+                pj.axis = g.r * j.axis;
+                pj.columns.push(g.screw(&translation_screw(&j.axis)));
+                g = g.then(&Rigid { r: Matrix3::identity(), t: j.axis * *v });
+                // The bearing's centre travels with the sliding part.
+                pj.centre = g.apply(&j.centre);
+            }
+            (JointType::U, JointState::Pair(a, b)) => {
+                pj.axis = g.r * j.axis;
+                pj.columns.push(g.screw(&rotation_screw(&j.axis, &j.centre)));
+                g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis * *a))));
+                pj.axis2 = g.r * j.axis2;
+                pj.columns.push(g.screw(&rotation_screw(&j.axis2, &j.centre)));
+                g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis2 * *b))));
+                pj.normal = pj.axis.cross(&pj.axis2);
+            }
+            (JointType::S, JointState::Ball(r)) => {
+                for k in 0..3 {
+                    pj.columns.push(g.screw(&rotation_screw(&V3::ith(k, 1.0), &j.centre)));
+                }
+                g = g.then(&Rigid::about(&j.centre, *r));
+            }
+            _ => unreachable!("a joint's state matches its type"),
+        }
+        joints.push(pj);
+        bodies.push(g);
+    }
+    (bodies, joints)
+}
+
+/// The spatial twists of the platform per unit rate of each coordinate at `c`.
+fn coordinate_screws(c: &[f64; 6]) -> [Vector6<f64>; 6] {
+    let p = V3::new(c[0], c[1], c[2]);
+    let ry = Rotation3::from_axis_angle(&V3::y_axis(), c[5]).into_inner();
+    let rx = Rotation3::from_axis_angle(&V3::x_axis(), c[4]).into_inner();
+    let w = [ry * rx * V3::z(), ry * V3::x(), V3::y()];
+    let ang = |w: V3| {
+        let v = p.cross(&w);
+        Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z)
+    };
+    [
+        translation_screw(&V3::x()),
+        translation_screw(&V3::y()),
+        translation_screw(&V3::z()),
+        ang(w[0]),
+        ang(w[1]),
+        ang(w[2]),
+    ]
+}
+
+/// The rate of change of [`coordinate_screws`] along `cd` (coordinate rates), applied to `cd`.
+fn coordinate_drift(c: &[f64; 6], cd: &[f64; 6]) -> Vector6<f64> {
+    let p = V3::new(c[0], c[1], c[2]);
+    let pd = V3::new(cd[0], cd[1], cd[2]);
+    let ry = Rotation3::from_axis_angle(&V3::y_axis(), c[5]).into_inner();
+    let rx = Rotation3::from_axis_angle(&V3::x_axis(), c[4]).into_inner();
+    let (wphi, wpsi, wth) = (ry * rx * V3::z(), ry * V3::x(), V3::y());
+    // dω_φ/dt = (θ̇ ŷ + ψ̇ ω_ψ) × ω_φ, dω_ψ/dt = θ̇ ŷ × ω_ψ, ω_θ fixed.
+    let dphi = (wth * cd[5] + wpsi * cd[4]).cross(&wphi);
+    let dpsi = (wth * cd[5]).cross(&wpsi);
+    let dw = dphi * cd[3] + dpsi * cd[4];
+    let w = wphi * cd[3] + wpsi * cd[4] + wth * cd[5];
+    let dv = pd.cross(&w) + p.cross(&dw);
+    Vector6::new(dw.x, dw.y, dw.z, dv.x, dv.y, dv.z)
+}
+
+/// A residual twist of `e = g·d⁻¹`: `[axial(e_r); e_t]`, zero exactly at closure.
+fn residual(g: &Rigid, d: &Rigid) -> Vector6<f64> {
+    let e = g.then(&d.inverse());
+    let r = e.r;
+    let w = V3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]) / 2.0;
+    Vector6::new(w.x, w.y, w.z, e.t.x, e.t.y, e.t.z)
+}
+
+/// The Newton matrix at `(coords, states)`: per limb, its columns, and minus the
+/// parasitic coordinates' screws.
+fn jacobian(geom: &CustomGeometry, coords: &[f64; 6], joints: &[Vec<PosedJoint>]) -> DMatrix<f64> {
+    let n = 6 * geom.limbs.len();
+    let mut m = DMatrix::zeros(n, n);
+    let screws = coordinate_screws(coords);
+    let mut col = geom.parasitic.len();
+    for (l, pj) in joints.iter().enumerate() {
+        for (k, &c) in geom.parasitic.iter().enumerate() {
+            m.fixed_view_mut::<6, 1>(6 * l, k).copy_from(&(-screws[c]));
+        }
+        for s in pj.iter().flat_map(|j| &j.columns) {
+            m.fixed_view_mut::<6, 1>(6 * l, col).copy_from(s);
+            col += 1;
+        }
+    }
+    m
+}
+
+/// Newton iterations at most per continuation step.
+const NEWTON_STEPS: usize = 12;
+/// The largest change of an angle (rad) or of a length (in units of the mechanism's
+/// length scale) in one continuation step: beyond, the step is halved, so that the
+/// continuation does not jump branch.
+const MAX_STEP_CHANGE: f64 = 0.25;
+/// Continuation steps at most (halvings included).
+const MAX_STEPS: usize = 200;
+
+/// Solves the closure at `coords` (the inputs set, the parasitic ones a first guess)
+/// by Newton from `states`; returns the increments' largest scaled size.
+fn newton(
+    geom: &CustomGeometry,
+    coords: &mut [f64; 6],
+    states: &mut [Vec<JointState>],
+) -> Option<f64> {
+    let scale = geom.length;
+    let mut moved = 0.0f64;
+    for _ in 0..NEWTON_STEPS {
+        let d = placement(coords).then(&placement(&geom.home).inverse());
+        let mut r = DVector::zeros(6 * geom.limbs.len());
+        let mut joints = Vec::with_capacity(geom.limbs.len());
+        for (l, limb) in geom.limbs.iter().enumerate() {
+            let (bodies, pj) = chain(limb, &states[l]);
+            let e = residual(bodies.last().expect("a limb has joints"), &d);
+            r.fixed_rows_mut::<6>(6 * l).copy_from(&e);
+            joints.push(pj);
+        }
+        let size = r.iter().enumerate().map(|(i, v)| if i % 6 < 3 { v.abs() } else { v.abs() / scale }).fold(0.0, f64::max);
+        if size < 1e-14 {
+            return Some(moved);
+        }
+        let m = jacobian(geom, coords, &joints);
+        let dx = m.lu().solve(&(-r))?;
+        if !dx.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let mut i = 0;
+        for &c in &geom.parasitic {
+            let s = if c < 3 { scale } else { 1.0 };
+            moved = moved.max(dx[i].abs() / s);
+            coords[c] += dx[i];
+            i += 1;
+        }
+        for (limb, st) in geom.limbs.iter().zip(states.iter_mut()) {
+            for (j, s) in limb.joints.iter().zip(st.iter_mut()) {
+                let n = j.dof();
+                let sc = if j.joint == JointType::P { scale } else { 1.0 };
+                for v in &dx.as_slice()[i..i + n] {
+                    moved = moved.max(v.abs() / sc);
+                }
+                s.step(&dx.as_slice()[i..i + n]);
+                i += n;
+            }
+        }
+        if moved > 4.0 * MAX_STEP_CHANGE {
+            return None;
+        }
+    }
+    None
+}
+
+/// The configuration at the inputs `target` (values of the inputs, in canonical
+/// order) on the branch of home: continuation from home along the straight segment
+/// of the inputs, each step solved by Newton and halved where Newton fails or the
+/// configuration moves too far in one step. The same inputs give the same bits,
+/// whatever pose came before.
+pub fn solve_configuration(geom: &CustomGeometry, target: &[f64]) -> Result<([f64; 6], Vec<Vec<JointState>>), Unsolved> {
+    let mut coords = geom.home;
+    let mut states: Vec<Vec<JointState>> =
+        geom.limbs.iter().map(|l| l.joints.iter().map(JointState::home).collect()).collect();
+    let start: Vec<f64> = geom.inputs.iter().map(|&k| geom.home[k]).collect();
+    let (mut s, mut h) = (0.0f64, 1.0f64);
+    let mut steps = 0;
+    while s < 1.0 {
+        steps += 1;
+        if steps > MAX_STEPS || h < 1e-6 {
+            return Err(Unsolved::Unreachable);
+        }
+        let next = (s + h).min(1.0);
+        let mut c = coords;
+        for (i, &k) in geom.inputs.iter().enumerate() {
+            c[k] = if next == 1.0 { target[i] } else { start[i] + next * (target[i] - start[i]) };
+        }
+        let mut st = states.clone();
+        match newton(geom, &mut c, &mut st) {
+            Some(moved) if moved <= MAX_STEP_CHANGE => {
+                coords = c;
+                states = st;
+                s = next;
+                h *= 2.0;
+            }
+            _ => h /= 2.0,
+        }
+    }
+    for (limb, st) in geom.limbs.iter().zip(&states) {
+        for (j, s) in limb.joints.iter().zip(st) {
+            if let (Some((lo, hi)), JointState::Scalar(v)) = (j.range, s)
+                && !(lo..=hi).contains(v)
+            {
+                return Err(Unsolved::OutOfRange);
+            }
+        }
+    }
+    Ok((coords, states))
+}
+
+/// The posture at `target` inputs, with rates: `rates = [ẋ_in, ẍ_in]` along a
+/// trajectory (`None` in statics: every twist zero).
+pub fn custom_posture(
+    geom: &CustomGeometry,
+    target: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+) -> Result<CustomPosture, Unsolved> {
+    let (coords, states) = solve_configuration(geom, target)?;
+    Ok(posture_at(geom, coords, states, rates))
+}
+
+/// The posture of a solved configuration.
+pub fn posture_at(
+    geom: &CustomGeometry,
+    coords: [f64; 6],
+    states: Vec<Vec<JointState>>,
+    rates: Option<(&[f64], &[f64])>,
+) -> CustomPosture {
+    let mut joints = Vec::with_capacity(geom.limbs.len());
+    let mut motions = Vec::with_capacity(geom.limbs.len());
+    for (limb, st) in geom.limbs.iter().zip(&states) {
+        let (b, j) = chain(limb, st);
+        motions.push(b);
+        joints.push(j);
+    }
+    let platform = placement(&coords);
+    let n_par = geom.parasitic.len();
+    let (mut twist, mut accel) = (Vector6::zeros(), Vector6::zeros());
+    let mut rates_of_columns: Vec<Vec<f64>> = geom.limbs.iter().map(|l| vec![0.0; l.dof()]).collect();
+    let mut accels_of_columns = rates_of_columns.clone();
+    if let Some((vel, acc)) = rates {
+        let m = jacobian(geom, &coords, &joints);
+        let lu = m.lu();
+        let screws = coordinate_screws(&coords);
+        let mut cd = [0.0; 6];
+        for (i, &k) in geom.inputs.iter().enumerate() {
+            cd[k] = vel[i];
+        }
+        let input_twist: Vector6<f64> = geom.inputs.iter().map(|&k| screws[k] * cd[k]).sum();
+        let rhs = DVector::from_fn(6 * geom.limbs.len(), |r, _| input_twist[r % 6]);
+        let x = lu.solve(&rhs).unwrap_or_else(|| DVector::zeros(rhs.len()));
+        for (i, &k) in geom.parasitic.iter().enumerate() {
+            cd[k] = x[i];
+        }
+        let mut at = n_par;
+        for rc in rates_of_columns.iter_mut() {
+            for v in rc.iter_mut() {
+                *v = x[at];
+                at += 1;
+            }
+        }
+        twist = (0..6).map(|k| screws[k] * cd[k]).sum();
+        // Accelerations: J·θ̈ − V_par·ẍ_par = V_in·ẍ_in + V̇·ẋ − Σ [V_(k−1), ξ_k]·θ̇_k.
+        let mut cdd = [0.0; 6];
+        for (i, &k) in geom.inputs.iter().enumerate() {
+            cdd[k] = acc[i];
+        }
+        let known: Vector6<f64> =
+            geom.inputs.iter().map(|&k| screws[k] * cdd[k]).sum::<Vector6<f64>>() + coordinate_drift(&coords, &cd);
+        let mut rhs = DVector::zeros(6 * geom.limbs.len());
+        for (l, pj) in joints.iter_mut().enumerate() {
+            let (_, drift) = column_drift(pj, &rates_of_columns[l]);
+            rhs.fixed_rows_mut::<6>(6 * l).copy_from(&(known - drift));
+        }
+        let y = lu.solve(&rhs).unwrap_or_else(|| DVector::zeros(rhs.len()));
+        for (i, &k) in geom.parasitic.iter().enumerate() {
+            cdd[k] = y[i];
+        }
+        let mut at = n_par;
+        for ac in accels_of_columns.iter_mut() {
+            for v in ac.iter_mut() {
+                *v = y[at];
+                at += 1;
+            }
+        }
+        accel = (0..6).map(|k| screws[k] * cdd[k]).sum::<Vector6<f64>>() + coordinate_drift(&coords, &cd);
+    }
+    let mut bodies = Vec::with_capacity(geom.limbs.len());
+    for (l, limb) in geom.limbs.iter().enumerate() {
+        let mut out = Vec::with_capacity(limb.bodies.len());
+        let (mut v, mut a) = (Vector6::zeros(), Vector6::zeros());
+        let mut col = 0;
+        for (j, pj) in joints[l].iter().enumerate() {
+            for s in &pj.columns {
+                let rate = rates_of_columns[l][col];
+                a += s * accels_of_columns[l][col] + bracket(&v, s) * rate;
+                v += s * rate;
+                col += 1;
+            }
+            if let Some(body) = limb.bodies.get(j) {
+                let g = motions[l][j];
+                out.push(PosedBody {
+                    motion: Some(g),
+                    com: g.apply(&body.com),
+                    inertia: g.r * body.inertia * g.r.transpose(),
+                    twist: v,
+                    accel: a,
+                });
+            }
+        }
+        bodies.push(out);
+    }
+    CustomPosture { coords, platform, twist, accel, joints, bodies, states }
+}
+
+/// The twist of the body before each column, and `Σ_k [V_(k−1), ξ_k]·θ̇_k`, for one limb.
+fn column_drift(joints: &mut [PosedJoint], rates: &[f64]) -> (Vector6<f64>, Vector6<f64>) {
+    let (mut v, mut drift) = (Vector6::zeros(), Vector6::zeros());
+    let mut k = 0;
+    for j in joints.iter_mut() {
+        j.before.clear();
+        for s in &j.columns {
+            j.before.push(v);
+            drift += bracket(&v, s) * rates[k];
+            v += s * rates[k];
+            k += 1;
+        }
+    }
+    (v, drift)
+}
