@@ -73,7 +73,7 @@ impl MassModel {
         let leg_inertia = if kind == MechanismKind::Prs3 { leg_mass * l * l / 12.0 } else { 0.0 };
         let (cylinder, piston) = match kind {
             MechanismKind::Prs3 => (Rod::default(), Rod::default()),
-            MechanismKind::Rps3 | MechanismKind::Ups6 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                 (Rod::new(ms.cylinder(kind), m.cylinder_length()), Rod::new(ms.piston(kind), m.piston_length()))
             }
         };

@@ -66,7 +66,7 @@ pub fn assemble(model: &Model, pose: &Posture, inertial: &Inertial, mut a: MatMu
                 let w = inertial.leg_omega[j];
                 (f_rhs, inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w)))
             }
-            MechanismKind::Rps3 | MechanismKind::Ups6 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                 // Cylinder and piston summed; moments about B_j, where f_Rj acts:
                 // m_Rj − (A_j − B_j)×f_Sj = H_j.
                 put3(&mut a, r + 3, c + 5, &(-skew(&(pose.a[j] - pose.b[j]))));

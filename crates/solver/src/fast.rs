@@ -310,7 +310,7 @@ impl<L: Lane> Pose<L> {
                     reachable = reachable & c::<L>(0.0).le(disc);
                     across = across | c::<L>(1e-6 * geom.leg_length).gt(disc.sqrt());
                 }
-                MechanismKind::Rps3 | MechanismKind::Ups6 => {
+                MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                     let len = disc.sqrt();
                     reachable = reachable & c::<L>(geom.stroke.0).le(len) & len.le(c(geom.stroke.1));
                 }
@@ -320,7 +320,7 @@ impl<L: Lane> Pose<L> {
             let d = a[j] - b[j];
             ell[j] = match geom.kind {
                 MechanismKind::Prs3 => c::<L>(geom.leg_length),
-                MechanismKind::Rps3 | MechanismKind::Ups6 => qj,
+                MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => qj,
             };
             let l = ell[j];
             e[j] = V3::new(d.x / l, d.y / l, d.z / l);
@@ -415,7 +415,7 @@ impl<L: Lane> Loads<L> {
                 let arm = 0.5 * model.geometry.leg_length;
                 Self { c: [leg; 3], h: [V3::zero(); 3], force, moment_c, com, arm }
             }
-            MechanismKind::Rps3 | MechanismKind::Ups6 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                 // The weights' moment about B_j: (ℓ_c/2)·e×(−m_c·g) + (q − ℓ_p/2)·e×(−m_p·g).
                 let (cyl, pis) = (&mass.cylinder, &mass.piston);
                 let weight = V3::splat(&((cyl.mass + pis.mass) * -model.gravity));
@@ -450,7 +450,7 @@ impl Loads<f64> {
                         h[j] = v(inertia * inertial.leg_omega_dot[j] + w.cross(&(inertia * w)));
                     }
                 }
-                MechanismKind::Rps3 | MechanismKind::Ups6 => {
+                MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                     let (cj, hj) = mass.rps_limb(pose, inertial, &model.gravity, j);
                     (c[j], h[j]) = (v(cj), v(hj));
                 }

@@ -46,6 +46,7 @@
 
 pub mod assembly;
 pub mod bodies;
+pub mod custom;
 pub mod equilibrium;
 pub mod error_system;
 pub mod exact;

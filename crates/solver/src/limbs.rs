@@ -186,7 +186,7 @@ pub struct Posed {
 pub fn three_limb_assembly(model: &Model) -> Assembly {
     let actuated = match model.geometry.kind {
         MechanismKind::Prs3 => Actuated::Slider,
-        MechanismKind::Rps3 | MechanismKind::Ups6 => Actuated::Leg,
+        MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => Actuated::Leg,
     };
     let [s, r, a, th] = model.clearance;
     let kinds = vec![
@@ -218,7 +218,7 @@ pub fn three_limb_posed(model: &Model, pose: &Posture, inertial: &Inertial) -> P
                 ),
                 Body::default(),
             ],
-            MechanismKind::Rps3 | MechanismKind::Ups6 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                 let (cyl, pis) = (&mass.cylinder, &mass.piston);
                 [
                     body(

@@ -18,8 +18,9 @@ use crate::takeup::{Margins, TakeUp, TakeUps, take_ups};
 
 /// What became of a pose (docs/conventions.md gives the precedence and what each
 /// status leaves null).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Status {
+    #[default]
     Ok,
     Unreachable,
     NearSingular,

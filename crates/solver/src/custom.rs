@@ -1,0 +1,774 @@
+//! Reactions, take-up and errors of a mechanism described by its joints
+//! (docs/model.md §12.4–12.7), from the systems its description implies.
+//!
+//! Every limb reduces to its constraint wrenches on the platform. With `Ξ_i` the
+//! passive columns of limb i (spatial screws at the pose) and `S` the swap of a
+//! six-vector's halves, the wrenches `W = [f; m_O]` that do no work on them span the
+//! null space of `(S·Ξ_i)ᵀ`; `N_i`, an orthonormal basis of it, has `6 − p_i` columns,
+//! and `G = [N_1 … N_L]` is 6 × 6 when the counts of §12.3 hold.
+//!
+//! - Reactions: a joint transmits (proximal on distal) `W_J = W_i + C_J`, `W_i` the
+//!   limb's wrench on the platform and `C_J` the inertial-minus-gravity wrenches of the
+//!   bodies beyond J. A passive column does no work: `(S·ξ)ᵀ·W_J = 0`, which fixes
+//!   `W_i = W0_i + N_i·λ_i`; the platform's balance `Σ W_i = D_platform` is `G·λ = …`.
+//! - Errors: `ΔΓ = Ξ_i·δq_i + ζ_i` per limb; `N_iᵀ·S` eliminates `δq_i`, so
+//!   `(Gᵀ·S)·ΔΓ = [N_iᵀ·S·ζ_i]`: the transpose of the same 6 × 6.
+//!
+//! `cond_a` and `cond_jp` are both `κ₂(G)` (the two systems share it; an orthonormal
+//! basis of each limb's wrenches makes it independent of the basis chosen).
+
+use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
+
+use clearance_kinematics::custom::{
+    CustomGeometry, CustomPosture, JointState, Rigid, Unsolved, custom_posture, exp_so3, placement,
+};
+use clearance_model::custom::{Group, JointType};
+use clearance_model::{JobError, JobSpec, Mode};
+
+use crate::pose::Status;
+
+type V3 = Vector3<f64>;
+type V6 = Vector6<f64>;
+
+fn w(s: &V6) -> V3 {
+    s.fixed_rows::<3>(0).into_owned()
+}
+
+fn v(s: &V6) -> V3 {
+    s.fixed_rows::<3>(3).into_owned()
+}
+
+fn six(a: V3, b: V3) -> V6 {
+    V6::new(a.x, a.y, a.z, b.x, b.y, b.z)
+}
+
+/// `S·x`: the halves swapped (a screw's pairing with a wrench is `Wᵀ·S·ξ`).
+fn swap(s: &V6) -> V6 {
+    six(v(s), w(s))
+}
+
+/// A group of one joint of one limb that has play (docs/model.md §12.5).
+#[derive(Clone, Debug)]
+pub struct GroupDef {
+    pub limb: usize,
+    pub joint: usize,
+    pub group: Group,
+    /// Index of its kind (`<name>_<group>`) in [`CustomModel::kinds`].
+    pub kind: usize,
+    pub magnitude: f64,
+    /// `<name><limb>_<group>`.
+    pub label: String,
+}
+
+impl GroupDef {
+    /// Whether its deciding load is a scalar (a sign decides) or a vector.
+    pub fn scalar(&self, joint: JointType) -> bool {
+        matches!((joint, self.group), (_, Group::Backlash) | (JointType::R, Group::Axial) | (JointType::U, Group::Angular))
+    }
+}
+
+/// A custom mechanism with its masses, loads and clearances, ready to solve.
+#[derive(Clone, Debug)]
+pub struct CustomModel {
+    pub geom: CustomGeometry,
+    pub gravity: V3,
+    pub platform_mass: f64,
+    /// About P in platform axes.
+    pub platform_inertia: Matrix3<f64>,
+    /// Point masses on the platform: mass and offset in platform axes.
+    pub points: Vec<(f64, V3)>,
+    pub force: V3,
+    pub moment: V3,
+    /// Where the force acts, platform axes.
+    pub force_at: V3,
+    /// The kinds `<name>_<group>` of the job, in canonical order.
+    pub kinds: Vec<String>,
+    /// Every (limb, joint, group) of a kind of the job, kind by kind, then limb by limb.
+    pub groups: Vec<GroupDef>,
+    /// `W = m_total·|g|`.
+    pub weight: f64,
+    /// Deciding loads at or below it are indeterminate.
+    pub floor: f64,
+    pub singular_cond: f64,
+    pub exact: bool,
+}
+
+/// A group's unit response below this `|Δp|` (m per m, or per rad times 1 m) cannot
+/// move the platform (docs/model.md §12.5).
+pub const IMMOBILE: f64 = 1e-9;
+
+impl CustomModel {
+    /// The model of a custom job; `Err` if it is not one, or its description is refused,
+    /// or its systems are singular at home (docs/model.md §12.3).
+    pub fn from_job(job: &JobSpec, file: &str) -> Result<Self, JobError> {
+        let d = job
+            .description(file)
+            .ok_or_else(|| JobError::new(file, "mechanism.kind", "is not \"custom\""))??;
+        let geom = CustomGeometry::new(&d.inputs, d.home, &d.limbs);
+        let mut groups = Vec::new();
+        let mut kinds = Vec::new();
+        for (k, (kind, magnitude)) in d.kinds.iter().enumerate() {
+            kinds.push(kind.key.clone());
+            let with = clearance_model::custom::limbs_with(&d.limbs, &kind.joint, kind.group);
+            for (n, &limb) in with.iter().enumerate() {
+                let joint = d.limbs[limb].joints.iter().position(|j| j.name() == kind.joint).expect("the limb has it");
+                groups.push(GroupDef {
+                    limb,
+                    joint,
+                    group: kind.group,
+                    kind: k,
+                    magnitude: magnitude.of(n),
+                    label: format!("{}{}_{}", kind.joint, limb + 1, kind.group.name()),
+                });
+            }
+        }
+        let m = &job.mass;
+        let radius = geom.platform_radius();
+        let platform_inertia = match m.platform_inertia {
+            Some(i) => Matrix3::from_diagonal(&V3::new(i[0], i[1], i[2])),
+            None => Matrix3::from_diagonal(&V3::new(
+                m.platform * radius * radius / 4.0,
+                m.platform * radius * radius / 4.0,
+                m.platform * radius * radius / 2.0,
+            )),
+        };
+        let weight = job.weight();
+        let model = Self {
+            gravity: V3::from(job.mechanism.gravity),
+            platform_mass: m.platform,
+            platform_inertia,
+            points: m.points.iter().map(|p| (p.mass, V3::from(p.at))).collect(),
+            force: V3::from(job.load.force),
+            moment: V3::from(job.load.moment),
+            force_at: V3::from(job.load.at),
+            kinds,
+            groups,
+            weight,
+            floor: job.analysis.indeterminate_load_fraction * weight,
+            singular_cond: job.analysis.singular_cond,
+            exact: job.analysis.exact,
+            geom,
+        };
+        // Rigid at home: the limbs' constraint wrenches span every wrench.
+        let home: Vec<f64> = model.geom.inputs.iter().map(|&k| model.geom.home[k]).collect();
+        let p = custom_posture(&model.geom, &home, None)
+            .map_err(|_| JobError::new(file, "mechanism.home", "the joints do not close at home: check the limbs' last joints against the platform's home pose"))?;
+        let closure = p
+            .joints
+            .iter()
+            .zip(&model.geom.limbs)
+            .map(|(pj, l)| (pj.last().expect("joints").centre - l.joints.last().expect("joints").centre).norm())
+            .fold(0.0, f64::max);
+        if closure > 1e-9 * model.geom.length {
+            return Err(JobError::new(file, "mechanism.home", "the joints do not close at home"));
+        }
+        let basis = Basis::new(&p, &model.geom);
+        match basis {
+            Some(b) if b.cond.is_finite() && b.cond < 1e12 => Ok(model),
+            _ => Err(JobError::new(
+                file,
+                "mechanism.limb",
+                "the mechanism is not rigid at home although its counts are right (its constraint wrenches are linearly dependent: a rank deficiency); check the joints' axes",
+            )),
+        }
+    }
+
+    /// The kinds' count.
+    pub fn kind_count(&self) -> usize {
+        self.kinds.len()
+    }
+
+    fn joint_type(&self, g: &GroupDef) -> JointType {
+        self.geom.limbs[g.limb].joints[g.joint].joint
+    }
+
+    /// Whether group `g`'s deciding load is a scalar.
+    pub fn scalar(&self, g: usize) -> bool {
+        self.groups[g].scalar(self.joint_type(&self.groups[g]))
+    }
+
+    /// The actuated joints: (limb, joint), in limb order.
+    pub fn actuators(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for (l, limb) in self.geom.limbs.iter().enumerate() {
+            for (j, joint) in limb.joints.iter().enumerate() {
+                if joint.actuated {
+                    out.push((l, j));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Each limb's orthonormal basis of the wrenches its passive freedoms let through.
+struct Basis {
+    /// `[N_1 … N_L]`.
+    g: Matrix6<f64>,
+    /// The column where limb i's block starts, and its width.
+    blocks: Vec<(usize, usize)>,
+    /// Each limb's passive columns.
+    passive: Vec<Vec<V6>>,
+    cond: f64,
+}
+
+impl Basis {
+    fn new(p: &CustomPosture, geom: &CustomGeometry) -> Option<Basis> {
+        let mut g = Matrix6::zeros();
+        let mut blocks = Vec::new();
+        let mut passive = Vec::new();
+        let mut at = 0;
+        for (limb, pj) in geom.limbs.iter().zip(&p.joints) {
+            let cols: Vec<V6> = limb
+                .joints
+                .iter()
+                .zip(pj)
+                .filter(|(j, _)| !j.actuated)
+                .flat_map(|(_, pj)| pj.columns.iter().copied())
+                .collect();
+            let n = cols.len();
+            if n > 6 {
+                return None;
+            }
+            let mut m = Matrix6::zeros();
+            for (k, c) in cols.iter().enumerate() {
+                m.set_column(k, &swap(c));
+            }
+            let svd = m.svd(true, false);
+            let u = svd.u?;
+            let mut order: Vec<usize> = (0..6).collect();
+            order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+            let s1 = svd.singular_values[order[0]];
+            if n > 0 && svd.singular_values[order[n - 1]] <= 1e-12 * s1.max(1.0) {
+                return None; // the limb's own freedoms are dependent: a limb singularity
+            }
+            if at + 6 - n > 6 {
+                return None;
+            }
+            for (k, &c) in order[n..].iter().enumerate() {
+                g.set_column(at + k, &u.column(c));
+            }
+            blocks.push((at, 6 - n));
+            at += 6 - n;
+            passive.push(cols);
+        }
+        if at != 6 {
+            return None;
+        }
+        let s = g.singular_values();
+        let (hi, lo) = (s.max(), s.min());
+        let cond = if lo > 0.0 { hi / lo } else { f64::INFINITY };
+        Some(Basis { g, blocks, passive, cond })
+    }
+}
+
+/// The take-up of one group at a pose.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GroupTake {
+    /// The deciding load (a scalar in `[0]` for scalar loads).
+    pub load: [f64; 3],
+    /// Its magnitude: the margin.
+    pub margin: f64,
+    /// The displacement as a spatial twist (magnitude included).
+    pub twist: V6,
+    pub indeterminate: bool,
+    /// Whether its unit response moves P at all.
+    pub mobile: bool,
+    /// Its own contribution to `|Δp|` (for the dominant joint).
+    pub dp: f64,
+}
+
+/// One pose of a custom mechanism, solved.
+#[derive(Clone, Debug, Default)]
+pub struct CustomResult {
+    pub status: Status,
+    /// `x, y, z, φ, ψ, θ`; the parasitic ones NaN when unreachable.
+    pub coords: [f64; 6],
+    pub q: Vec<f64>,
+    pub tau: Vec<f64>,
+    /// Per limb, per joint: force and couple (about the joint's centre), proximal on distal.
+    pub reactions: Vec<Vec<(V3, V3)>>,
+    pub takes: Vec<GroupTake>,
+    /// Per kind `[Δp; Δα]` then Euler errors: 9 components (`None`: indeterminate).
+    pub kind_errors: Vec<Option<[f64; 9]>>,
+    pub total: Option<[f64; 9]>,
+    /// Per kind, then the total: `x, y, z, rx, ry, rz, p, alpha`.
+    pub envelope: Vec<[f64; 8]>,
+    pub env_total: [f64; 8],
+    /// Index into [`CustomModel::groups`].
+    pub dominant: Option<usize>,
+    pub cond: f64,
+    pub exact: Option<[f64; 6]>,
+}
+
+impl CustomResult {
+    /// Whether the pose has reactions (and loads).
+    pub fn loaded(&self) -> bool {
+        matches!(self.status, Status::Ok | Status::IndeterminateContact)
+    }
+}
+
+fn skew_axial(r: &Matrix3<f64>) -> V3 {
+    V3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]) / 2.0
+}
+
+/// The rotation vector of `r`, accurate at small angles (atan2 of sine and cosine).
+pub fn log_so3(r: &Matrix3<f64>) -> V3 {
+    let a = skew_axial(r);
+    let s = a.norm();
+    let c = (r.trace() - 1.0) / 2.0;
+    if s == 0.0 {
+        return V3::zeros();
+    }
+    a * (s.atan2(c) / s)
+}
+
+/// `[ΔΦ, ΔΨ, ΔΘ]` from `Δα = ΔΘ·ŷ + ΔΨ·R_y x̂ + ΔΦ·R_y R_x ẑ` (docs/model.md §6).
+fn euler_errors(coords: &[f64; 6], dalpha: &V3) -> [f64; 3] {
+    let ry = nalgebra::Rotation3::from_axis_angle(&V3::y_axis(), coords[5]).into_inner();
+    let rx = nalgebra::Rotation3::from_axis_angle(&V3::x_axis(), coords[4]).into_inner();
+    let e = Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]);
+    match e.lu().solve(dalpha) {
+        Some(x) => [x[0], x[1], x[2]],
+        None => [f64::NAN; 3],
+    }
+}
+
+/// A spatial twist's error at P: `[Δp; Δα]` (Δp the velocity of P).
+fn at_p(t: &V6, p: &V3) -> [f64; 6] {
+    let (a, vo) = (w(t), v(t));
+    let dp = vo + a.cross(p);
+    [dp.x, dp.y, dp.z, a.x, a.y, a.z]
+}
+
+/// Solves one pose: `inputs` in canonical order, `rates = (velocities, accelerations)`
+/// of the inputs (dynamics).
+pub fn solve_custom(model: &CustomModel, inputs: &[f64], rates: Option<(&[f64], &[f64])>, mode: Mode) -> CustomResult {
+    let mut out = CustomResult {
+        coords: [f64::NAN; 6],
+        cond: f64::NAN,
+        kind_errors: vec![None; model.kinds.len()],
+        envelope: vec![[f64::NAN; 8]; model.kinds.len()],
+        env_total: [f64::NAN; 8],
+        ..Default::default()
+    };
+    for (i, &k) in model.geom.inputs.iter().enumerate() {
+        out.coords[k] = inputs[i];
+    }
+    let rates = if mode == Mode::Dynamic { rates } else { None };
+    let posture = match custom_posture(&model.geom, inputs, rates) {
+        Ok(p) => p,
+        Err(Unsolved::Unreachable | Unsolved::OutOfRange) => {
+            out.status = Status::Unreachable;
+            return out;
+        }
+    };
+    out.coords = posture.coords;
+    out.q = posture.actuators(&model.geom);
+    let Some(basis) = Basis::new(&posture, &model.geom) else {
+        out.status = Status::NearSingular;
+        out.cond = f64::INFINITY;
+        return out;
+    };
+    out.cond = basis.cond;
+    if !(basis.cond <= model.singular_cond) {
+        out.status = Status::NearSingular;
+        return out;
+    }
+    let Some(gi) = basis.g.try_inverse() else {
+        out.status = Status::NearSingular;
+        return out;
+    };
+    reactions(model, &posture, &basis, &gi, &mut out);
+    take_up(model, &posture, &basis, &gi, &mut out);
+    out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
+    if model.exact && out.status == Status::Ok {
+        out.exact = exact_error(model, &posture, &basis, &gi, &out);
+    }
+    out
+}
+
+/// The wrench `[m(a_G − g); G × m(a_G − g) + Iα + ω × Iω]` at the origin of a body
+/// with spatial twist `tw` and acceleration `ac`.
+fn body_wrench(mass: f64, com: &V3, inertia: &Matrix3<f64>, tw: &V6, ac: &V6, gravity: &V3) -> V6 {
+    let (om, vo) = (w(tw), v(tw));
+    let vel = vo + om.cross(com);
+    let acc = v(ac) + w(ac).cross(com) + om.cross(&vel);
+    let f = (acc - gravity) * mass;
+    let m = com.cross(&f) + inertia * w(ac) + om.cross(&(inertia * om));
+    six(f, m)
+}
+
+fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f64>, out: &mut CustomResult) {
+    let geom = &model.geom;
+    // The platform: composite with its point masses, less the external wrench.
+    let r = p.platform.r;
+    let pos = p.platform.t;
+    let mut d_platform = body_wrench(
+        model.platform_mass,
+        &pos,
+        &(r * model.platform_inertia * r.transpose()),
+        &p.twist,
+        &p.accel,
+        &model.gravity,
+    );
+    for (m, at) in &model.points {
+        d_platform += body_wrench(*m, &(pos + r * at), &Matrix3::zeros(), &p.twist, &p.accel, &model.gravity);
+    }
+    let e = pos + r * model.force_at;
+    d_platform -= six(model.force, e.cross(&model.force) + model.moment);
+    // Per limb: C_J for each joint, the particular wrench W0 and the block of G.
+    let mut carried: Vec<Vec<V6>> = Vec::with_capacity(geom.limbs.len());
+    let mut rhs = d_platform;
+    let mut w0s = Vec::with_capacity(geom.limbs.len());
+    for (l, limb) in geom.limbs.iter().enumerate() {
+        let n = limb.joints.len();
+        let mut c = vec![V6::zeros(); n];
+        for j in (0..n).rev() {
+            let beyond = if j + 1 < n { c[j + 1] } else { V6::zeros() };
+            let body = limb.bodies.get(j).map_or(V6::zeros(), |b| {
+                let pb = &p.bodies[l][j];
+                body_wrench(b.mass, &pb.com, &pb.inertia, &pb.twist, &pb.accel, &model.gravity)
+            });
+            c[j] = beyond + body;
+        }
+        // (S ξ_k)ᵀ (W0 + C_J(k)) = 0 for each passive column k.
+        let mut cols = Vec::new();
+        let mut r = Vec::new();
+        for (j, (joint, pj)) in limb.joints.iter().zip(&p.joints[l]).enumerate() {
+            if joint.actuated {
+                continue;
+            }
+            for s in &pj.columns {
+                cols.push(swap(s));
+                r.push(-swap(s).dot(&c[j]));
+            }
+        }
+        let k = cols.len();
+        let x = DMatrix::from_fn(6, k, |row, col| cols[col][row]);
+        let gram = x.transpose() * &x;
+        let rv = nalgebra::DVector::from_vec(r);
+        let w0 = match gram.lu().solve(&rv) {
+            Some(y) => {
+                let v = &x * y;
+                V6::from_iterator(v.iter().copied())
+            }
+            None => V6::zeros(),
+        };
+        rhs -= w0;
+        w0s.push(w0);
+        carried.push(c);
+    }
+    let lambda = gi * rhs;
+    out.reactions = Vec::with_capacity(geom.limbs.len());
+    out.tau.clear();
+    for (l, limb) in geom.limbs.iter().enumerate() {
+        let (start, width) = basis.blocks[l];
+        let mut wl = w0s[l];
+        for k in 0..width {
+            wl += basis.g.column(start + k) * lambda[start + k];
+        }
+        let mut rs = Vec::with_capacity(limb.joints.len());
+        for (j, joint) in limb.joints.iter().enumerate() {
+            // W_J = W_limb + the bodies beyond J (`carried[l][j]` holds them from body j on).
+            let wj = wl + carried[l][j];
+            let pj = &p.joints[l][j];
+            let f = w(&wj);
+            let m = v(&wj) - pj.centre.cross(&f);
+            if joint.actuated {
+                out.tau.push(match joint.joint {
+                    JointType::R => m.dot(&pj.axis),
+                    _ => f.dot(&pj.axis),
+                });
+            }
+            rs.push((f, m));
+        }
+        out.reactions.push(rs);
+    }
+}
+
+/// Unit displacement twists spanning a group's admissible set at the pose, whether
+/// they are rotations, and the set's shape (for the envelope).
+fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3) -> (Vec<V6>, Shape) {
+    let trans = |d: V3| six(V3::zeros(), d);
+    let rot = |d: V3| six(d, centre.cross(&d));
+    let perp = |a: &V3| {
+        let t = if a.x.abs() < 0.9 { V3::x() } else { V3::y() };
+        let u = a.cross(&t).normalize();
+        (u, a.cross(&u))
+    };
+    let axes = [V3::x(), V3::y(), V3::z()];
+    match (joint, group) {
+        (JointType::R | JointType::P, Group::Radial) => {
+            let (u, w) = perp(axis);
+            (vec![trans(u), trans(w)], Shape::Disc)
+        }
+        (JointType::R, Group::Axial) => (vec![trans(*axis)], Shape::Segment),
+        (JointType::R, Group::Angular) => {
+            let (u, w) = perp(axis);
+            (vec![rot(u), rot(w)], Shape::Disc)
+        }
+        (JointType::P, Group::Angular) => (axes.iter().map(|a| rot(*a)).collect(), Shape::Ball),
+        (JointType::U | JointType::S, Group::Radial) => (axes.iter().map(|a| trans(*a)).collect(), Shape::Ball),
+        (JointType::U, Group::Angular) => (vec![rot(*normal)], Shape::Segment),
+        (JointType::R, Group::Backlash) => (vec![rot(*axis)], Shape::Segment),
+        (JointType::P, Group::Backlash) => (vec![trans(*axis)], Shape::Segment),
+        _ => (Vec::new(), Shape::Segment),
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Shape {
+    Disc,
+    Ball,
+    Segment,
+}
+
+/// `ΔΓ` at P of a displacement twist `zeta` of limb `l`: `S·G⁻ᵀ·[N_lᵀ·S·ζ]`.
+fn response(basis: &Basis, gi: &Matrix6<f64>, l: usize, zeta: &V6, pos: &V3) -> [f64; 6] {
+    let (start, width) = basis.blocks[l];
+    let sz = swap(zeta);
+    let mut b = V6::zeros();
+    for k in 0..width {
+        b[start + k] = basis.g.column(start + k).dot(&sz);
+    }
+    let y = gi.transpose() * b;
+    at_p(&swap(&y), pos)
+}
+
+fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f64>, out: &mut CustomResult) {
+    let pos = p.platform.t;
+    let nk = model.kinds.len();
+    let mut errors = vec![[0.0f64; 6]; nk];
+    let mut indeterminate = vec![false; nk];
+    let mut envelope = vec![[0.0f64; 8]; nk];
+    out.takes = Vec::with_capacity(model.groups.len());
+    for g in &model.groups {
+        let joint = &model.geom.limbs[g.limb].joints[g.joint];
+        let pj = &p.joints[g.limb][g.joint];
+        let (f, m) = out.reactions[g.limb][g.joint];
+        let a = pj.axis;
+        let mut t = GroupTake::default();
+        // The deciding load, and the direction the distal body is pushed (unit).
+        let (load, dir, rotation): (V3, V3, bool) = match (joint.joint, g.group) {
+            (JointType::R | JointType::P, Group::Radial) => {
+                let fp = f - a * f.dot(&a);
+                (fp, -fp, false)
+            }
+            (JointType::R, Group::Axial) => {
+                let s = f.dot(&a);
+                (V3::new(s, 0.0, 0.0), -a * s.signum(), false)
+            }
+            (JointType::R, Group::Angular) => {
+                let mp = m - a * m.dot(&a);
+                (mp, -mp, true)
+            }
+            (JointType::P, Group::Angular) => (m, -m, true),
+            (JointType::U | JointType::S, Group::Radial) => (f, -f, false),
+            (JointType::U, Group::Angular) => {
+                let mu = m.dot(&pj.normal);
+                (V3::new(mu, 0.0, 0.0), -pj.normal * mu.signum(), true)
+            }
+            (JointType::R, Group::Backlash) => {
+                let tau = m.dot(&a);
+                (V3::new(tau, 0.0, 0.0), -a * tau.signum(), true)
+            }
+            (JointType::P, Group::Backlash) => {
+                let tau = f.dot(&a);
+                (V3::new(tau, 0.0, 0.0), -a * tau.signum(), false)
+            }
+            _ => (V3::zeros(), V3::zeros(), false),
+        };
+        let scalar = g.scalar(joint.joint);
+        t.load = [load.x, load.y, load.z];
+        t.margin = if scalar { load.x.abs() } else { load.norm() };
+        let unit = if scalar { dir } else if t.margin > 0.0 { dir / t.margin } else { V3::zeros() };
+        let disp = unit * g.magnitude;
+        t.twist = if rotation { six(disp, pj.centre.cross(&disp)) } else { six(V3::zeros(), disp) };
+        // The admissible set's unit responses: the envelope, and whether it moves P.
+        let (set, shape) = unit_set(joint.joint, g.group, &pj.centre, &a, &pj.normal);
+        let responses: Vec<[f64; 6]> = set.iter().map(|z| response(basis, gi, g.limb, z, &pos)).collect();
+        let block = |rows: std::ops::Range<usize>| -> f64 {
+            let m = SMatrix::<f64, 3, 3>::from_fn(|r, c| responses.get(c).map_or(0.0, |x| x[rows.start + r]));
+            match shape {
+                Shape::Segment => m.column(0).norm(),
+                _ => m.singular_values().max(),
+            }
+        };
+        let (unit_p, unit_a) = (block(0..3), block(3..6));
+        t.mobile = unit_p >= IMMOBILE;
+        for c in 0..6 {
+            let reach = match shape {
+                Shape::Segment => responses[0][c].abs(),
+                _ => responses.iter().map(|x| x[c] * x[c]).sum::<f64>().sqrt(),
+            };
+            envelope[g.kind][c] += g.magnitude * reach;
+        }
+        envelope[g.kind][6] += g.magnitude * unit_p;
+        envelope[g.kind][7] += g.magnitude * unit_a;
+        t.indeterminate = g.magnitude > 0.0 && t.mobile && t.margin <= model.floor;
+        let e = response(basis, gi, g.limb, &t.twist, &pos);
+        t.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        if t.indeterminate {
+            indeterminate[g.kind] = true;
+        } else {
+            for c in 0..6 {
+                errors[g.kind][c] += e[c];
+            }
+        }
+        out.takes.push(t);
+    }
+    let nine = |e: &[f64; 6]| -> [f64; 9] {
+        let eu = euler_errors(&p.coords, &V3::new(e[3], e[4], e[5]));
+        [e[0], e[1], e[2], e[3], e[4], e[5], eu[0], eu[1], eu[2]]
+    };
+    out.kind_errors = (0..nk).map(|k| (!indeterminate[k]).then(|| nine(&errors[k]))).collect();
+    out.total = (!indeterminate.iter().any(|&i| i)).then(|| {
+        let mut s = [0.0; 6];
+        for e in &errors {
+            for c in 0..6 {
+                s[c] += e[c];
+            }
+        }
+        nine(&s)
+    });
+    let mut total = [0.0; 8];
+    for e in &envelope {
+        for c in 0..8 {
+            total[c] += e[c];
+        }
+    }
+    out.envelope = envelope;
+    out.env_total = total;
+    out.dominant = dominant(model, &out.takes);
+}
+
+/// Relative tolerance of a tie between two joints' contributions (docs/model.md §12.7).
+pub const DOMINANT_TIE: f64 = 1e-9;
+
+/// The group whose own take-up moves P most; ties go to the first in the canonical
+/// order (joint type S, U, R, P; place in the limb; group; limb).
+fn dominant(model: &CustomModel, takes: &[GroupTake]) -> Option<usize> {
+    let candidates: Vec<usize> =
+        (0..model.groups.len()).filter(|&i| model.groups[i].magnitude > 0.0 && takes[i].mobile).collect();
+    let best = candidates.iter().map(|&i| takes[i].dp).fold(f64::NEG_INFINITY, f64::max);
+    if !(best > 0.0) {
+        return None;
+    }
+    let key = |i: usize| {
+        let g = &model.groups[i];
+        let j = &model.geom.limbs[g.limb].joints[g.joint];
+        (j.joint.tie_rank(), g.joint, g.group, g.limb)
+    };
+    candidates.into_iter().filter(|&i| takes[i].dp >= best * (1.0 - DOMINANT_TIE)).min_by_key(|&i| key(i))
+}
+
+/// The exact error (docs/model.md §12.7): the take-ups as finite rigid motions, the
+/// closure solved for the platform's displacement and the passive joints' motions by
+/// chord iterations on the linear error system's matrix.
+fn exact_error(
+    model: &CustomModel,
+    p: &CustomPosture,
+    basis: &Basis,
+    gi: &Matrix6<f64>,
+    out: &CustomResult,
+) -> Option<[f64; 6]> {
+    let geom = &model.geom;
+    // Each joint's take-up as a rotation vector and a translation about its centre.
+    let mut play: Vec<Vec<(V3, V3)>> = geom.limbs.iter().map(|l| vec![(V3::zeros(), V3::zeros()); l.joints.len()]).collect();
+    for (g, t) in model.groups.iter().zip(&out.takes) {
+        let e = &mut play[g.limb][g.joint];
+        e.0 += w(&t.twist);
+        // A rotation's twist carries c × δ in its second half; the translation is the rest.
+        let c = p.joints[g.limb][g.joint].centre;
+        e.1 += v(&t.twist) - c.cross(&w(&t.twist));
+    }
+    let mut delta = Rigid::IDENTITY;
+    let mut q: Vec<Vec<f64>> = basis.passive.iter().map(|c| vec![0.0; c.len()]).collect();
+    let scale = geom.length;
+    let pinv: Vec<Option<DMatrix<f64>>> = basis
+        .passive
+        .iter()
+        .map(|cols| {
+            let x = DMatrix::from_fn(6, cols.len(), |r, c| cols[c][r]);
+            (x.transpose() * &x).try_inverse().map(|gram| gram * x.transpose())
+        })
+        .collect();
+    let mut previous = f64::INFINITY;
+    for _ in 0..40 {
+        let mut b = V6::zeros();
+        let mut res = Vec::with_capacity(geom.limbs.len());
+        let mut size = 0.0f64;
+        for (l, limb) in geom.limbs.iter().enumerate() {
+            let mut g = Rigid::IDENTITY;
+            let mut k = 0;
+            for (j, joint) in limb.joints.iter().enumerate() {
+                let pj = &p.joints[l][j];
+                let c = pj.centre;
+                if !joint.actuated {
+                    let m = match joint.joint {
+                        JointType::R => Rigid::about(&c, exp_so3(&(pj.axis * q[l][k]))),
+                        JointType::P => Rigid { r: Matrix3::identity(), t: pj.axis * q[l][k] },
+                        JointType::U => Rigid::about(&c, exp_so3(&(pj.axis * q[l][k])))
+                            .then(&Rigid::about(&c, exp_so3(&(pj.axis2 * q[l][k + 1])))),
+                        JointType::S => Rigid::about(&c, exp_so3(&V3::new(q[l][k], q[l][k + 1], q[l][k + 2]))),
+                    };
+                    k += match joint.joint {
+                        JointType::R | JointType::P => 1,
+                        JointType::U => 2,
+                        JointType::S => 3,
+                    };
+                    g = g.then(&m);
+                }
+                let (rv, u) = play[l][j];
+                if rv != V3::zeros() || u != V3::zeros() {
+                    let cj = Rigid { r: exp_so3(&rv), t: c - exp_so3(&rv) * c + u };
+                    g = cj.then(&g);
+                }
+            }
+            let e = g.then(&delta.inverse());
+            let r = six(skew_axial(&e.r), e.t);
+            size = size.max(w(&r).amax()).max(v(&r).amax() / scale);
+            let (start, width) = basis.blocks[l];
+            let sr = swap(&r);
+            for kk in 0..width {
+                b[start + kk] = basis.g.column(start + kk).dot(&sr);
+            }
+            res.push(r);
+        }
+        // Converged: at round-off, where the chord iterations stop gaining.
+        let converged = size < 1e-16 || (size < 1e-12 && size > 0.5 * previous);
+        previous = size;
+        if converged {
+            let rot = log_so3(&delta.r);
+            let pos = p.platform.t;
+            let dp = delta.apply(&pos) - pos;
+            let exact = [dp.x, dp.y, dp.z, rot.x, rot.y, rot.z];
+            // Another branch near a singularity is not the pose the clearances make.
+            let lin = out.total?;
+            let diff = (0..6).map(|i| (exact[i] - lin[i]).powi(2)).sum::<f64>().sqrt();
+            let size = (0..6).map(|i| lin[i] * lin[i]).sum::<f64>().sqrt();
+            return (diff <= size.max(1e-300)).then_some(exact);
+        }
+        let d = swap(&(gi.transpose() * b));
+        delta = Rigid { r: exp_so3(&w(&d)), t: v(&d) }.then(&delta);
+        for (l, r) in res.iter().enumerate() {
+            let Some(pi) = &pinv[l] else { return None };
+            let dq = pi * nalgebra::DVector::from_iterator(6, (d - r).iter().copied());
+            for (x, y) in q[l].iter_mut().zip(dq.iter()) {
+                *x += y;
+            }
+        }
+    }
+    None
+}
+
+/// The nominal posture's placement of the platform, for callers that need P.
+pub fn platform_of(coords: &[f64; 6]) -> Rigid {
+    placement(coords)
+}
+
+/// The states of a solved configuration (for tests).
+pub fn states_of(p: &CustomPosture) -> &[Vec<JointState>] {
+    &p.states
+}
