@@ -84,6 +84,9 @@ enum Command {
         #[arg(long, default_value = "fast", value_parser = parse_solver)]
         solver: SolverKind,
     },
+    /// Print any job as a custom mechanism described by its joints (a job that runs
+    /// and gives the same values; docs/model.md §12).
+    Describe { job: PathBuf },
     /// PNG error maps and trajectory plots from a finished run.
     Plot {
         dir: PathBuf,
@@ -317,6 +320,15 @@ fn main() -> ExitCode {
                 };
                 let timing = (!no_timing).then_some(&opts);
                 init_threads(threads).and_then(|()| check::check(&spec, &job.display().to_string(), timing))
+            }
+            Err(e) => return usage(e),
+        },
+        Command::Describe { job } => match load_job(&job)
+            .and_then(|spec| clearance_engine::describe(&spec, &job.display().to_string()))
+        {
+            Ok(described) => {
+                print!("{}", described.to_toml_string());
+                Ok(())
             }
             Err(e) => return usage(e),
         },

@@ -106,7 +106,9 @@ pub(crate) fn groups(variants: &[Variant]) -> Vec<Group> {
     let mut own_of: Vec<Vec<[f64; 4]>> = Vec::new();
     for v in variants {
         let own = magnitudes(&v.job.clearance);
-        let g = if !v.job.analysis.exact {
+        // A custom mechanism's variants are solved alone (its magnitudes are per joint group).
+        let custom = v.job.mechanism.kind == clearance_model::MechanismKind::Custom;
+        let g = if !v.job.analysis.exact && !custom {
             let mut key = v.job.clone();
             key.clearance = ClearanceSpec { ups: key.clearance.ups, ..ClearanceSpec::default() };
             let next = out.len();

@@ -27,6 +27,8 @@
 //! assert!(batches[0].schema().field_with_name("err_z").is_ok());
 //! ```
 
+mod custom;
+mod describe;
 mod error;
 mod estimate;
 mod groups;
@@ -40,6 +42,7 @@ mod solve;
 mod status;
 mod ups;
 
+pub use describe::describe;
 pub use error::EngineError;
 pub use estimate::{Calibration, Estimate, calibration_dir, estimate, scaled};
 pub use kernel::{bench_job, kernel_rate};

@@ -69,8 +69,15 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
     let sample_count = job.sample_count();
     let modes: Vec<&'static str> = job.analysis.modes.iter().map(|m| m.name()).collect();
     let ups = job.mechanism.kind == MechanismKind::Ups6;
+    let custom = job.mechanism.kind == MechanismKind::Custom;
+    // A custom description is checked whole (its rank at home too) for every variant.
+    let models = if custom {
+        variants.iter().map(|v| crate::custom::model_of(&v.job, file)).collect::<Result<Vec<_>, _>>()?
+    } else {
+        Vec::new()
+    };
     let samples = match job.samples() {
-        SamplesSpec::Grid(g) if ups => {
+        SamplesSpec::Grid(g) if ups || custom => {
             let [x, y, z, phi, psi, theta] = g.axes6().map(|r| r.len());
             Samples::Grid6 { x, y, z, phi, psi, theta }
         }
@@ -81,7 +88,9 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
     let columns = [ColumnSet::Minimal, ColumnSet::Standard, ColumnSet::Full]
         .into_iter()
         .map(|set| {
-            let columns = if ups {
+            let columns = if let Some(model) = models.first() {
+                clearance_parquet::CustomSchema::new(model, set, job.analysis.exact).schema().fields().len()
+            } else if ups {
                 UpsSchema::new(set, job.analysis.exact).names().count()
             } else {
                 PoseSchema::new(set, job.analysis.exact).names().count()
@@ -103,6 +112,20 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
 
 fn describe(m: &MechanismSpec) -> String {
     let mut out = m.kind.name().to_string();
+    if m.kind == MechanismKind::Custom {
+        let limbs = clearance_model::custom::expand(m.limb.as_deref().unwrap_or(&[]));
+        let chains: Vec<String> = limbs
+            .iter()
+            .map(|l| l.joints.iter().map(|j| format!("{}{}", j.joint.letter(), if j.actuated { "*" } else { "" })).collect())
+            .collect();
+        out.push_str(&format!(
+            ", {} limbs ({}), inputs {}",
+            limbs.len(),
+            chains.join(", "),
+            m.inputs.as_deref().unwrap_or(&[]).join(", ")
+        ));
+        return out;
+    }
     if m.kind == MechanismKind::Ups6 {
         let base = if m.base_points.is_some() {
             "base points as given".to_string()

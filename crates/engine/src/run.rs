@@ -1372,6 +1372,9 @@ pub(crate) fn part_metadata(variant: &Variant) -> Vec<(String, String)> {
 /// Runs `job` (read from `job_file`, named in messages) into `opts.out`, computing
 /// the units of `opts.shard` on the current rayon pool.
 pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
+    if job.mechanism.kind == clearance_model::MechanismKind::Custom {
+        return crate::custom::run_custom(job, job_file, opts);
+    }
     if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
         return crate::ups::run_ups(job, job_file, opts);
     }

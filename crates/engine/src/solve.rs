@@ -136,6 +136,14 @@ fn schemas(set: ColumnSet, exact: bool) -> &'static (PoseSchema, SchemaRef) {
 /// batch each, in the order of a run's units: a `variant` column (UInt64), then
 /// exactly the columns, values and nulls of the run's part files (tested).
 pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<RecordBatch>, EngineError> {
+    if job.mechanism.kind == clearance_model::MechanismKind::Custom {
+        if opts.poses.is_some() {
+            return Err(EngineError::Samples(
+                "a custom mechanism takes its poses from its [grid] or [trajectory] (the inputs it names)".into(),
+            ));
+        }
+        return crate::custom::solve_custom_job(job, file, opts.columns);
+    }
     if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
         if opts.poses.is_some() {
             return Err(EngineError::Samples(

@@ -241,16 +241,16 @@ fn finalize(
 }
 
 /// One path of the search: the samples it passes, in order, and any point between.
-struct UpsPath {
+pub(crate) struct UpsPath {
     /// The input it varies (`t` along a trajectory).
-    along: &'static str,
+    pub(crate) along: &'static str,
     /// Index of the varying input among the six (`None`: time).
     axis: Option<usize>,
     /// The varying input's range (or the time range).
     range: RangeSpec,
     origin: u64,
     stride: u64,
-    len: usize,
+    pub(crate) len: usize,
 }
 
 impl UpsPath {
@@ -260,7 +260,7 @@ impl UpsPath {
 
     /// The sample at path parameter `p` (in sample steps, `0..len − 1`): time and the
     /// six inputs with their rates.
-    fn sample_at(
+    pub(crate) fn sample_at(
         &self,
         source: &SampleSource,
         trajectory: Option<&[&InputSpec; 6]>,
@@ -293,7 +293,7 @@ impl UpsPath {
 
 /// Every path of a source: the trajectory, or each grid line of each input with
 /// more than one value (docs/model.md §8).
-fn ups_paths(job: &JobSpec, source: &SampleSource) -> Vec<UpsPath> {
+pub(crate) fn ups_paths(job: &JobSpec, source: &SampleSource) -> Vec<UpsPath> {
     match job.samples() {
         SamplesSpec::Trajectory(t) => vec![UpsPath {
             along: "t",
@@ -402,7 +402,7 @@ fn kind_error(r: &UpsResult, kind: usize) -> Option<[f64; 6]> {
 /// Path parameters closer than this are one minimum.
 const SAME: f64 = 1e-6;
 /// The location tolerance in the path parameter (sample steps).
-const LOCATE_TOL: f64 = 1e-10;
+pub(crate) const LOCATE_TOL: f64 = 1e-10;
 
 /// The switches of one (group, mode) with the group's magnitudes (`clearance`, as
 /// [`crate::groups::magnitudes`] orders them): every path, in order, on the rayon pool.
@@ -531,11 +531,11 @@ fn search(
     found.into_iter().flatten().collect()
 }
 
-type Mags = [Option<(f64, nalgebra::Vector3<f64>)>];
+pub(crate) type Mags = [Option<(f64, nalgebra::Vector3<f64>)>];
 
 /// The half-width (in samples) of the stencil that polishes a minimum
 /// ([`vector_polish`]).
-const POLISH_WIDTH: f64 = 1e-3;
+pub(crate) const POLISH_WIDTH: f64 = 1e-3;
 
 /// The tolerance (in samples) of the first location of a minimum ([`vector_min`]),
 /// which [`vector_polish`] takes to round-off.
@@ -548,7 +548,7 @@ fn norm(v: [f64; 3]) -> f64 {
 /// Where on the interval `(k, k + 1)` the load magnitude is least, and the load
 /// there, by [`vector_min`] from the loads at its ends and at the sample beyond the
 /// sampled minimum it borders (else at its middle). `None` where that does not settle.
-fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -> Option<(f64, [f64; 3])> {
+pub(crate) fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -> Option<(f64, [f64; 3])> {
     let known = |i: usize| mags.get(i).copied().flatten().map(|(_, v)| (i as f64, [v.x, v.y, v.z]));
     let (a, b) = (known(k)?, known(k + 1)?);
     let beyond = if is_min(mags, k + 1) {
@@ -567,13 +567,13 @@ fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -
 
 /// A minimum of the load magnitude found by refining the interval `[lo, hi]`.
 #[derive(Clone, Copy, Debug)]
-struct Refined {
-    lo: f64,
-    hi: f64,
-    x: f64,
-    m: f64,
+pub(crate) struct Refined {
+    pub(crate) lo: f64,
+    pub(crate) hi: f64,
+    pub(crate) x: f64,
+    pub(crate) m: f64,
     /// The load at `x`, where the refinement evaluated it.
-    at_x: Option<[f64; 3]>,
+    pub(crate) at_x: Option<[f64; 3]>,
 }
 
 /// A refined minimum within this of an interval's end sits on that sample.
@@ -583,7 +583,7 @@ const END: f64 = 1e-7;
 /// interval's end is the interval's lowest point, not a dip of it, so it is kept only
 /// when that end is a sampled minimum and the interval on its other side found no dip
 /// of its own (then the dip is at the sample itself); minima closer than [`SAME`] are one.
-fn select(refined: &[Refined], mags: &Mags) -> Vec<Refined> {
+pub(crate) fn select(refined: &[Refined], mags: &Mags) -> Vec<Refined> {
     let at_end = |r: &Refined| [r.lo, r.hi].into_iter().find(|e| (r.x - e).abs() < END);
     let mut out: Vec<Refined> = Vec::new();
     for r in refined {
@@ -615,7 +615,7 @@ fn is_min(mags: &Mags, k: usize) -> bool {
 /// The intervals `(k, k + 1)` to refine: both beside each sampled interior minimum,
 /// searched on their own, and every interval whose end directions differ by more
 /// than 90° although neither end is a sampled minimum (a dip between monotone samples).
-fn minima(mags: &Mags) -> Vec<(f64, f64)> {
+pub(crate) fn minima(mags: &Mags) -> Vec<(f64, f64)> {
     let mut out = Vec::new();
     for k in 0..mags.len().saturating_sub(1) {
         let (Some((_, a)), Some((_, b))) = (mags[k], mags[k + 1]) else { continue };
@@ -632,7 +632,7 @@ fn minima(mags: &Mags) -> Vec<(f64, f64)> {
 /// passes ([`rising`], wherever `reach` puts it). When no pair of those turns by more than 90°, the
 /// interval's refined minimum gives no switch whatever its value, so it is not refined:
 /// the switches found are the same, without the load solves of the refinement.
-fn can_flip(mags: &Mags, k: usize) -> bool {
+pub(crate) fn can_flip(mags: &Mags, k: usize) -> bool {
     let last = mags.len() - 1;
     let direction = |k: usize| mags[k].expect("a walk passes determinate samples").1;
     let walked = |starts: [usize; 2], step: isize| -> Vec<nalgebra::Vector3<f64>> {
@@ -660,7 +660,7 @@ fn rising(mags: &Mags, start: usize, step: isize) -> impl Iterator<Item = usize>
 /// first sample whose magnitude has risen to `reach`, else the sampled maximum where
 /// the magnitude falls again, else the last determinate sample before a gap or the
 /// path's end. `None` if a side has no determinate sample.
-fn sides(mags: &Mags, x: f64, reach: f64) -> Option<(usize, usize)> {
+pub(crate) fn sides(mags: &Mags, x: f64, reach: f64) -> Option<(usize, usize)> {
     // The first sample of the walk whose magnitude has risen to `reach`, else its last.
     let walk = |start: usize, step: isize| -> Option<usize> {
         let mut last = None;

@@ -330,12 +330,12 @@ impl CustomPosture {
 }
 
 /// Why a pose has no configuration on the branch of home.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Unsolved {
     /// Continuation from home failed (the branch ends, or turns back).
     Unreachable,
-    /// A joint left its range.
-    OutOfRange,
+    /// A joint left its range; the platform's coordinates are still known.
+    OutOfRange([f64; 6]),
 }
 
 /// The displacement of each body of a limb and the columns' screws at `states`.
@@ -506,6 +506,18 @@ fn newton(
     None
 }
 
+/// Whether the inputs determine the pose at home: the closure's Jacobian there is
+/// well conditioned (docs/model.md §12.3).
+pub fn determined_at_home(geom: &CustomGeometry) -> bool {
+    let states: Vec<Vec<JointState>> =
+        geom.limbs.iter().map(|l| l.joints.iter().map(JointState::home).collect()).collect();
+    let joints: Vec<Vec<PosedJoint>> = geom.limbs.iter().zip(&states).map(|(l, s)| chain(l, s).1).collect();
+    let m = jacobian(geom, &geom.home, &joints);
+    let s = m.singular_values();
+    let (hi, lo) = (s.max(), s.min());
+    lo > 1e-10 * hi
+}
+
 /// The configuration at the inputs `target` (values of the inputs, in canonical
 /// order) on the branch of home: continuation from home along the straight segment
 /// of the inputs, each step solved by Newton and halved where Newton fails or the
@@ -544,7 +556,7 @@ pub fn solve_configuration(geom: &CustomGeometry, target: &[f64]) -> Result<([f6
             if let (Some((lo, hi)), JointState::Scalar(v)) = (j.range, s)
                 && !(lo..=hi).contains(v)
             {
-                return Err(Unsolved::OutOfRange);
+                return Err(Unsolved::OutOfRange(coords));
             }
         }
     }

@@ -431,11 +431,22 @@ impl JobSpec {
         let mut job: JobSpec = if kind == MechanismKind::Custom {
             // A custom mechanism's grid or trajectory gives only its inputs: the
             // coordinates the types require are filled with 0 (never read).
+            // An input left out stays at its home value.
             let mut table = table.clone();
-            for (section, fill) in [("grid", toml::Value::Float(0.0)), ("trajectory", toml::Value::Float(0.0))] {
+            let home: Vec<f64> = match table.get("mechanism").and_then(|m| m.get("home")) {
+                Some(toml::Value::Array(a)) => a.iter().map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)).unwrap_or(0.0)).collect(),
+                _ => vec![0.0; 6],
+            };
+            let inputs: Vec<String> = match table.get("mechanism").and_then(|m| m.get("inputs")) {
+                Some(toml::Value::Array(a)) => a.iter().filter_map(|v| v.as_str().map(String::from)).collect(),
+                _ => Vec::new(),
+            };
+            for section in ["grid", "trajectory"] {
                 if let Some(toml::Value::Table(t)) = table.get_mut(section) {
-                    for key in ["z", "psi", "theta"] {
-                        t.entry(key).or_insert(fill.clone());
+                    for (k, key) in crate::custom::COORDINATES.iter().enumerate() {
+                        if inputs.iter().any(|i| i == key) || ["z", "psi", "theta"].contains(key) {
+                            t.entry(*key).or_insert(toml::Value::Float(home.get(k).copied().unwrap_or(0.0)));
+                        }
                     }
                 }
             }

@@ -27,6 +27,7 @@
 //! assert!(!schema.names().any(|n| n == "q1"));
 //! ```
 
+mod custom;
 mod output;
 mod pages;
 mod schema;
@@ -36,6 +37,9 @@ mod tables;
 mod ups;
 mod writer;
 
+pub use custom::{
+    CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, custom_discontinuity_batch, custom_summary_batch,
+};
 pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
 pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSchema, UnitColumns};
 pub use stock::{Writer, arrow_properties, write_batch_arrow};

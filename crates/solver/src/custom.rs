@@ -153,6 +153,13 @@ impl CustomModel {
         let home: Vec<f64> = model.geom.inputs.iter().map(|&k| model.geom.home[k]).collect();
         let p = custom_posture(&model.geom, &home, None)
             .map_err(|_| JobError::new(file, "mechanism.home", "the joints do not close at home: check the limbs' last joints against the platform's home pose"))?;
+        if !clearance_kinematics::custom::determined_at_home(&model.geom) {
+            return Err(JobError::new(
+                file,
+                "mechanism.inputs",
+                "the inputs do not determine the pose at home: with them fixed and the actuators free, the closure is singular there (choose other inputs, or check the joints)",
+            ));
+        }
         let closure = p
             .joints
             .iter()
@@ -358,7 +365,12 @@ pub fn solve_custom(model: &CustomModel, inputs: &[f64], rates: Option<(&[f64], 
     let rates = if mode == Mode::Dynamic { rates } else { None };
     let posture = match custom_posture(&model.geom, inputs, rates) {
         Ok(p) => p,
-        Err(Unsolved::Unreachable | Unsolved::OutOfRange) => {
+        Err(Unsolved::Unreachable) => {
+            out.status = Status::Unreachable;
+            return out;
+        }
+        Err(Unsolved::OutOfRange(coords)) => {
+            out.coords = coords;
             out.status = Status::Unreachable;
             return out;
         }

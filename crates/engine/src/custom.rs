@@ -1,0 +1,352 @@
+//! A custom mechanism's run (docs/model.md §12): the same plan, directory, shards and
+//! resume as the built-in kinds ([`run`](crate::run())), the mechanism's inputs as
+//! samples, [`solve_custom`] per pose, and tables built from the model
+//! ([`CustomSchema`]).
+//!
+//! The discontinuity search follows every grid line of every input, or the trajectory,
+//! for every joint group with play (docs/model.md §8, by the load's dimension): a
+//! scalar load (R axial, U angular, backlash) switches where its sign changes, located
+//! by Brent's root finder; a vector load by the rule of sampled and refined minima,
+//! shared with the 6-UPS ([`crate::ups`]). Groups that cannot move the platform are
+//! never searched.
+
+use std::path::Path;
+use std::time::Instant;
+
+use arrow::record_batch::RecordBatch;
+use clearance_discontinuity::brent_min;
+use clearance_discontinuity::{brent_root, vector_polish};
+use clearance_grid::SampleSource;
+use clearance_model::{JobError, JobSpec, Mode, Variant};
+use clearance_parquet::{
+    ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
+    custom_discontinuity_batch, custom_summary_batch, write_bytes, write_parquet,
+};
+use clearance_solver::custom::{CustomModel, CustomResult, solve_custom};
+use rayon::prelude::*;
+
+use crate::error::EngineError;
+use crate::layout::Layout;
+use crate::run::{
+    RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
+    sync_units, write_marker,
+};
+use crate::ups::{LOCATE_TOL, Mags, POLISH_WIDTH, Refined, UpsPath, minima, can_flip, refine, select, sides, ups_paths};
+
+type Result<T, E = EngineError> = std::result::Result<T, E>;
+
+/// The model of a custom job, or its refusal as a job error (exit 2).
+pub(crate) fn model_of(job: &JobSpec, file: &str) -> Result<CustomModel, JobError> {
+    CustomModel::from_job(job, file)
+}
+
+/// The inputs of sample `i` (values, rates, accelerations) and its time.
+fn inputs_of(model: &CustomModel, source: &SampleSource, i: u64) -> (Option<f64>, Vec<[f64; 3]>) {
+    let (t, s) = source.sample6(i);
+    (t, model.geom.inputs.iter().map(|&k| s[k]).collect())
+}
+
+fn solve_inputs(model: &CustomModel, inputs: &[[f64; 3]], mode: Mode) -> CustomResult {
+    let x: Vec<f64> = inputs.iter().map(|v| v[0]).collect();
+    let v: Vec<f64> = inputs.iter().map(|v| v[1]).collect();
+    let a: Vec<f64> = inputs.iter().map(|v| v[2]).collect();
+    solve_custom(model, &x, Some((&v, &a)), mode)
+}
+
+/// Solves samples `range` of one mode on the current rayon pool.
+fn solve_rows(model: &CustomModel, source: &SampleSource, range: std::ops::Range<u64>, mode: Mode) -> (Vec<CustomRow>, Vec<CustomResult>) {
+    range
+        .into_par_iter()
+        .map(|i| {
+            let (t, inputs) = inputs_of(model, source, i);
+            (CustomRow { sample: i, t }, solve_inputs(model, &inputs, mode))
+        })
+        .unzip()
+}
+
+/// The poses of a custom job as record batches, one per (variant, mode), in memory.
+pub(crate) fn solve_custom_job(job: &JobSpec, file: &str, columns: ColumnSet) -> Result<Vec<RecordBatch>> {
+    use arrow::array::{ArrayRef, UInt64Array};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use std::sync::Arc;
+    let mut out = Vec::new();
+    for v in job.variants(file)? {
+        let model = model_of(&v.job, file)?;
+        let schema = CustomSchema::new(&model, columns, job.analysis.exact);
+        let mut fields = vec![Arc::new(Field::new("variant", DataType::UInt64, false))];
+        fields.extend(schema.schema().fields().iter().cloned());
+        let out_schema = Arc::new(Schema::new(fields));
+        let source = SampleSource::new(&v.job);
+        for &mode in &v.job.analysis.modes {
+            let (rows, results) = solve_rows(&model, &source, 0..source.len(), mode);
+            let batch = schema.batch(mode, &rows, &results);
+            let mut columns: Vec<ArrayRef> = vec![Arc::new(UInt64Array::from_value(v.index, batch.num_rows()))];
+            columns.extend(batch.columns().iter().cloned());
+            out.push(RecordBatch::try_new(out_schema.clone(), columns).expect("columns match the schema"));
+        }
+    }
+    Ok(out)
+}
+
+fn read_stats(path: &Path) -> Result<CustomStats> {
+    let text = std::fs::read(path).map_err(|source| EngineError::MissingStats { path: path.to_path_buf(), source })?;
+    serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
+}
+
+fn unit_complete(layout: &Layout, u: &Unit) -> bool {
+    part_complete(&layout.part(u.variant, u.mode, u.chunk))
+        && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
+}
+
+/// Runs a custom `job` into `opts.out` (see [`run`](crate::run())).
+pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
+    // Every variant's description is checked before anything is written.
+    let variants = job.variants(job_file)?;
+    let models: Vec<CustomModel> = variants.iter().map(|v| model_of(&v.job, job_file)).collect::<Result<_, _>>()?;
+    let Setup { variants, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
+        prepare_run(job, job_file, opts, unit_complete)?;
+    let layout = &layout;
+    let sources: Vec<SampleSource> = variants.iter().map(|v| SampleSource::new(&v.job)).collect();
+    let schemas: Vec<CustomSchema> =
+        models.iter().map(|m| CustomSchema::new(m, opts.columns, job.analysis.exact)).collect();
+    let progress = opts.progress.get();
+    progress.start(mine_poses, mine_poses - todo_poses);
+    let start = Instant::now();
+    let mut done = mine_poses - todo_poses;
+    let mut stages = StageTimes::default();
+    for w in &todo_work {
+        for u in &w.units {
+            progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
+            let v = u.variant as usize;
+            let pose_pass = Instant::now();
+            let (rows, results) = solve_rows(&models[v], &sources[v], u.range.clone(), u.mode);
+            let batch = schemas[v].batch(u.mode, &rows, &results);
+            let mut stats = CustomStats::new(models[v].kinds.len(), models[v].groups.len());
+            for r in &results {
+                stats.push(r);
+            }
+            stats.flush();
+            stages.pose_pass += pose_pass.elapsed().as_secs_f64();
+            let writing = Instant::now();
+            let (part, stats_path) = (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
+            for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
+                std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
+            }
+            write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
+            let meta = part_metadata(&variants[v]);
+            write_parquet(&part, batch.schema(), &[batch], &write_opts, &meta)?;
+            stages.writing += writing.elapsed().as_secs_f64();
+            done += u.range.end - u.range.start;
+            progress.advance(u.range.end - u.range.start, done);
+        }
+    }
+    progress.finish();
+    let syncing = Instant::now();
+    sync_units(layout, &mine, &[])?;
+    stages.writing += syncing.elapsed().as_secs_f64();
+    let complete = mark_shard_done(layout, opts)?;
+    if complete {
+        progress.searching();
+        let durable = WriteOptions { durable: true, ..write_opts.clone() };
+        finalize(layout, job, &variants, &models, &sources, &all, &durable, opts.search, &mut stages)?;
+        write_marker(&layout.success())?;
+    }
+    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
+}
+
+/// The summary and the discontinuities of a run whose units are all written.
+#[allow(clippy::too_many_arguments)]
+fn finalize(
+    layout: &Layout,
+    job: &JobSpec,
+    variants: &[Variant],
+    models: &[CustomModel],
+    sources: &[SampleSource],
+    all: &[Unit],
+    write_opts: &WriteOptions,
+    search_on: bool,
+    stages: &mut StageTimes,
+) -> Result<()> {
+    let mut summary = Vec::new();
+    let mut switches = Vec::new();
+    for variant in variants {
+        let v = variant.index as usize;
+        let model = &models[v];
+        for &mode in &job.analysis.modes {
+            let mut stats = CustomStats::new(model.kinds.len(), model.groups.len());
+            for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
+                stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
+            }
+            let searching = Instant::now();
+            let found = if search_on { search(&variant.job, model, &sources[v], mode) } else { Vec::new() };
+            stages.search += searching.elapsed().as_secs_f64();
+            let mut counts = vec![0u64; model.kinds.len()];
+            for s in &found {
+                counts[s.kind] += 1;
+            }
+            switches.extend(found.into_iter().map(|s| CustomSwitch { variant: variant.index, mode, ..s }));
+            summary.push(CustomSummaryRow {
+                variant: variant.index,
+                mode: mode.name(),
+                params: variant.params.iter().map(|(_, v)| *v).collect(),
+                stats,
+                switches: counts,
+            });
+        }
+    }
+    let writing = Instant::now();
+    // Every variant has the same columns: the description's joints and kinds do not move
+    // with a swept number.
+    let batch = custom_discontinuity_batch(&models[0], &switches);
+    write_parquet(&layout.discontinuities(), batch.schema(), &[batch], write_opts, &[])?;
+    let names: Vec<String> = job.sweep.iter().map(|s| s.param.clone()).collect();
+    let batch = custom_summary_batch(&models[0], &names, &summary);
+    write_parquet(&layout.summary(), batch.schema(), &[batch], write_opts, &[])?;
+    stages.writing += writing.elapsed().as_secs_f64();
+    Ok(())
+}
+
+/// What the search reads of one group at one pose: its deciding load where the pose
+/// has loads and the group can move the platform.
+fn group_load(r: &CustomResult, g: usize) -> Option<[f64; 3]> {
+    (r.loaded() && r.takes[g].mobile).then(|| r.takes[g].load)
+}
+
+fn kind_error(r: &CustomResult, kind: usize) -> Option<[f64; 6]> {
+    r.loaded().then(|| r.kind_errors[kind].map(|e| [e[0], e[1], e[2], e[3], e[4], e[5]])).flatten()
+}
+
+/// The switches of one (variant, mode): every path, in order, on the rayon pool.
+fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode) -> Vec<CustomSwitch> {
+    let groups: Vec<usize> = (0..model.groups.len()).filter(|&g| model.groups[g].magnitude > 0.0).collect();
+    if groups.is_empty() {
+        return Vec::new();
+    }
+    let threshold = job.analysis.discontinuity_load_fraction * model.weight;
+    let floor = model.floor;
+    let trajectory = job.trajectory.as_ref().map(|t| t.inputs6());
+    let paths = ups_paths(job, source);
+    let found: Vec<Vec<CustomSwitch>> = paths
+        .par_iter()
+        .map(|path| {
+            let solve_at = |p: f64| {
+                let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
+                let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
+                (t, s, solve_inputs(model, &inputs, mode))
+            };
+            let samples: Vec<CustomResult> = (0..path.len).map(|k| solve_at(k as f64).2).collect();
+            let mut out = Vec::new();
+            for &g in &groups {
+                let def = &model.groups[g];
+                let loads: Vec<Option<[f64; 3]>> = samples.iter().map(|r| group_load(r, g)).collect();
+                let at = |p: f64| group_load(&solve_at(p).2, g);
+                if model.scalar(g) {
+                    scalar_switches(path, &loads, &samples, floor, def.kind, def.limb, &at, &solve_at, &mut out);
+                } else {
+                    vector_switches(path, &loads, &samples, floor, threshold, def.kind, def.limb, &at, &solve_at, &mut out);
+                }
+            }
+            out
+        })
+        .collect();
+    found.into_iter().flatten().collect()
+}
+
+type SolveAt<'a> = dyn Fn(f64) -> (Option<f64>, [[f64; 3]; 6], CustomResult) + 'a;
+
+/// A scalar load switches where its sign changes between consecutive determinate
+/// samples; the root is located by Brent's method to [`LOCATE_TOL`] in the path.
+#[allow(clippy::too_many_arguments)]
+fn scalar_switches(
+    path: &UpsPath,
+    loads: &[Option<[f64; 3]>],
+    samples: &[CustomResult],
+    floor: f64,
+    kind: usize,
+    limb: usize,
+    at: &dyn Fn(f64) -> Option<[f64; 3]>,
+    solve_at: &SolveAt,
+    out: &mut Vec<CustomSwitch>,
+) {
+    let value = |l: &Option<[f64; 3]>| l.map(|v| v[0]).filter(|v| v.abs() > floor);
+    for k in 0..loads.len().saturating_sub(1) {
+        let (Some(a), Some(b)) = (value(&loads[k]), value(&loads[k + 1])) else { continue };
+        if a.signum() == b.signum() {
+            continue;
+        }
+        let x = brent_root(k as f64, (k + 1) as f64, a, b, LOCATE_TOL, |p| at(p).map_or(0.0, |v| v[0]));
+        let (t, s, r) = solve_at(x);
+        let margin = group_margin(&r, at(x));
+        let jump = match (kind_error(&samples[k], kind), kind_error(&samples[k + 1], kind)) {
+            (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
+            _ => [f64::NAN; 6],
+        };
+        out.push(switch(path, limb, kind, t, &s, &r, margin, jump));
+    }
+}
+
+fn group_margin(_r: &CustomResult, load: Option<[f64; 3]>) -> f64 {
+    load.map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn switch(path: &UpsPath, limb: usize, kind: usize, t: Option<f64>, s: &[[f64; 3]; 6], r: &CustomResult, margin: f64, jump: [f64; 6]) -> CustomSwitch {
+    // Parasitic coordinates from the solve there; inputs as the path gives them.
+    let coords: [f64; 6] = std::array::from_fn(|k| if r.coords[k].is_finite() { r.coords[k] } else { s[k][0] });
+    CustomSwitch { variant: 0, mode: Mode::Kinetostatic, limb: limb + 1, kind, along: path.along, t, coords, margin, jump }
+}
+
+/// The vector rule of docs/model.md §8 on one group's loads along one path.
+#[allow(clippy::too_many_arguments)]
+fn vector_switches(
+    path: &UpsPath,
+    loads: &[Option<[f64; 3]>],
+    samples: &[CustomResult],
+    floor: f64,
+    threshold: f64,
+    kind: usize,
+    limb: usize,
+    at: &dyn Fn(f64) -> Option<[f64; 3]>,
+    solve_at: &SolveAt,
+    out: &mut Vec<CustomSwitch>,
+) {
+    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> = loads
+        .iter()
+        .map(|l| l.map(|v| (norm(v), nalgebra::Vector3::from(v))).filter(|(m, _)| *m > floor))
+        .collect();
+    let mags: &Mags = &mags;
+    let mut at_mut = |p: f64| at(p);
+    let refined: Vec<Refined> = minima(mags)
+        .into_iter()
+        .filter(|&(lo, _)| can_flip(mags, lo as usize))
+        .map(|(lo, hi)| match refine(mags, lo as usize, &mut at_mut) {
+            Some((x, f)) => Refined { lo, hi, x, m: norm(f), at_x: Some(f) },
+            None => {
+                let (x, m) = brent_min(lo, hi, LOCATE_TOL, |p| at(p).map_or(f64::MAX, norm));
+                Refined { lo, hi, x, m, at_x: None }
+            }
+        })
+        .collect();
+    for Refined { x, m, at_x, .. } in select(&refined, mags) {
+        let (x, m) = match (x.fract() != 0.0).then(|| at_x.or_else(|| at(x))).flatten() {
+            Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(p)).map_or((x, m), |(p, fp)| (p, norm(fp))),
+            None => (x, m),
+        };
+        if m >= threshold {
+            continue;
+        }
+        let reach = 2.0 * m.max(floor);
+        let Some((before, after)) = sides(mags, x, reach) else { continue };
+        let (db, da) = (mags[before].expect("determinate").1, mags[after].expect("determinate").1);
+        if db.dot(&da) >= 0.0 {
+            continue;
+        }
+        let jump = match (kind_error(&samples[before], kind), kind_error(&samples[after], kind)) {
+            (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
+            _ => [f64::NAN; 6],
+        };
+        let (t, s, r) = solve_at(x);
+        out.push(switch(path, limb, kind, t, &s, &r, m, jump));
+    }
+}

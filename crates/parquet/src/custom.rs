@@ -1,0 +1,383 @@
+//! The tables of a custom mechanism (docs/model.md §12, docs/interface.md §5): `poses`
+//! rows with the six platform coordinates, an actuator and a motor load per actuated
+//! joint, and columns per clearance kind `<name>_<group>` and per joint of each limb;
+//! the summary's statistics; the switches of `discontinuities.parquet`. Built from the
+//! model, so every mechanism gets the same code. Nulls follow docs/conventions.md, and
+//! no value that is not finite is ever written.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use arrow::array::{ArrayRef, Float64Array, StringArray, UInt32Array, UInt64Array};
+use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+use arrow::record_batch::RecordBatch;
+use clearance_model::Mode;
+use clearance_model::custom::{COORDINATES, Group, JointType};
+use clearance_solver::Status;
+use clearance_solver::custom::{CustomModel, CustomResult};
+use serde::{Deserialize, Serialize};
+
+use crate::schema::{ColumnSet, ENVELOPE_PARTS};
+use crate::summary::{Series, SummaryTable, field};
+
+const COORDINATE_UNITS: [&str; 6] = ["m", "m", "m", "rad", "rad", "rad"];
+const ERR_PARTS: [(&str, &str); 9] = [
+    ("x", "m"),
+    ("y", "m"),
+    ("z", "m"),
+    ("rx", "rad"),
+    ("ry", "rad"),
+    ("rz", "rad"),
+    ("phi", "rad"),
+    ("psi", "rad"),
+    ("theta", "rad"),
+];
+
+/// One sample's identity: its index and its time (trajectories).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CustomRow {
+    pub sample: u64,
+    pub t: Option<f64>,
+}
+
+type Fill = Box<dyn Fn(&CustomResult) -> Option<f64> + Send + Sync>;
+
+/// The `poses` columns of a custom run for one column set.
+pub struct CustomSchema {
+    schema: SchemaRef,
+    floats: Vec<Fill>,
+    /// The `dominant` column's values, by group, when the set has the column.
+    dominant: Option<Vec<String>>,
+}
+
+fn loaded(r: &CustomResult) -> bool {
+    r.loaded()
+}
+
+/// The unit of a group's magnitude and of its deciding load.
+fn group_units(joint: JointType, group: Group) -> (&'static str, &'static str) {
+    match (joint, group) {
+        (_, Group::Angular) => ("rad", "N*m"),
+        (JointType::R, Group::Backlash) => ("rad", "N*m"),
+        _ => ("m", "N"),
+    }
+}
+
+impl CustomSchema {
+    /// The columns of `set` for `model`, plus the exact-error columns when `exact` is on.
+    pub fn new(model: &CustomModel, set: ColumnSet, exact: bool) -> Self {
+        let mut names: Vec<(String, &'static str)> = Vec::new();
+        let mut floats: Vec<Fill> = Vec::new();
+        let mut push = |name: String, unit: &'static str, f: Fill| {
+            names.push((name, unit));
+            floats.push(f);
+        };
+        let geom = &model.geom;
+        // Minimal: the inputs and the total errors; standard adds the parasitic coordinates.
+        for &k in &geom.inputs {
+            push(COORDINATES[k].to_string(), COORDINATE_UNITS[k], Box::new(move |r| Some(r.coords[k])));
+        }
+        for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
+            push(format!("err_{c}"), unit, Box::new(move |r| (r.status == Status::Ok).then(|| r.total.map(|e| e[i])).flatten()));
+        }
+        if set >= ColumnSet::Standard {
+            for &k in &geom.parasitic {
+                push(
+                    COORDINATES[k].to_string(),
+                    COORDINATE_UNITS[k],
+                    Box::new(move |r| (r.status != Status::Unreachable).then_some(r.coords[k])),
+                );
+            }
+            let actuators = model.actuators();
+            for (i, &(l, j)) in actuators.iter().enumerate() {
+                let unit = if geom.limbs[l].joints[j].joint == JointType::R { "rad" } else { "m" };
+                push(format!("q{}", i + 1), unit, Box::new(move |r| r.q.get(i).copied().filter(|_| r.status != Status::Unreachable)));
+            }
+            for (i, &(l, j)) in actuators.iter().enumerate() {
+                let unit = if geom.limbs[l].joints[j].joint == JointType::R { "N*m" } else { "N" };
+                push(format!("tau{}", i + 1), unit, Box::new(move |r| loaded(r).then(|| r.tau.get(i).copied()).flatten()));
+            }
+            for (k, kind) in model.kinds.iter().enumerate() {
+                for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
+                    push(
+                        format!("err_{kind}_{c}"),
+                        unit,
+                        Box::new(move |r| loaded(r).then(|| r.kind_errors.get(k).copied().flatten().map(|e| e[i])).flatten()),
+                    );
+                }
+            }
+            // Margins limb by limb, joint by joint, group by group.
+            let mut order: Vec<usize> = (0..model.groups.len()).collect();
+            order.sort_by_key(|&g| (model.groups[g].limb, model.groups[g].joint, model.groups[g].group));
+            for g in order {
+                let def = &model.groups[g];
+                let joint = &geom.limbs[def.limb].joints[def.joint];
+                let (_, unit) = group_units(joint.joint, def.group);
+                push(
+                    format!("margin_{}", def.label),
+                    unit,
+                    Box::new(move |r| loaded(r).then(|| r.takes.get(g).map(|t| t.margin)).flatten()),
+                );
+            }
+            let kinds = std::iter::once(None).chain(model.kinds.iter().enumerate().map(Some));
+            for kind in kinds {
+                for (c, (part, unit)) in ENVELOPE_PARTS.iter().enumerate() {
+                    let (name, f): (String, Fill) = match kind {
+                        None => (format!("env_{part}"), Box::new(move |r| loaded(r).then_some(r.env_total[c]))),
+                        Some((k, kind)) => (
+                            format!("env_{kind}_{part}"),
+                            Box::new(move |r| loaded(r).then(|| r.envelope.get(k).map(|e| e[c])).flatten()),
+                        ),
+                    };
+                    push(name, unit, f);
+                }
+            }
+        }
+        if set >= ColumnSet::Full {
+            for (l, limb) in geom.limbs.iter().enumerate() {
+                for (j, joint) in limb.joints.iter().enumerate() {
+                    let n = format!("{}{}", joint.name, l + 1);
+                    for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
+                        push(format!("f_{n}_{c}"), "N", Box::new(move |r| loaded(r).then(|| r.reactions[l][j].0[a])));
+                    }
+                    for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
+                        push(format!("m_{n}_{c}"), "N*m", Box::new(move |r| loaded(r).then(|| r.reactions[l][j].1[a])));
+                    }
+                }
+            }
+            push("cond_a".into(), "1", Box::new(|r| (r.status != Status::Unreachable).then_some(r.cond)));
+            push("cond_jp".into(), "1", Box::new(|r| (r.status != Status::Unreachable).then_some(r.cond)));
+        }
+        if exact {
+            for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
+                push(format!("exact_err_{c}"), unit, Box::new(move |r| r.exact.map(|e| e[i])));
+            }
+        }
+        let unit = |u: &str| HashMap::from([("unit".to_string(), u.to_string())]);
+        let mut fields = vec![
+            Field::new("mode", DataType::Utf8, false).with_metadata(unit("")),
+            Field::new("sample", DataType::UInt64, false).with_metadata(unit("1")),
+            Field::new("t", DataType::Float64, true).with_metadata(unit("s")),
+            Field::new("status", DataType::Utf8, false).with_metadata(unit("")),
+        ];
+        let dominant = (set >= ColumnSet::Standard).then(|| model.groups.iter().map(|g| g.label.clone()).collect());
+        if dominant.is_some() {
+            fields.push(Field::new("dominant", DataType::Utf8, true).with_metadata(unit("")));
+        }
+        fields.extend(names.iter().map(|(n, u)| Field::new(n, DataType::Float64, true).with_metadata(unit(u))));
+        Self { schema: Arc::new(Schema::new(fields)), floats, dominant }
+    }
+
+    pub fn schema(&self) -> SchemaRef {
+        self.schema.clone()
+    }
+
+    /// The record batch of one mode's rows (`rows` and `results` of the same length).
+    #[track_caller]
+    pub fn batch(&self, mode: Mode, rows: &[CustomRow], results: &[CustomResult]) -> RecordBatch {
+        assert_eq!(rows.len(), results.len(), "one result per row");
+        let mut out: Vec<ArrayRef> = vec![
+            Arc::new(StringArray::from_iter_values(rows.iter().map(|_| mode.name()))),
+            Arc::new(UInt64Array::from_iter_values(rows.iter().map(|s| s.sample))),
+            Arc::new(Float64Array::from_iter(rows.iter().map(|s| s.t.filter(|t| t.is_finite())))),
+            Arc::new(StringArray::from_iter_values(results.iter().map(|r| r.status.name()))),
+        ];
+        if let Some(names) = &self.dominant {
+            out.push(Arc::new(StringArray::from_iter(results.iter().map(|r| {
+                (r.status == Status::Ok).then(|| r.dominant.map(|g| names[g].as_str())).flatten()
+            }))));
+        }
+        for f in &self.floats {
+            out.push(Arc::new(Float64Array::from_iter(results.iter().map(|r| f(r).filter(|v| v.is_finite())))));
+        }
+        RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
+    }
+}
+
+/// The partial statistics of a set of custom poses of one (variant, mode).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CustomStats {
+    pub samples: u64,
+    /// Counts per status, in the order of `Status::ALL`.
+    pub status: [u64; 4],
+    pub dp: Series,
+    pub dalpha: Series,
+    /// Per kind, the poses where that kind is determinate.
+    pub dp_kind: Vec<Series>,
+    pub dalpha_kind: Vec<Series>,
+    pub cond_max: f64,
+    pub env_p: Series,
+    pub env_alpha: Series,
+    /// Per group (`CustomModel::groups`), over `ok` poses: how often it dominates, and
+    /// the sum of squares of its own contribution to |Δp|.
+    pub dominant: Vec<u64>,
+    pub joint_sum_sq: Vec<f64>,
+}
+
+fn norm3(a: f64, b: f64, c: f64) -> f64 {
+    (a * a + b * b + c * c).sqrt()
+}
+
+impl CustomStats {
+    /// Empty statistics for `kinds` kinds and `groups` groups.
+    pub fn new(kinds: usize, groups: usize) -> Self {
+        Self {
+            dp_kind: vec![Series::default(); kinds],
+            dalpha_kind: vec![Series::default(); kinds],
+            dominant: vec![0; groups],
+            joint_sum_sq: vec![0.0; groups],
+            ..Default::default()
+        }
+    }
+
+    pub fn push(&mut self, r: &CustomResult) {
+        self.samples += 1;
+        self.status[r.status.index()] += 1;
+        if r.status != Status::Unreachable && r.cond.is_finite() {
+            self.cond_max = self.cond_max.max(r.cond);
+        } else if r.status == Status::NearSingular {
+            self.cond_max = f64::INFINITY;
+        }
+        if r.status == Status::Ok {
+            if let Some(e) = r.total {
+                self.dp.push(norm3(e[0], e[1], e[2]));
+                self.dalpha.push(norm3(e[3], e[4], e[5]));
+            }
+            if let Some(g) = r.dominant {
+                self.dominant[g] += 1;
+            }
+            for (sum, t) in self.joint_sum_sq.iter_mut().zip(&r.takes) {
+                if t.dp.is_finite() {
+                    *sum += t.dp * t.dp;
+                }
+            }
+        }
+        if r.loaded() {
+            if r.env_total[6].is_finite() && r.env_total[7].is_finite() {
+                self.env_p.push(r.env_total[6]);
+                self.env_alpha.push(r.env_total[7]);
+            }
+            for (k, e) in r.kind_errors.iter().enumerate() {
+                if let Some(e) = e {
+                    self.dp_kind[k].push(norm3(e[0], e[1], e[2]));
+                    self.dalpha_kind[k].push(norm3(e[3], e[4], e[5]));
+                }
+            }
+        }
+    }
+
+    pub fn flush(&mut self) {
+        let totals = [&mut self.dp, &mut self.dalpha, &mut self.env_p, &mut self.env_alpha];
+        for s in totals.into_iter().chain(&mut self.dp_kind).chain(&mut self.dalpha_kind) {
+            s.flush();
+        }
+    }
+
+    pub fn merge(&mut self, o: &CustomStats) {
+        self.samples += o.samples;
+        for i in 0..4 {
+            self.status[i] += o.status[i];
+        }
+        for (a, b) in self.dp_kind.iter_mut().zip(&o.dp_kind) {
+            a.merge(b);
+        }
+        for (a, b) in self.dalpha_kind.iter_mut().zip(&o.dalpha_kind) {
+            a.merge(b);
+        }
+        self.dp.merge(&o.dp);
+        self.dalpha.merge(&o.dalpha);
+        self.env_p.merge(&o.env_p);
+        self.env_alpha.merge(&o.env_alpha);
+        for (a, b) in self.dominant.iter_mut().zip(&o.dominant) {
+            *a += b;
+        }
+        for (a, b) in self.joint_sum_sq.iter_mut().zip(&o.joint_sum_sq) {
+            *a += b;
+        }
+        self.cond_max = self.cond_max.max(o.cond_max);
+    }
+}
+
+/// One row of a custom `summary.parquet`.
+pub struct CustomSummaryRow {
+    pub variant: u64,
+    pub mode: &'static str,
+    pub params: Vec<f64>,
+    pub stats: CustomStats,
+    /// Switch counts per kind (`CustomModel::kinds`).
+    pub switches: Vec<u64>,
+}
+
+/// A custom `summary.parquet`: the columns of the built-in kinds', for this
+/// mechanism's kinds and joint groups.
+pub fn custom_summary_batch(model: &CustomModel, param_names: &[String], rows: &[CustomSummaryRow]) -> RecordBatch {
+    let mut t = SummaryTable::new(rows);
+    t.head(param_names, |r| (r.variant, r.mode, &r.params, r.stats.samples, r.stats.status));
+    t.series("dp", "m", |r| &r.stats.dp);
+    t.series("dalpha", "rad", |r| &r.stats.dalpha);
+    for (k, kind) in model.kinds.iter().enumerate() {
+        t.series(&format!("dp_{kind}"), "m", move |r| &r.stats.dp_kind[k]);
+        t.series(&format!("dalpha_{kind}"), "rad", move |r| &r.stats.dalpha_kind[k]);
+    }
+    t.series("env_p", "m", |r| &r.stats.env_p);
+    t.series("env_alpha", "rad", |r| &r.stats.env_alpha);
+    let joints = model.groups.iter().enumerate().map(|(g, def)| (def.label.clone(), g, 0));
+    let ok = Status::Ok.index();
+    t.joints(joints, |r, g, _| (r.stats.status[ok], r.stats.dominant[g], r.stats.joint_sum_sq[g]));
+    let kinds: Vec<&str> = model.kinds.iter().map(String::as_str).collect();
+    t.switches(&kinds, |r| &r.switches);
+    t.conditions(|r| (r.stats.cond_max, r.stats.cond_max));
+    t.finish()
+}
+
+/// One refined switch of a joint group's take-up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CustomSwitch {
+    pub variant: u64,
+    pub mode: Mode,
+    /// 1.. .
+    pub limb: usize,
+    /// An index into `CustomModel::kinds`.
+    pub kind: usize,
+    /// The input the path varies (`t` along a trajectory).
+    pub along: &'static str,
+    pub t: Option<f64>,
+    /// The six platform coordinates there.
+    pub coords: [f64; 6],
+    /// The deciding load there (N or N·m).
+    pub margin: f64,
+    /// That kind's ΔΓ after minus before, as `[Δp; Δα]`.
+    pub jump: [f64; 6],
+}
+
+/// A custom `discontinuities.parquet`: every platform coordinate, `limb` 1.., `kind`
+/// `<name>_<group>`.
+pub fn custom_discontinuity_batch(model: &CustomModel, rows: &[CustomSwitch]) -> RecordBatch {
+    let mut fields = vec![
+        field("variant", DataType::UInt64, false, "1"),
+        field("mode", DataType::Utf8, false, ""),
+        field("limb", DataType::UInt32, false, "1"),
+        field("kind", DataType::Utf8, false, ""),
+        field("along", DataType::Utf8, false, ""),
+        field("t", DataType::Float64, true, "s"),
+    ];
+    let mut cols: Vec<ArrayRef> = vec![
+        Arc::new(UInt64Array::from_iter_values(rows.iter().map(|d| d.variant))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.mode.name()))),
+        Arc::new(UInt32Array::from_iter_values(rows.iter().map(|d| d.limb as u32))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| model.kinds[d.kind].as_str()))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.along))),
+        Arc::new(Float64Array::from_iter(rows.iter().map(|d| d.t))),
+    ];
+    for (i, (name, unit)) in COORDINATES.iter().zip(COORDINATE_UNITS).enumerate() {
+        fields.push(field(name, DataType::Float64, true, unit));
+        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.coords[i]).filter(|v| v.is_finite())))));
+    }
+    fields.push(field("margin", DataType::Float64, true, "N or N*m"));
+    cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.margin).filter(|m| m.is_finite())))));
+    for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
+        fields.push(field(&format!("jump_{c}"), DataType::Float64, true, unit));
+        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.jump[i]).filter(|v| v.is_finite())))));
+    }
+    RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).expect("columns match the schema")
+}
