@@ -57,7 +57,7 @@ __all__ = [
     "normalize_job", "check_description", "sample_inputs", "solve_kinematics", "chain",
     "platform_jacobian", "kinematic_jacobian", "rates", "equilibrium", "error_matrix",
     "passive_twists", "unit_responses", "take_up", "exact_errors", "evaluate", "compute",
-    "column_names", "preset_description", "group_loads",
+    "column_names", "extra_column_names", "preset_description", "group_loads",
 ]
 
 COORDS = ("x", "y", "z", "phi", "psi", "theta")
@@ -137,6 +137,16 @@ def _mv(M, v):
     return np.einsum("nab,nb->na", M, v)
 
 
+def _cx(a, b, axis=-1):
+    """Cross product along `axis` (np.cross without its per-call overhead)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if axis != -1:
+        return np.moveaxis(_cx(np.moveaxis(a, axis, -1), np.moveaxis(b, axis, -1)), -1, axis)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), -1)
+
+
 def _unit(v, what="axis"):
     v = np.asarray(v, float).reshape(3)
     n = float(np.linalg.norm(v))
@@ -149,9 +159,9 @@ def _perp_basis(a):
     """Two unit vectors (N,3) spanning the plane perpendicular to the unit vectors a (N,3)."""
     h = np.where((np.abs(a[:, 0]) < 0.9)[:, None], np.array([1.0, 0.0, 0.0]),
                  np.array([0.0, 1.0, 0.0]))
-    u1 = np.cross(a, h)
+    u1 = _cx(a, h)
     u1 /= np.linalg.norm(u1, axis=-1, keepdims=True)
-    u2 = np.cross(a, u1)
+    u2 = _cx(a, u1)
     return u1, u2
 
 
@@ -165,7 +175,7 @@ def _ad(V, xi):
     """Lie bracket ad_V xi of twists [w; v] (N,6) (spatial, about one point)."""
     w, v = V[:, 0:3], V[:, 3:6]
     a, b = xi[:, 0:3], xi[:, 3:6]
-    return np.concatenate([np.cross(w, a), np.cross(w, b) + np.cross(v, a)], -1)
+    return np.concatenate([_cx(w, a), _cx(w, b) + _cx(v, a)], -1)
 
 
 def _solve(M, rhs):
@@ -193,7 +203,7 @@ class Joint:
         self.type, self.name, self.c = type_, name, np.asarray(c, float)
         self.a, self.a1, self.a2, self.n = axis, a1, a2, None
         if type_ == "U":
-            self.n = _unit(np.cross(a1, a2))
+            self.n = _unit(_cx(a1, a2))
         self.actuated, self.range = bool(actuated), rng
         self.limb = self.place = None
         self.qi = self.si = None            # columns in the state (scalar vars / S rotations)
@@ -622,7 +632,7 @@ def chain(M, st):
                 c = _mv(Rp, J.c) + tp
                 t = c - _mv(R, J.c)
                 a = _mv(Rp, J.a)
-                g.update(c=c, a=a, scr=np.concatenate([a, np.cross(c, a)], -1)[..., None])
+                g.update(c=c, a=a, scr=np.concatenate([a, _cx(c, a)], -1)[..., None])
             elif J.type == "P":
                 s = st["q"][:, J.qi]
                 d = _mv(Rp, J.a)
@@ -637,9 +647,9 @@ def chain(M, st):
                 c = _mv(Rp, J.c) + tp
                 t = c - _mv(R, J.c)
                 a1, a2 = _mv(Rp, J.a1), _mv(R, J.a2)
-                n = np.cross(a1, a2)
-                scr = np.stack([np.concatenate([a1, np.cross(c, a1)], -1),
-                                np.concatenate([a2, np.cross(c, a2)], -1)], -1)
+                n = _cx(a1, a2)
+                scr = np.stack([np.concatenate([a1, _cx(c, a1)], -1),
+                                np.concatenate([a2, _cx(c, a2)], -1)], -1)
                 g.update(c=c, a1=a1, a2=a2, n=n, scr=scr)
             else:
                 Re = st["S"][:, J.si]
@@ -647,7 +657,7 @@ def chain(M, st):
                 c = _mv(Rp, J.c) + tp
                 t = c - _mv(R, J.c)
                 scr = np.stack([np.concatenate([np.broadcast_to(I3[k], (N, 3)),
-                                                np.cross(c, I3[k])], -1) for k in range(3)], -1)
+                                                _cx(c, I3[k])], -1) for k in range(3)], -1)
                 g.update(c=c, scr=scr)
             g.update(R=R, t=t)
             jg.append(g)
@@ -675,7 +685,7 @@ def platform_jacobian(c):
     p = c[:, 0:3]
     for k in range(3):
         J[:, 0:3, 3 + k] = E[:, :, k]
-        J[:, 3:6, 3 + k] = np.cross(p, E[:, :, k])
+        J[:, 3:6, 3 + k] = _cx(p, E[:, :, k])
     return J
 
 
@@ -839,10 +849,10 @@ def rates(M, st, geo, cd_in, cdd_in):
     w = np.einsum("nab,nb->na", E, cd[:, 3:6])
     e_th, e_ps, e_ph = E[:, :, 2], E[:, :, 1], E[:, :, 0]
     ph_d, ps_d, th_d = cd[:, 3], cd[:, 4], cd[:, 5]
-    wd_b = ps_d[:, None] * np.cross(th_d[:, None] * e_th, e_ps) + \
-        ph_d[:, None] * np.cross(th_d[:, None] * e_th + ps_d[:, None] * e_ps, e_ph)
+    wd_b = ps_d[:, None] * _cx(th_d[:, None] * e_th, e_ps) + \
+        ph_d[:, None] * _cx(th_d[:, None] * e_th + ps_d[:, None] * e_ps, e_ph)
     p, pd = c[:, 0:3], cd[:, 0:3]
-    biasD = np.concatenate([wd_b, -np.cross(wd_b, p) - np.cross(w, pd)], -1)
+    biasD = np.concatenate([wd_b, -_cx(wd_b, p) - _cx(w, pd)], -1)
     # chain bias sum xi_dot q_dot, and body twists
     bias = []
     Vb = []
@@ -863,8 +873,8 @@ def rates(M, st, geo, cd_in, cdd_in):
                 bsum += _ad(V, scr[..., 1]) * qd[:, 1:2]
                 V = V + scr[..., 1] * qd[:, 1:2]
             else:
-                cdot = V[:, 3:6] + np.cross(V[:, 0:3], g["c"])
-                bsum[:, 3:6] += np.cross(cdot, qd)
+                cdot = V[:, 3:6] + _cx(V[:, 0:3], g["c"])
+                bsum[:, 3:6] += _cx(cdot, qd)
                 V = V + np.einsum("nak,nk->na", scr, qd)
             vs.append(V)
         bias.append(bsum)
@@ -893,16 +903,16 @@ def rates(M, st, geo, cd_in, cdd_in):
                 Vm = V + scr[..., 0] * qd[:, 0:1]
                 A = A + scr[..., 1] * qdd[:, 1:2] + _ad(Vm, scr[..., 1]) * qd[:, 1:2]
             else:
-                cdot = V[:, 3:6] + np.cross(V[:, 0:3], g["c"])
+                cdot = V[:, 3:6] + _cx(V[:, 0:3], g["c"])
                 A = A + np.einsum("nak,nk->na", scr, qdd)
-                A[:, 3:6] += np.cross(cdot, qd)
+                A[:, 3:6] += _cx(cdot, qd)
             V = Vafter
             accs.append(A)
         Ab.append(accs)
     dw = np.einsum("nab,nb->na", E, cdd[:, 3:6]) + wd_b
     Rp, _ = platform_pose(c)
     rc = _mv(Rp, M.c_loc)
-    a_C = cdd[:, 0:3] + np.cross(dw, rc) + np.cross(w, np.cross(w, rc))
+    a_C = cdd[:, 0:3] + _cx(dw, rc) + _cx(w, _cx(w, rc))
     return {"cd": cd, "cdd": cdd, "ud": ud, "udd": udd, "V": Vb, "A": Ab, "w": w, "dw": dw,
             "a_C": a_C}
 
@@ -979,12 +989,12 @@ def equilibrium(M, geo, st, rt=None):
                 dist, Gd = row0 + k, com[li][k]
             else:
                 dist, Gd = plat, C
-            blk = np.concatenate([B[:, 0:3], B[:, 3:6] + np.cross(
+            blk = np.concatenate([B[:, 0:3], B[:, 3:6] + _cx(
                 (g["c"] - Gd)[:, None, :], B[:, 0:3].swapaxes(-1, -2)).swapaxes(-1, -2)], 1)
             A[:, 6 * dist:6 * dist + 6, col:col + J.k] += blk
             if k > 0:
                 prox, Gp = row0 + k - 1, com[li][k - 1]
-                blk = np.concatenate([B[:, 0:3], B[:, 3:6] + np.cross(
+                blk = np.concatenate([B[:, 0:3], B[:, 3:6] + _cx(
                     (g["c"] - Gp)[:, None, :], B[:, 0:3].swapaxes(-1, -2)).swapaxes(-1, -2)], 1)
                 A[:, 6 * prox:6 * prox + 6, col:col + J.k] -= blk
             col += J.k
@@ -995,20 +1005,20 @@ def equilibrium(M, geo, st, rt=None):
                 V, Acc = rt["V"][li][k], rt["A"][li][k]
                 w, v, dw, dv = V[:, 0:3], V[:, 3:6], Acc[:, 0:3], Acc[:, 3:6]
                 G = com[li][k]
-                aG = dv + np.cross(dw, G) + np.cross(w, v + np.cross(w, G))
+                aG = dv + _cx(dw, G) + _cx(w, v + _cx(w, G))
                 f += m * aG
                 I = inert[li][k]
                 b[:, r + 3:r + 6] = np.einsum("nab,nb->na", I, dw) + \
-                    np.cross(w, np.einsum("nab,nb->na", I, w))
+                    _cx(w, np.einsum("nab,nb->na", I, w))
             b[:, r:r + 3] = f
         row0 += nbl
     r = 6 * plat
     b[:, r:r + 3] = -M.m_plat * M.g - M.f_ext
-    b[:, r + 3:r + 6] = -np.cross(E - C, M.f_ext) - M.m_ext
+    b[:, r + 3:r + 6] = -_cx(E - C, M.f_ext) - M.m_ext
     if rt is not None:
         w, dw = rt["w"], rt["dw"]
         b[:, r:r + 3] += M.m_plat * rt["a_C"]
-        b[:, r + 3:r + 6] += np.einsum("nab,nb->na", IC, dw) + np.cross(w, np.einsum("nab,nb->na", IC, w))
+        b[:, r + 3:r + 6] += np.einsum("nab,nb->na", IC, dw) + _cx(w, np.einsum("nab,nb->na", IC, w))
     return A, b, layout
 
 
@@ -1037,16 +1047,16 @@ def passive_twists(M, geo, p):
                 continue
             r = p - g["c"]
             if J.type == "R":
-                cols.append(np.concatenate([g["a"], np.cross(g["a"], r)], -1))
+                cols.append(np.concatenate([g["a"], _cx(g["a"], r)], -1))
             elif J.type == "P":
                 cols.append(np.concatenate([np.zeros((N, 3)), g["a"]], -1))
             elif J.type == "U":
                 for ax in (g["a1"], g["a2"]):
-                    cols.append(np.concatenate([ax, np.cross(ax, r)], -1))
+                    cols.append(np.concatenate([ax, _cx(ax, r)], -1))
             else:
                 for k in range(3):
                     e = np.broadcast_to(I3[k], (N, 3))
-                    cols.append(np.concatenate([e, np.cross(e, r)], -1))
+                    cols.append(np.concatenate([e, _cx(e, r)], -1))
         out.append(np.stack(cols, -1) if cols else np.zeros((N, 6, 0)))
     return out
 
@@ -1111,7 +1121,7 @@ def unit_responses(M, geo, p, Emat):
         for k in range(3):
             rhs[:, 6 * i + 3 + k, 6 * ji + k] = 1.0
             rhs[:, 6 * i + k, 6 * ji + 3 + k] = 1.0
-            rhs[:, 6 * i + 3:6 * i + 6, 6 * ji + 3 + k] = np.cross(I3[k], r)
+            rhs[:, 6 * i + 3:6 * i + 6, 6 * ji + 3 + k] = _cx(I3[k], r)
     sol = _solve(Emat, rhs)[:, 0:6, :]
     return sol.reshape(N, 6, nj, 6).transpose(0, 2, 1, 3)
 
@@ -1202,7 +1212,7 @@ def _adjoint(a, xi):
     E, t = a
     R = I3 + E
     w = R @ xi[:, 0:3]
-    v = R @ xi[:, 3:6] + np.cross(t[:, :, None], w, axis=1)
+    v = R @ xi[:, 3:6] + _cx(t[:, :, None], w, axis=1)
     return np.concatenate([w, v], 1)
 
 
@@ -1253,7 +1263,7 @@ def exact_errors(M, geo, p, play, max_iter=40):
                 c = g["c"]
                 r = p - c
                 if J.type == "R":
-                    xi = np.concatenate([g["a"], np.cross(g["a"], r)], -1)[..., None]
+                    xi = np.concatenate([g["a"], _cx(g["a"], r)], -1)[..., None]
                     Jrows[:, 6 * i:6 * i + 6, col] = _adjoint(G, xi)[..., 0]
                     Em = rm.exp_minus_identity(x[:, col - 6, None] * g["a"])
                     G = _compose(G, _rot_about(Em, c, p))
@@ -1262,17 +1272,17 @@ def exact_errors(M, geo, p, play, max_iter=40):
                     Jrows[:, 6 * i:6 * i + 6, col] = _adjoint(G, xi)[..., 0]
                     G = _compose(G, (Z, x[:, col - 6, None] * g["a"]))
                 elif J.type == "U":
-                    xi = np.concatenate([g["a1"], np.cross(g["a1"], r)], -1)[..., None]
+                    xi = np.concatenate([g["a1"], _cx(g["a1"], r)], -1)[..., None]
                     Jrows[:, 6 * i:6 * i + 6, col] = _adjoint(G, xi)[..., 0]
                     E1 = rm.exp_minus_identity(x[:, col - 6, None] * g["a1"])
                     G = _compose(G, _rot_about(E1, c, p))
-                    xi = np.concatenate([g["a2"], np.cross(g["a2"], r)], -1)[..., None]
+                    xi = np.concatenate([g["a2"], _cx(g["a2"], r)], -1)[..., None]
                     Jrows[:, 6 * i:6 * i + 6, col + 1] = _adjoint(G, xi)[..., 0]
                     E2 = rm.exp_minus_identity(x[:, col - 5, None] * g["a2"])
                     G = _compose(G, _rot_about(E2, c, p))
                 else:
                     xi = np.stack([np.concatenate([np.broadcast_to(I3[k], (N, 3)),
-                                                   np.cross(I3[k], r)], -1) for k in range(3)], -1)
+                                                   _cx(I3[k], r)], -1) for k in range(3)], -1)
                     Jrows[:, 6 * i:6 * i + 6, col:col + 3] = _adjoint(G, xi)
                     Es = ES.get(id(J), Z)
                     G = _compose(G, _rot_about(Es, c, p))
@@ -1378,7 +1388,7 @@ def evaluate(M, c_in, mode="kinetostatic", cd=None, cdd=None):
         d = G[gr.name]["disp"]
         if gr.rot:
             Z[:, 6 * i:6 * i + 3, ki] += d
-            Z[:, 6 * i + 3:6 * i + 6, ki] += np.cross(d, p - jgeo[id(gr.joint)]["c"])
+            Z[:, 6 * i + 3:6 * i + 6, ki] += _cx(d, p - jgeo[id(gr.joint)]["c"])
         else:
             Z[:, 6 * i + 3:6 * i + 6, ki] += d
     with np.errstate(all="ignore"):
@@ -1408,7 +1418,7 @@ def column_names(M, columns="full"):
     return names
 
 
-def _rows(M, res, mode, t, sample0):
+def _rows(M, res, mode, t, sample0, extras=False):
     N = res["c"].shape[0]
     reach, singular = res["reach"], res["singular"]
     G = res["groups"]
@@ -1471,7 +1481,8 @@ def _rows(M, res, mode, t, sample0):
         dp = np.stack([np.where(gd["moves"], np.linalg.norm(gd["contrib"][:, 3:6], axis=-1), -np.inf)
                        for gd in cands], -1)
         anym = np.isfinite(dp).any(-1)
-        idx = rm.first_within_tie(dp)
+        with np.errstate(all="ignore"):
+            idx = rm.first_within_tie(dp)
         names = np.array([gd["group"].name for gd in cands], dtype=object)
         sel = ok & anym
         dom[sel] = names[idx[sel]]
@@ -1481,6 +1492,11 @@ def _rows(M, res, mode, t, sample0):
         for a_i, a in enumerate("xyz"):
             cols[f"f_{J.name}{J.limb.number}_{a}"] = np.where(full, f[:, a_i], nan)
             cols[f"m_{J.name}{J.limb.number}_{a}"] = np.where(full, m[:, a_i], nan)
+    if extras:
+        cols["kappa_g"] = np.where(reach, res["kappa_g"], nan)
+        cols["kappa_limb"] = np.where(reach, res["kappa_limb"], nan)
+        for name, gd in G.items():
+            cols[f"dp_{name}"] = np.where(ok, np.linalg.norm(gd["contrib"][:, 3:6], axis=-1), nan)
     if M.exact:
         ex = np.full((N, 6), nan)
         if np.any(ok):
@@ -1508,9 +1524,17 @@ def _rows(M, res, mode, t, sample0):
     return cols
 
 
-def compute(job, columns="full", chunk=512) -> dict:
+def extra_column_names(M):
+    """Reference-only columns of compute(..., extras=True): kappa_g, kappa_limb (the
+    near_singular measures of CHOICES 7, reachable rows) and dp_<group> (|dp| of each
+    group's own take-up, ok rows: judges near ties of `dominant`)."""
+    return ["kappa_g", "kappa_limb"] + [f"dp_{g.name}" for g in M.groups]
+
+
+def compute(job, columns="full", chunk=512, extras=False) -> dict:
     """All `poses` rows of a custom job (variant 0): dict column -> array, modes
-    concatenated in the job's order; NaN / None where the engine writes null."""
+    concatenated in the job's order; NaN / None where the engine writes null.
+    extras=True appends extra_column_names(M)."""
     M = job if isinstance(job, Mech) else normalize_job(job)
     smp = sample_inputs(M)
     n = smp["c"].shape[0]
@@ -1521,8 +1545,8 @@ def compute(job, columns="full", chunk=512) -> dict:
             dyn = mode == "dynamic"
             res = evaluate(M, smp["c"][sl], mode, smp["cd"][sl] if dyn else None,
                            smp["cdd"][sl] if dyn else None)
-            parts[mode].append(_rows(M, res, mode, smp["t"][sl], s0))
-    names = column_names(M, columns)
+            parts[mode].append(_rows(M, res, mode, smp["t"][sl], s0, extras))
+    names = column_names(M, columns) + (extra_column_names(M) if extras else [])
     return {name: np.concatenate([p[name] for m in M.modes for p in parts[m]]) for name in names}
 
 
@@ -1561,7 +1585,7 @@ def preset_description(job: dict, home_inputs=None) -> dict:
         limbs = []
         for i in range(6):
             a1 = P["a1"][i]
-            a2 = np.cross(a1, e[i])
+            a2 = _cx(a1, e[i])
             a2 /= np.linalg.norm(a2)
             lc, lp = P["lc"], P["lp"]
             mc, mpi = P["m_cyl"], P["m_pis"]
