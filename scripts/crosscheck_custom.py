@@ -1061,24 +1061,26 @@ def reference_switches(M, ref=None):
     return out
 
 
+def pa_table(cols):
+    """A pyarrow table from a column dict (NaN / None as nulls, object arrays as strings)."""
+    import pyarrow as pa
+    arrays = {}
+    for k, v in cols.items():
+        v = np.asarray(v)
+        if v.dtype == object:
+            arrays[k] = pa.array(list(v), type=pa.string())
+        elif np.issubdtype(v.dtype, np.floating):
+            arrays[k] = pa.array(v, mask=np.isnan(v))
+        else:
+            arrays[k] = pa.array(v)
+    return pa.table(arrays)
+
+
 def write_fake_output(M, ref, out_dir, switches=None):
     """Write poses/variant=0/part-0.parquet and discontinuities.parquet from reference
     values (NaN / None as nulls)."""
-    import pyarrow as pa
     import pyarrow.parquet as pq
-
-    def table(cols):
-        arrays = {}
-        for k, v in cols.items():
-            v = np.asarray(v)
-            if v.dtype == object:
-                arrays[k] = pa.array(list(v), type=pa.string())
-            elif np.issubdtype(v.dtype, np.floating):
-                arrays[k] = pa.array(v, mask=np.isnan(v))
-            else:
-                arrays[k] = pa.array(v)
-        return pa.table(arrays)
-
+    table = pa_table
     pdir = os.path.join(out_dir, "poses", "variant=0")
     os.makedirs(pdir, exist_ok=True)
     extras = set(rc.extra_column_names(M))
