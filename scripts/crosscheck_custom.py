@@ -494,7 +494,7 @@ def tighten_range(rng, job, M, ref):
     return out, ref2
 
 
-def make_job(rng, index, families=FAMILIES, tries=60):
+def make_job(rng, index, families=FAMILIES, tries=60, cut_ranges=True):
     last = None
     for _ in range(tries):
         out = random_job(rng, index, families)
@@ -510,7 +510,7 @@ def make_job(rng, index, families=FAMILIES, tries=60):
         ref = rc.compute(M, extras=True)
         why = admissible(job, ref)
         if why is None:
-            if rng.random() < 0.15:
+            if cut_ranges and rng.random() < 0.15:
                 tight = tighten_range(rng, job, M, ref)
                 if tight is not None:
                     return tight[0], tag + " range", tight[1]

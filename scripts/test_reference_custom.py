@@ -107,7 +107,7 @@ def pus_job(**over):
 
 
 def generated(seed, families=xc.FAMILIES):
-    job, tag, ref = xc.make_job(np.random.default_rng(seed), 0, families)
+    job, tag, ref = xc.make_job(np.random.default_rng(seed), 0, families, cut_ranges=False)
     return job
 
 
