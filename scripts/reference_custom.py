@@ -82,48 +82,61 @@ STEP_CAP = 0.1             # largest predicted change of any unknown in one step
 H_MIN = 1e-7
 
 CHOICES = """
-1. Joint variables are zero at home; `range` bounds the variable at the pose only (not
-   along the path); a violated range gives `unreachable` with the parasitic coordinates
-   still reported (continuation converged); a failed continuation nulls them too.
-2. Continuation: from home along the straight segment of the inputs (other inputs at
-   their home values are the start), adaptive steps (predicted change <= 0.1 of any
-   unknown, halving on a failed corrector, 1e-7 smallest fraction), polished to 1e-13.
-3. U axes: a1 moves with the proximal body, a2 with the distal body, n = a1 x a2 at the
-   current pose; both normalised, refused when |a1 . a2| > 1e-6 at home (no
-   orthogonalisation). The centre of every joint moves with its distal body.
-4. Reactions: f, m of the joint are exerted by the proximal body on the distal one, m
-   about the joint's current centre; m columns are written for every joint (an S's are
-   exactly 0); tau = m . a (R actuated), f . d (P actuated), current axes.
-5. Bodies: `bodies` may be omitted (all massless); when given it has n - 1 entries.
-   A body's inertia given without com is about the default com.
-6. Platform mass defaults to 0; the default disc radius is the mean, over every limb
-   (repeats included), of the distance from P of the last joint's centre measured in the
-   platform's plane (platform axes at home).
-7. near_singular: the 2-norm condition number of G = [W_1 ... W_L] (W_i an orthonormal
-   basis of the wrenches [f; m_P] reciprocal to limb i's passive twists at P) above
-   singular_cond, or a limb's passive twists (unit columns [w; v_P]) with condition
-   number above singular_cond.  cond_a / cond_jp are not produced.
-8. Clearance keys: `<name>_<group>` split at the last underscore; the key applies to every
+1. Joint variables are zero at home (R: angle about a; P: displacement along d; U: the
+   angle about a1, then the one about the moved a2; S: a rotation matrix).  `range`
+   bounds the variable at the pose only, not along the path.  A violated range gives
+   `unreachable` with the parasitic coordinates still reported (the continuation
+   converged); a failed continuation nulls them too.
+2. Continuation: from home along the straight segment of the inputs, adaptive steps
+   (predicted change of any unknown <= 0.1 m or rad, corrector Newton to 1e-10,
+   step divided by 4 on a failed corrector, 1e-7 the smallest fraction of the segment),
+   then Newton at the pose to 1e-13; converged when its last step is <= 1e-11.
+3. Every joint's centre moves with its distal body (a P's centre slides with its distal
+   part); R, P axes with either body; U: a1 with the proximal, a2 with the distal body,
+   n = a1 x a2 at the current pose.  Axes are normalised; a U is refused when
+   |a1 . a2| > 1e-6 at home (no orthogonalisation).
+4. Reactions: f, m exerted by the proximal body on the distal one, m about the joint's
+   current centre, world axes; f_ and m_ columns for every joint of every limb (an S's m
+   is exactly 0).  tau = m . a (R actuated), f . d (P actuated), current axes.
+5. Bodies: `bodies` may be omitted (all massless); when given it has n - 1 entries.  An
+   inertia given without `com` is about the default com.
+6. Platform mass defaults to 0.  The default disc radius is the mean over every limb
+   (repeats included) of the distance of the last joint's centre from P, measured in the
+   platform's plane (the u-v plane of the platform axes at home).
+7. near_singular (the engine defines its own measure; jobs of the cross-check stay far
+   from it): the 2-norm condition number of G = [W_1 ... W_L] (W_i an orthonormal basis
+   of the wrenches [f; m_P] reciprocal to limb i's passive twists at P, moments in N m)
+   above singular_cond, or a limb's passive twists (unit columns [w; v_P]) with a
+   condition number above singular_cond.  cond_a / cond_jp are not produced.
+8. Clearance keys `<name>_<group>` are split at the last underscore; a key applies to every
    limb having a joint of that name whose type (and actuation, for backlash) has the
-   group; a list gives one value per such limb, in limb order.  A zero magnitude makes
-   that limb's group rigid (never indeterminate, not a dominant candidate).
+   group; a list gives one value per such limb, in limb order.  A zero magnitude makes that
+   limb's group rigid: never indeterminate, no switch, not a dominant candidate.
 9. Indeterminate: margin <= indeterminate_load_fraction * W (N and N m alike), only for a
-   non-zero magnitude and a group that can move the platform (unit response |dp| at least
-   1e-9, the maximum over the group's admissible set per unit magnitude).
-10. Envelope: per group the maximum over its admissible set (disc/ball/segment of radius
-   the magnitude) of each |component|, of |dp| and of |dalpha|, summed over groups (of the
-   kind, or of all kinds); computed on ok and indeterminate rows.
+   non-zero magnitude and a group that can move the platform.  "Can move": the largest
+   |dp| over the group's unit admissible set (sigma_max of the dp rows of its unit
+   responses on the set's basis; angular groups per rad, i.e. times 1 m) is >= 1e-9, per
+   limb, at the pose.  U angular: rotation -theta sign(mu) n with mu = m . n (0 if mu is 0).
+10. Envelope: per group the maximum over its admissible set (disc / ball / segment of
+   radius the magnitude) of each |component|, of |dp| and of |dalpha|, summed over the
+   kind's groups (env_<kind>_*) and over all groups (env_*); ok and indeterminate rows.
 11. Dominant: ok rows only; candidates every (limb, joint, group) with a non-zero magnitude
-   that can move the platform; ties within 1e-9 relative go to the first by
-   (type S,U,R,P; place in limb; radial, axial, angular, backlash; limb).
-12. Exact error: ok rows only; null when Newton does not converge or when it converges
-   further from the linear error than the linear error's size (any component), with a
-   round-off floor of 1e3 eps times (sum of translational magnitudes + angular magnitudes
-   times the largest joint distance from P).
+   that can move the platform; ties within 1e-9 relative go to the first by (type S, U,
+   R, P; place in the limb; radial, axial, angular, backlash; limb).  None: no candidate.
+12. Exact error: ok rows only; null when Newton does not converge (relative step 1e-10)
+   or when it converges further from the linear error than the linear error's size in
+   any component, that size at least 1e3 eps (sum of translational magnitudes + angular
+   magnitudes times Lchar, the largest joint distance from P at home, at least 1 m).
 13. Grids: keys must be inputs; an input with no key stays at its home value; samples are
    row-major over the inputs in the order x, y, z, phi, psi, theta.  Trajectories: an
    input with no key stays at its home value.
 14. W = (platform + point masses + every limb body's mass) |g|.
+15. Refused besides MODEL 12.3's counts, idle freedoms and rank deficiency at home: inputs
+   that do not determine the pose at home (the closure's Jacobian singular there).
+16. Nulls as the built-ins: unreachable rows carry identity, inputs (and parasitic, see 1);
+   near_singular rows also q<k>; indeterminate rows everything but the totals err_*, the
+   exact errors, the indeterminate kinds' err_<kind>_* and dominant; tau<k>, f_, m_,
+   margins and env_* are on ok and indeterminate rows.
 """
 
 

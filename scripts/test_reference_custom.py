@@ -637,7 +637,8 @@ def test_refusals():
     """check_description refuses (ValueError) an overconstrained description, a not-rigid
     one (both with the counts), an idle freedom (the limb and the U hint), duplicate
     names, a zero axis, U axes not perpendicular, inputs not coordinates or not as many as
-    the actuators, and a clearance key naming no joint group."""
+    the actuators, a clearance key naming no joint group or with a list of the wrong
+    length, and a description with correct counts that is rank deficient at home."""
     import copy
     # four PRS limbs: 4 * 14 = 56 components for 9 bodies (54)
     job = _prs_like(extra_limb=lambda lb: copy.deepcopy(lb))
@@ -658,6 +659,19 @@ def test_refusals():
     sps["mechanism"]["limb"][2]["joints"][0] = {"type": "S", "name": "b", "at": ups["mechanism"]["limb"][2]["joints"][0]["at"]}
     with pytest.raises(ValueError, match=r"limb 3.*idle freedom.*U joint"):
         rc.check_description(sps)
+    # every limb an SPS: the counts are wrong too (72 for 78), the idle freedom comes first
+    sps6 = copy.deepcopy(ups)
+    for lb in sps6["mechanism"]["limb"]:
+        lb["joints"][0] = {"type": "S", "name": "b", "at": lb["joints"][0]["at"]}
+    with pytest.raises(ValueError, match=r"limb 1.*idle freedom"):
+        rc.check_description(sps6)
+    # correct counts, rank deficient at home: six vertical legs cannot hold a side load
+    B = np.array([j["joints"][0]["at"] for j in ups["mechanism"]["limb"]])
+    vert = rc.preset_description({"mechanism": {"kind": "6-UPS", "base_points": B.tolist(),
+                                                "platform_points": (B - [0.0, 0.0, 0.0]).tolist()},
+                                  "grid": {"z": 0.7}}, (0.0, 0.0, 0.7, 0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="rank deficient"):
+        rc.check_description(vert)
     bad = copy.deepcopy(ups)
     bad["mechanism"]["limb"][0]["joints"][1]["name"] = "u"
     with pytest.raises(ValueError, match="share the name"):
