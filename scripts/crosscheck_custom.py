@@ -519,6 +519,41 @@ def make_job(rng, index, families=FAMILIES, tries=60, cut_ranges=True):
     raise RuntimeError(f"no admissible job in {tries} draws (last: {last})")
 
 
+def refusal_jobs(rng):
+    """Descriptions the engine must refuse (exit 2): [(label, job, words its message must
+    hold)], built from a random 3-PRS-like and a random 6-UPS-like job."""
+    import copy
+    out = []
+    prs, _, _ = make_job(rng, 0, ("3-PRS",), cut_ranges=False)
+    # the counts alone decide: one clearance every variant has (the S joints' play)
+    prs["clearance"] = {prs["mechanism"]["limb"][0]["joints"][2].get("name", "s") + "_radial": 1e-5}
+    over = copy.deepcopy(prs)
+    over["mechanism"]["limb"].append(copy.deepcopy(over["mechanism"]["limb"][0]))
+    out.append(("overconstrained", over, ["overconstrained", "56", "54"]))
+    loose = copy.deepcopy(prs)
+    for lb in loose["mechanism"]["limb"]:
+        r = lb["joints"][1]
+        a = np.array(r["axis"], float)
+        b = _unit(np.cross(a, [0.0, 0.0, 1.0]))
+        lb["joints"][1] = {"type": "U", "name": r["name"], "at": r["at"], "axes": [_lst(a), _lst(b)]}
+    out.append(("not rigid", loose, ["not rigid", "39", "42"]))
+    ups, _, _ = make_job(rng, 0, ("6-UPS",), cut_ranges=False)
+    idle = copy.deepcopy(ups)
+    j0 = idle["mechanism"]["limb"][2]["joints"][0]
+    idle["mechanism"]["limb"][2]["joints"][0] = {"type": "S", "name": "base", "at": j0["at"]}
+    idle["clearance"] = {idle["mechanism"]["limb"][0]["joints"][2].get("name", "s") + "_radial": 1e-5}
+    out.append(("idle freedom", idle, ["limb 3", "U"]))
+    for label, job, words in out:
+        try:
+            rc.check_description(job)
+        except ValueError as exc:
+            msg = str(exc)
+            assert all(w.lower() in msg.lower() for w in words), (label, msg)
+        else:
+            raise AssertionError(f"the reference accepts the {label} job")
+    return out
+
+
 # --------------------------------------------------------------------------
 # TOML writer (the subset the job format needs, arrays of tables included)
 # --------------------------------------------------------------------------
@@ -1179,6 +1214,9 @@ def main(argv=None):
     ap.add_argument("--timeout", type=float, default=600.0)
     ap.add_argument("--reference-only", action="store_true",
                     help="generate the jobs and run the reference only (no engine)")
+    ap.add_argument("--refusals", action="store_true",
+                    help="also check that the engine refuses (exit 2, with the counts / limb) an "
+                         "overconstrained, a not-rigid and an idle-freedom description")
     ap.add_argument("--fake", action="store_true",
                     help="compare against an output written from the reference itself (self-test)")
     args = ap.parse_args(argv)
@@ -1209,8 +1247,15 @@ def main(argv=None):
                 try:
                     M = rc.check_description(job)
                 except ValueError as exc:
+                    # both must refuse: the engine with exit 2
                     print(f"{args.job}: the reference refuses the job: {exc}")
-                    return 1
+                    if not engine:
+                        return 0
+                    out = os.path.join(work, "out_refused")
+                    rc_, err = run_engine(binary, os.path.abspath(args.job), out, args.timeout)
+                    print(f"engine exit {rc_}: {err.splitlines()[-1] if err else ''}")
+                    print("1 passed, 0 failed" if rc_ == 2 else "0 passed, 1 failed")
+                    return 0 if rc_ == 2 else 1
                 ref = rc.compute(M, extras=True)
             else:
                 job, tag, ref = make_job(rng, i, fams)
@@ -1253,6 +1298,20 @@ def main(argv=None):
                 passed += 1
                 lines.append(f"{label} pass ({info}; engine {t_eng:.2f}s, reference {t_ref:.2f}s)")
             lines += [f"    note: {n}" for n in notes[:6]]
+        if args.refusals and engine:
+            for label, job, words in refusal_jobs(rng):
+                path = os.path.join(work, f"refused_{label.replace(' ', '_')}.toml")
+                with open(path, "w") as fh:
+                    fh.write(to_toml(job))
+                rc_, err = run_engine(binary, path, os.path.join(work, "out_refused"), args.timeout)
+                missing = [w for w in words if w.lower() not in err.lower()]
+                if rc_ == 2 and not missing:
+                    passed += 1
+                    lines.append(f"refusal {label} pass (exit 2: {err.splitlines()[-1] if err else ''})")
+                else:
+                    failed += 1
+                    lines.append(f"refusal {label} FAIL (exit {rc_}, message lacks {missing}: "
+                                 f"{err.splitlines()[-1] if err else ''})")
     finally:
         if not args.keep:
             shutil.rmtree(work, ignore_errors=True)

@@ -862,3 +862,15 @@ def test_generated_jobs_round_trip_through_toml():
         if len(seen) == len(xc.FAMILIES):
             break
     assert seen == set(xc.FAMILIES)
+
+
+def test_crosscheck_refusal_jobs():
+    """The cross-check's refusal jobs (for --refusals) are refused by the reference with
+    the words the engine's message must hold: overconstrained 56/54, not rigid 39/42,
+    an idle freedom in limb 3."""
+    jobs = xc.refusal_jobs(np.random.default_rng(2))
+    assert [j[0] for j in jobs] == ["overconstrained", "not rigid", "idle freedom"]
+    for label, job, words in jobs:
+        assert tomllib.loads(xc.to_toml(job)) == job
+        with pytest.raises(ValueError):
+            rc.check_description(job)
