@@ -656,7 +656,8 @@ def test_refusals():
     # an SPS leg: two S joints with only an actuated P between them
     ups = rc.preset_description({"mechanism": {"kind": "6-UPS"}, "grid": {"z": 0.7}})
     sps = copy.deepcopy(ups)
-    sps["mechanism"]["limb"][2]["joints"][0] = {"type": "S", "name": "b", "at": ups["mechanism"]["limb"][2]["joints"][0]["at"]}
+    at = ups["mechanism"]["limb"][2]["joints"][0]["at"]
+    sps["mechanism"]["limb"][2]["joints"][0] = {"type": "S", "name": "b", "at": at}
     with pytest.raises(ValueError, match=r"limb 3.*idle freedom.*U joint"):
         rc.check_description(sps)
     # every limb an SPS: the counts are wrong too (72 for 78), the idle freedom comes first
