@@ -31,7 +31,10 @@ Each job is written as TOML, run as ``BIN run JOB --out DIR --overwrite --quiet
 joined with the reference on (mode, sample).  Every column present in both is compared:
 
     |a - b| <= tol * S_c,   tol = 1e-9 (kinetostatic rows), 1e-6 (dynamic rows),
-    S_c = max(M_c, 1e-3 * M_g, 1e-6 * N_g)
+    S_c = max(M_c, 1e-2 * M_g, 1e-6 * N_g)
+
+(a column that is zero to round-off, such as the error of a group that cannot move the
+platform, is measured against a hundredth of its group's scale)
 
 M_c the largest |reference value| of the column in that job and mode, M_g the largest
 over the column's unit group (lengths, angles, time, forces, couples, errors, rotation
@@ -82,7 +85,7 @@ import reference_model as rm  # noqa: E402
 
 REPO = os.path.dirname(HERE)
 TOL = {"kinetostatic": 1e-9, "dynamic": 1e-6}
-GROUP_FLOOR = 1e-3
+GROUP_FLOOR = 1e-2
 PHYS_FLOOR = 1e-6
 COND_MAX = 1e4
 SWITCH_DELTA = 1e-6

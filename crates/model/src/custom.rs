@@ -359,10 +359,10 @@ pub fn describe(
             let jk = format!("{key}.joints.{j}");
             finite3(file, &format!("{jk}.at"), &joint.at)?;
             let name = joint.name();
-            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') || name.ends_with(|c: char| c.is_ascii_digit()) {
+            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
                 return err(
                     &format!("{jk}.name"),
-                    format!("{name:?}: a joint name is letters, digits and '_', not ending in a digit (it names columns such as margin_{name}1_radial)"),
+                    format!("{name:?}: a joint name is letters, digits and '_' (it names columns such as margin_{name}1_radial)"),
                 );
             }
             if names.contains(&name) {
@@ -417,11 +417,8 @@ pub fn describe(
                     return err(&format!("{jk}.range"), format!("only R and P joints take a range, not {}", t.letter()));
                 }
                 finite3(file, &format!("{jk}.range"), &[lo, hi])?;
-                if !(lo <= 0.0 && 0.0 <= hi && lo < hi) {
-                    return err(
-                        &format!("{jk}.range"),
-                        format!("[{lo:?}, {hi:?}] must hold home (0) and have lo < hi"),
-                    );
+                if lo >= hi {
+                    return err(&format!("{jk}.range"), format!("[{lo:?}, {hi:?}]: lo must be below hi"));
                 }
             }
         }
@@ -464,16 +461,6 @@ pub fn describe(
             }
         }
     }
-    let actuated: usize = limbs.iter().map(|l| l.joints.iter().filter(|j| j.actuated).count()).sum();
-    if actuated != idx.len() {
-        return err(
-            "mechanism.inputs",
-            format!(
-                "the mechanism has {actuated} actuated joints but {} inputs; list as many platform coordinates as there are actuators",
-                idx.len()
-            ),
-        );
-    }
     let bodies: usize = 1 + limbs.iter().map(|l| l.joints.len() - 1).sum::<usize>();
     let transmitted: usize = limbs.iter().flat_map(|l| &l.joints).map(|j| j.joint.transmitted(j.actuated)).sum();
     if transmitted != 6 * bodies {
@@ -487,6 +474,16 @@ pub fn describe(
             format!(
                 "the mechanism is {word} (its joints transmit {transmitted} load components, its {bodies} moving bodies have 6·{bodies} = {} equations of equilibrium)",
                 6 * bodies
+            ),
+        );
+    }
+    let actuated: usize = limbs.iter().map(|l| l.joints.iter().filter(|j| j.actuated).count()).sum();
+    if actuated != idx.len() {
+        return err(
+            "mechanism.inputs",
+            format!(
+                "the mechanism has {actuated} actuated joints but {} inputs; list as many platform coordinates as there are actuators",
+                idx.len()
             ),
         );
     }
