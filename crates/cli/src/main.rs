@@ -323,15 +323,15 @@ fn main() -> ExitCode {
             }
             Err(e) => return usage(e),
         },
-        Command::Describe { job } => match load_job(&job)
-            .and_then(|spec| clearance_engine::describe(&spec, &job.display().to_string()))
-        {
-            Ok(described) => {
-                print!("{}", described.to_toml_string());
-                Ok(())
+        Command::Describe { job } => {
+            match load_job(&job).and_then(|spec| clearance_engine::describe(&spec, &job.display().to_string())) {
+                Ok(described) => {
+                    print!("{}", described.to_toml_string());
+                    Ok(())
+                }
+                Err(e) => return usage(e),
             }
-            Err(e) => return usage(e),
-        },
+        }
         Command::Status { dir } => return status::status(&dir),
         Command::Plot { dir, out } => {
             let out = out.unwrap_or_else(|| clearance_engine::Layout::new(&dir).plots());

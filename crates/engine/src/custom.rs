@@ -31,7 +31,9 @@ use crate::run::{
     RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
     sync_units, write_marker,
 };
-use crate::ups::{LOCATE_TOL, Mags, POLISH_WIDTH, Refined, UpsPath, minima, can_flip, refine, select, sides, ups_paths};
+use crate::ups::{
+    LOCATE_TOL, Mags, POLISH_WIDTH, Refined, UpsPath, can_flip, minima, refine, select, sides, ups_paths,
+};
 
 type Result<T, E = EngineError> = std::result::Result<T, E>;
 
@@ -54,7 +56,12 @@ fn solve_inputs(model: &CustomModel, inputs: &[[f64; 3]], mode: Mode) -> CustomR
 }
 
 /// Solves samples `range` of one mode on the current rayon pool.
-fn solve_rows(model: &CustomModel, source: &SampleSource, range: std::ops::Range<u64>, mode: Mode) -> (Vec<CustomRow>, Vec<CustomResult>) {
+fn solve_rows(
+    model: &CustomModel,
+    source: &SampleSource,
+    range: std::ops::Range<u64>,
+    mode: Mode,
+) -> (Vec<CustomRow>, Vec<CustomResult>) {
     range
         .into_par_iter()
         .map(|i| {
@@ -128,7 +135,8 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
             stats.flush();
             stages.pose_pass += pose_pass.elapsed().as_secs_f64();
             let writing = Instant::now();
-            let (part, stats_path) = (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
+            let (part, stats_path) =
+                (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
             for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
                 std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
             }
@@ -243,7 +251,9 @@ fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode)
                 if model.scalar(g) {
                     scalar_switches(path, &loads, &samples, floor, def.kind, def.limb, &at, &solve_at, &mut out);
                 } else {
-                    vector_switches(path, &loads, &samples, floor, threshold, def.kind, def.limb, &at, &solve_at, &mut out);
+                    vector_switches(
+                        path, &loads, &samples, floor, threshold, def.kind, def.limb, &at, &solve_at, &mut out,
+                    );
                 }
             }
             out
@@ -290,10 +300,29 @@ fn group_margin(_r: &CustomResult, load: Option<[f64; 3]>) -> f64 {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn switch(path: &UpsPath, limb: usize, kind: usize, t: Option<f64>, s: &[[f64; 3]; 6], r: &CustomResult, margin: f64, jump: [f64; 6]) -> CustomSwitch {
+fn switch(
+    path: &UpsPath,
+    limb: usize,
+    kind: usize,
+    t: Option<f64>,
+    s: &[[f64; 3]; 6],
+    r: &CustomResult,
+    margin: f64,
+    jump: [f64; 6],
+) -> CustomSwitch {
     // Parasitic coordinates from the solve there; inputs as the path gives them.
     let coords: [f64; 6] = std::array::from_fn(|k| if r.coords[k].is_finite() { r.coords[k] } else { s[k][0] });
-    CustomSwitch { variant: 0, mode: Mode::Kinetostatic, limb: limb + 1, kind, along: path.along, t, coords, margin, jump }
+    CustomSwitch {
+        variant: 0,
+        mode: Mode::Kinetostatic,
+        limb: limb + 1,
+        kind,
+        along: path.along,
+        t,
+        coords,
+        margin,
+        jump,
+    }
 }
 
 /// The vector rule of docs/model.md §8 on one group's loads along one path.
@@ -311,10 +340,8 @@ fn vector_switches(
     out: &mut Vec<CustomSwitch>,
 ) {
     let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> = loads
-        .iter()
-        .map(|l| l.map(|v| (norm(v), nalgebra::Vector3::from(v))).filter(|(m, _)| *m > floor))
-        .collect();
+    let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> =
+        loads.iter().map(|l| l.map(|v| (norm(v), nalgebra::Vector3::from(v))).filter(|(m, _)| *m > floor)).collect();
     let mags: &Mags = &mags;
     let mut at_mut = |p: f64| at(p);
     let refined: Vec<Refined> = minima(mags)
@@ -330,7 +357,8 @@ fn vector_switches(
         .collect();
     for Refined { x, m, at_x, .. } in select(&refined, mags) {
         let (x, m) = match (x.fract() != 0.0).then(|| at_x.or_else(|| at(x))).flatten() {
-            Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(p)).map_or((x, m), |(p, fp)| (p, norm(fp))),
+            Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(p))
+                .map_or((x, m), |(p, fp)| (p, norm(fp))),
             None => (x, m),
         };
         if m >= threshold {

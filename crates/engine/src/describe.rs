@@ -4,8 +4,8 @@
 //! custom job and gives the built-in kind's values (every column but `q`, which a
 //! custom run measures from home).
 
-use clearance_kinematics::{Geometry, inverse_kinematics};
 use clearance_kinematics::ups::{UpsGeometry, ups_inverse_kinematics};
+use clearance_kinematics::{Geometry, inverse_kinematics};
 use clearance_model::custom::{BodySpec, JointSpec, JointType, LimbSpec};
 use clearance_model::{JobError, JobSpec, MechanismKind, MechanismSpec, SamplesSpec};
 use nalgebra::Vector3;
@@ -54,7 +54,10 @@ pub fn describe(job: &JobSpec, file: &str) -> Result<JobSpec, JobError> {
             return Err(JobError::new(
                 file,
                 format!("sweep.{i}.param"),
-                format!("\"{}\" sweeps the built-in kind's geometry or limb masses, which a description writes out as joints and bodies: describe one variant at a time", s.param),
+                format!(
+                    "\"{}\" sweeps the built-in kind's geometry or limb masses, which a description writes out as joints and bodies: describe one variant at a time",
+                    s.param
+                ),
             ));
         }
     }
@@ -65,10 +68,14 @@ pub fn describe(job: &JobSpec, file: &str) -> Result<JobSpec, JobError> {
             let geom = Geometry::from_spec(m);
             let scale = m.length_scale();
             let candidates = [first[2], scale, 0.9 * scale, 0.7 * scale, 1.1 * scale, 0.5 * scale];
-            let pose = candidates
-                .iter()
-                .find_map(|&z| inverse_kinematics(&geom, z, 0.0, 0.0).ok())
-                .ok_or_else(|| JobError::new(file, "mechanism", "no home pose found (z at psi = theta = 0) to describe the mechanism at"))?;
+            let pose =
+                candidates.iter().find_map(|&z| inverse_kinematics(&geom, z, 0.0, 0.0).ok()).ok_or_else(|| {
+                    JobError::new(
+                        file,
+                        "mechanism",
+                        "no home pose found (z at psi = theta = 0) to describe the mechanism at",
+                    )
+                })?;
             let home = [pose.x, pose.y, pose.z, pose.phi, 0.0, 0.0];
             let mut limbs = Vec::new();
             for j in 0..3 {
@@ -100,8 +107,16 @@ pub fn describe(job: &JobSpec, file: &str) -> Result<JobSpec, JobError> {
                         rotate_deg: None,
                         joints: vec![r, p, s],
                         bodies: vec![
-                            BodySpec { mass: mc, com: Some(arr(&(b + e * (lc / 2.0)))), inertia: Some(rod(mc, lc, &e)) },
-                            BodySpec { mass: mp, com: Some(arr(&(a - e * (lp / 2.0)))), inertia: Some(rod(mp, lp, &e)) },
+                            BodySpec {
+                                mass: mc,
+                                com: Some(arr(&(b + e * (lc / 2.0)))),
+                                inertia: Some(rod(mc, lc, &e)),
+                            },
+                            BodySpec {
+                                mass: mp,
+                                com: Some(arr(&(a - e * (lp / 2.0)))),
+                                inertia: Some(rod(mp, lp, &e)),
+                            },
                         ],
                     });
                 }
@@ -111,8 +126,9 @@ pub fn describe(job: &JobSpec, file: &str) -> Result<JobSpec, JobError> {
         MechanismKind::Ups6 => {
             let model = clearance_solver::ups::UpsModel::from_job(job);
             let geom: &UpsGeometry = &model.geometry;
-            let pose = ups_inverse_kinematics(geom, first)
-                .map_err(|_| JobError::new(file, "grid", "the first sample is not reachable: it is the description's home pose"))?;
+            let pose = ups_inverse_kinematics(geom, first).map_err(|_| {
+                JobError::new(file, "grid", "the first sample is not reachable: it is the description's home pose")
+            })?;
             let (lc, lp) = (geom.cylinder_length, geom.piston_length);
             let (mc, mp) = (job.mass.cylinder(kind), job.mass.piston(kind));
             let mut limbs = Vec::new();

@@ -116,7 +116,9 @@ fn describe(m: &MechanismSpec) -> String {
         let limbs = clearance_model::custom::expand(m.limb.as_deref().unwrap_or(&[]));
         let chains: Vec<String> = limbs
             .iter()
-            .map(|l| l.joints.iter().map(|j| format!("{}{}", j.joint.letter(), if j.actuated { "*" } else { "" })).collect())
+            .map(|l| {
+                l.joints.iter().map(|j| format!("{}{}", j.joint.letter(), if j.actuated { "*" } else { "" })).collect()
+            })
             .collect();
         out.push_str(&format!(
             ", {} limbs ({}), inputs {}",

@@ -78,14 +78,16 @@ fn compare_batches(b: &RecordBatch, c: &RecordBatch, count: &mut usize) {
         };
         *count += 1;
         let (x, y) = (b.column(i), c.column(j));
-        if let (Some(x), Some(y)) = (x.as_any().downcast_ref::<StringArray>(), y.as_any().downcast_ref::<StringArray>()) {
+        if let (Some(x), Some(y)) = (x.as_any().downcast_ref::<StringArray>(), y.as_any().downcast_ref::<StringArray>())
+        {
             for r in 0..x.len() {
                 let (a, b) = (x.is_valid(r).then(|| x.value(r)), y.is_valid(r).then(|| y.value(r)));
                 assert_eq!(a, b, "{name} row {r}");
             }
             continue;
         }
-        let (Some(x), Some(y)) = (x.as_any().downcast_ref::<Float64Array>(), y.as_any().downcast_ref::<Float64Array>()) else {
+        let (Some(x), Some(y)) = (x.as_any().downcast_ref::<Float64Array>(), y.as_any().downcast_ref::<Float64Array>())
+        else {
             continue;
         };
         let scale = largest(x).max(family(name).map_or(0.0, |f| 1e-2 * families[f]));
@@ -94,7 +96,12 @@ fn compare_batches(b: &RecordBatch, c: &RecordBatch, count: &mut usize) {
             if x.is_valid(r) {
                 let d = (x.value(r) - y.value(r)).abs();
                 let tol = if name.starts_with("exact_err_") { 1e-10 } else { 1e-12 };
-                assert!(d <= tol * scale.max(1e-300), "{name} row {r}: {} vs {} (scale {scale:e})", x.value(r), y.value(r));
+                assert!(
+                    d <= tol * scale.max(1e-300),
+                    "{name} row {r}: {} vs {} (scale {scale:e})",
+                    x.value(r),
+                    y.value(r)
+                );
             }
         }
     }
@@ -105,7 +112,9 @@ const KINDS_3: &str = "[clearance]\ns_radial = 1e-4\nr_radial = 2e-4\nr_axial = 
 
 #[test]
 fn the_3prs_described_is_the_3prs() {
-    check(&format!("{KINDS_3}[analysis]\nexact = true\n[grid]\nz = 2.05\npsi = {{ start = -0.4, stop = 0.4, n = 7 }}\ntheta = {{ start = -0.4, stop = 0.4, n = 7 }}\n"));
+    check(&format!(
+        "{KINDS_3}[analysis]\nexact = true\n[grid]\nz = 2.05\npsi = {{ start = -0.4, stop = 0.4, n = 7 }}\ntheta = {{ start = -0.4, stop = 0.4, n = 7 }}\n"
+    ));
 }
 
 #[test]

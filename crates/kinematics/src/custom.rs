@@ -27,7 +27,8 @@ pub struct Rigid {
 }
 
 impl Rigid {
-    pub const IDENTITY: Rigid = Rigid { r: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), t: V3::new(0.0, 0.0, 0.0) };
+    pub const IDENTITY: Rigid =
+        Rigid { r: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), t: V3::new(0.0, 0.0, 0.0) };
 
     pub fn apply(&self, x: &V3) -> V3 {
         self.r * x + self.t
@@ -210,8 +211,7 @@ impl CustomGeometry {
             })
             .collect();
         let p = V3::new(home[0], home[1], home[2]);
-        let length =
-            limbs.iter().flat_map(|l| &l.joints).map(|j| (j.centre - p).norm()).fold(0.0, f64::max).max(1e-3);
+        let length = limbs.iter().flat_map(|l| &l.joints).map(|j| (j.centre - p).norm()).fold(0.0, f64::max).max(1e-3);
         let parasitic = (0..6).filter(|k| !inputs.contains(k)).collect();
         Self { inputs: inputs.to_vec(), parasitic, home, limbs, length }
     }
@@ -455,11 +455,7 @@ const MAX_STEPS: usize = 200;
 
 /// Solves the closure at `coords` (the inputs set, the parasitic ones a first guess)
 /// by Newton from `states`; returns the increments' largest scaled size.
-fn newton(
-    geom: &CustomGeometry,
-    coords: &mut [f64; 6],
-    states: &mut [Vec<JointState>],
-) -> Option<f64> {
+fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointState>]) -> Option<f64> {
     let scale = geom.length;
     let mut moved = 0.0f64;
     for _ in 0..NEWTON_STEPS {
@@ -472,7 +468,8 @@ fn newton(
             r.fixed_rows_mut::<6>(6 * l).copy_from(&e);
             joints.push(pj);
         }
-        let size = r.iter().enumerate().map(|(i, v)| if i % 6 < 3 { v.abs() } else { v.abs() / scale }).fold(0.0, f64::max);
+        let size =
+            r.iter().enumerate().map(|(i, v)| if i % 6 < 3 { v.abs() } else { v.abs() / scale }).fold(0.0, f64::max);
         if size < 1e-14 {
             return Some(moved);
         }
@@ -523,7 +520,10 @@ pub fn determined_at_home(geom: &CustomGeometry) -> bool {
 /// of the inputs, each step solved by Newton and halved where Newton fails or the
 /// configuration moves too far in one step. The same inputs give the same bits,
 /// whatever pose came before.
-pub fn solve_configuration(geom: &CustomGeometry, target: &[f64]) -> Result<([f64; 6], Vec<Vec<JointState>>), Unsolved> {
+pub fn solve_configuration(
+    geom: &CustomGeometry,
+    target: &[f64],
+) -> Result<([f64; 6], Vec<Vec<JointState>>), Unsolved> {
     let mut coords = geom.home;
     let mut states: Vec<Vec<JointState>> =
         geom.limbs.iter().map(|l| l.joints.iter().map(JointState::home).collect()).collect();

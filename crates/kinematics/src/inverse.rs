@@ -379,7 +379,9 @@ pub fn slider<T: Elementary>(geom: &Geometry, j: usize, a: [T; 3], disc: T) -> (
             let along = q.scale(s);
             (q, [b0[0] + along.scale(xj.x), b0[1] + along.scale(xj.y), q.scale(c)])
         }
-        MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => (disc.sqrt(), [b0[0], b0[1], T::constant(0.0)]),
+        MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
+            (disc.sqrt(), [b0[0], b0[1], T::constant(0.0)])
+        }
     }
 }
 

@@ -42,7 +42,11 @@ fn the_3prs_description_gives_the_closed_forms() {
         }
         // Every limb closes on the platform: its S centre is the platform's vertex.
         for (l, joints) in p.joints.iter().enumerate() {
-            let a = placement(&p.coords).apply(&nalgebra::Vector3::new(0.36 * (l as f64 * 2.0 * std::f64::consts::PI / 3.0).cos(), 0.36 * (l as f64 * 2.0 * std::f64::consts::PI / 3.0).sin(), 0.0));
+            let a = placement(&p.coords).apply(&nalgebra::Vector3::new(
+                0.36 * (l as f64 * 2.0 * std::f64::consts::PI / 3.0).cos(),
+                0.36 * (l as f64 * 2.0 * std::f64::consts::PI / 3.0).sin(),
+                0.0,
+            ));
             assert!((joints[2].centre - a).norm() < 1e-12);
         }
     }
@@ -61,7 +65,12 @@ fn rates_agree_with_finite_differences() {
     for k in [0, 1, 3] {
         let fd = (pp.coords[k] - pm.coords[k]) / (2.0 * h);
         let fdd = (pp.coords[k] - 2.0 * p.coords[k] + pm.coords[k]) / (h * h);
-        let rate = if k < 3 { p.twist[3 + k] + p.twist.fixed_rows::<3>(0).cross(&nalgebra::Vector3::new(p.coords[0], p.coords[1], p.coords[2]))[k] } else { f64::NAN };
+        let rate = if k < 3 {
+            p.twist[3 + k]
+                + p.twist.fixed_rows::<3>(0).cross(&nalgebra::Vector3::new(p.coords[0], p.coords[1], p.coords[2]))[k]
+        } else {
+            f64::NAN
+        };
         if k < 3 {
             assert!((rate - fd).abs() < 1e-7, "coordinate {k}: rate {rate} vs {fd}");
         }

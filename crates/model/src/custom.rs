@@ -217,13 +217,19 @@ fn rotate(v: [f64; 3], angle: f64) -> [f64; 3] {
     [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]]
 }
 
+/// The most limbs a mechanism may have (after repetition).
+pub const MAX_LIMBS: usize = 64;
+
 /// Expands `repeat` and fills the bodies left out. Limbs are numbered in file order,
 /// each entry's copies right after it.
 pub fn expand(limbs: &[LimbSpec]) -> Vec<Limb> {
     let mut out = Vec::new();
     for (entry, spec) in limbs.iter().enumerate() {
         let step = spec.rotate_deg.unwrap_or(360.0 / spec.repeat.max(1) as f64).to_radians();
-        for copy in 0..spec.repeat.max(1) {
+        for copy in 0..spec.repeat.clamp(1, MAX_LIMBS) {
+            if out.len() >= MAX_LIMBS {
+                break;
+            }
             let a = step * copy as f64;
             let joints = spec
                 .joints
@@ -248,7 +254,10 @@ pub fn expand(limbs: &[LimbSpec]) -> Vec<Limb> {
                         let mut out = [[0.0; 3]; 3];
                         for (p, row) in out.iter_mut().enumerate() {
                             for (q, v) in row.iter_mut().enumerate() {
-                                *v = (0..3).flat_map(|k| (0..3).map(move |l| (k, l))).map(|(k, l)| r[p][k] * i[k][l] * r[q][l]).sum();
+                                *v = (0..3)
+                                    .flat_map(|k| (0..3).map(move |l| (k, l)))
+                                    .map(|(k, l)| r[p][k] * i[k][l] * r[q][l])
+                                    .sum();
                             }
                         }
                         out
@@ -312,7 +321,10 @@ pub fn describe(
         return err("mechanism.limb", "a custom mechanism needs at least one [[mechanism.limb]]".into());
     };
     let Some(inputs) = inputs else {
-        return err("mechanism.inputs", "list the platform coordinates the grid or trajectory gives, e.g. [\"z\", \"psi\", \"theta\"]".into());
+        return err(
+            "mechanism.inputs",
+            "list the platform coordinates the grid or trajectory gives, e.g. [\"z\", \"psi\", \"theta\"]".into(),
+        );
     };
     let mut idx = Vec::new();
     for (i, name) in inputs.iter().enumerate() {
@@ -332,8 +344,8 @@ pub fn describe(
     finite3(file, "mechanism.home", &home)?;
     for (e, spec) in specs.iter().enumerate() {
         let key = format!("mechanism.limb.{e}");
-        if spec.repeat == 0 {
-            return err(&format!("{key}.repeat"), "must be at least 1".into());
+        if spec.repeat == 0 || spec.repeat > MAX_LIMBS {
+            return err(&format!("{key}.repeat"), format!("must be between 1 and {MAX_LIMBS}, got {}", spec.repeat));
         }
         if let Some(r) = spec.rotate_deg
             && !r.is_finite()
@@ -362,11 +374,16 @@ pub fn describe(
             if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
                 return err(
                     &format!("{jk}.name"),
-                    format!("{name:?}: a joint name is letters, digits and '_' (it names columns such as margin_{name}1_radial)"),
+                    format!(
+                        "{name:?}: a joint name is letters, digits and '_' (it names columns such as margin_{name}1_radial)"
+                    ),
                 );
             }
             if names.contains(&name) {
-                return err(&format!("{jk}.name"), format!("two joints of this limb are named {name:?}; give them different names"));
+                return err(
+                    &format!("{jk}.name"),
+                    format!("two joints of this limb are named {name:?}; give them different names"),
+                );
             }
             names.push(name);
             let t = joint.joint;
@@ -399,7 +416,10 @@ pub fn describe(
                     if cos.abs() > 1e-9 {
                         return err(
                             &format!("{jk}.axes"),
-                            format!("a U joint's axes must be perpendicular at home; they make {:.6}°", cos.clamp(-1.0, 1.0).acos().to_degrees()),
+                            format!(
+                                "a U joint's axes must be perpendicular at home; they make {:.6}°",
+                                cos.clamp(-1.0, 1.0).acos().to_degrees()
+                            ),
                         );
                     }
                 }
@@ -410,11 +430,17 @@ pub fn describe(
                 }
             }
             if joint.actuated && matches!(t, JointType::U | JointType::S) {
-                return err(&format!("{jk}.actuated"), format!("only R and P joints can be actuated, not {}", t.letter()));
+                return err(
+                    &format!("{jk}.actuated"),
+                    format!("only R and P joints can be actuated, not {}", t.letter()),
+                );
             }
             if let Some([lo, hi]) = joint.range {
                 if matches!(t, JointType::U | JointType::S) {
-                    return err(&format!("{jk}.range"), format!("only R and P joints take a range, not {}", t.letter()));
+                    return err(
+                        &format!("{jk}.range"),
+                        format!("only R and P joints take a range, not {}", t.letter()),
+                    );
                 }
                 finite3(file, &format!("{jk}.range"), &[lo, hi])?;
                 if lo >= hi {
@@ -434,19 +460,30 @@ pub fn describe(
                 for (r, row) in i.iter().enumerate() {
                     finite3(file, &format!("{bk}.inertia.{r}"), row)?;
                 }
-                let asym = (0..3).flat_map(|p| (0..3).map(move |q| (p, q))).map(|(p, q)| (i[p][q] - i[q][p]).abs()).fold(0.0, f64::max);
+                let asym = (0..3)
+                    .flat_map(|p| (0..3).map(move |q| (p, q)))
+                    .map(|(p, q)| (i[p][q] - i[q][p]).abs())
+                    .fold(0.0, f64::max);
                 let scale = (0..3).map(|p| i[p][p].abs()).fold(0.0, f64::max);
                 if asym > 1e-12 * scale.max(f64::MIN_POSITIVE) || (0..3).any(|p| i[p][p] < 0.0) {
-                    return err(&format!("{bk}.inertia"), "must be a symmetric matrix with a non-negative diagonal".into());
+                    return err(
+                        &format!("{bk}.inertia"),
+                        "must be a symmetric matrix with a non-negative diagonal".into(),
+                    );
                 }
             }
         }
+    }
+    let count: usize = specs.iter().map(|s| s.repeat).sum();
+    if count > MAX_LIMBS {
+        return err("mechanism.limb", format!("{count} limbs: a mechanism may have at most {MAX_LIMBS}"));
     }
     let limbs = expand(specs);
     // An idle freedom (two S joints with only bodies and locked joints between them)
     // spoils the counts too, so it is named first.
     for (l, limb) in limbs.iter().enumerate() {
-        let s: Vec<usize> = limb.joints.iter().enumerate().filter(|(_, j)| j.joint == JointType::S).map(|(i, _)| i).collect();
+        let s: Vec<usize> =
+            limb.joints.iter().enumerate().filter(|(_, j)| j.joint == JointType::S).map(|(i, _)| i).collect();
         for w in s.windows(2) {
             if limb.joints[w[0] + 1..w[1]].iter().all(|j| j.actuated) {
                 return err(
@@ -523,16 +560,27 @@ pub fn limbs_with(limbs: &[Limb], joint: &str, group: Group) -> Vec<usize> {
         .collect()
 }
 
-fn clearance_kinds(file: &str, limbs: &[Limb], clearance: &[(String, Magnitude)]) -> Result<Vec<(CustomKind, Magnitude)>, JobError> {
+fn clearance_kinds(
+    file: &str,
+    limbs: &[Limb],
+    clearance: &[(String, Magnitude)],
+) -> Result<Vec<(CustomKind, Magnitude)>, JobError> {
     let all = all_kinds(limbs);
     for (key, m) in clearance {
         let Some(kind) = all.iter().find(|k| &k.key == key) else {
             let names: Vec<&str> = all.iter().map(|k| k.key.as_str()).collect();
             let hint = match crate::keys::suggest(key, &names) {
                 Some(s) => format!("did you mean `{s}`?"),
-                None => format!("its joint groups are {}", names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")),
+                None => format!(
+                    "its joint groups are {}",
+                    names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+                ),
             };
-            return Err(JobError::new(file, format!("clearance.{key}"), format!("names no joint group of the mechanism; {hint}")));
+            return Err(JobError::new(
+                file,
+                format!("clearance.{key}"),
+                format!("names no joint group of the mechanism; {hint}"),
+            ));
         };
         let unit = if matches!(kind.group, Group::Angular) { "rad" } else { "m or rad" };
         let with = limbs_with(limbs, &kind.joint, kind.group);
@@ -543,7 +591,12 @@ fn clearance_kinds(file: &str, limbs: &[Limb], clearance: &[(String, Magnitude)]
                     return Err(JobError::new(
                         file,
                         format!("clearance.{key}"),
-                        format!("{} limbs have this joint: give one value, or a list of {}; got {}", with.len(), with.len(), v.len()),
+                        format!(
+                            "{} limbs have this joint: give one value, or a list of {}; got {}",
+                            with.len(),
+                            with.len(),
+                            v.len()
+                        ),
                     ));
                 }
                 v.clone()
@@ -551,7 +604,11 @@ fn clearance_kinds(file: &str, limbs: &[Limb], clearance: &[(String, Magnitude)]
         };
         for (i, v) in values.iter().enumerate() {
             if !(v.is_finite() && *v >= 0.0) {
-                let k = if matches!(m, Magnitude::PerLimb(_)) { format!("clearance.{key}.{i}") } else { format!("clearance.{key}") };
+                let k = if matches!(m, Magnitude::PerLimb(_)) {
+                    format!("clearance.{key}.{i}")
+                } else {
+                    format!("clearance.{key}")
+                };
                 return Err(JobError::new(file, k, format!("must be zero or positive ({unit}), got {v:?}")));
             }
         }

@@ -5,9 +5,9 @@ use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt;
 
+use crate::custom::Magnitude;
 use crate::error::JobError;
 use crate::kinds::{ClearanceKind, KINDS};
-use crate::custom::Magnitude;
 use crate::mechanism::{MassSpec, MechanismKind, MechanismSpec};
 
 /// One job: a mechanism, its loads and clearances, what to analyse, and where.
@@ -434,7 +434,9 @@ impl JobSpec {
             // An input left out stays at its home value.
             let mut table = table.clone();
             let home: Vec<f64> = match table.get("mechanism").and_then(|m| m.get("home")) {
-                Some(toml::Value::Array(a)) => a.iter().map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)).unwrap_or(0.0)).collect(),
+                Some(toml::Value::Array(a)) => {
+                    a.iter().map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)).unwrap_or(0.0)).collect()
+                }
                 _ => vec![0.0; 6],
             };
             let inputs: Vec<String> = match table.get("mechanism").and_then(|m| m.get("inputs")) {

@@ -111,7 +111,9 @@ pub fn check_keys(file: &str, table: &toml::Table) -> Result<(), JobError> {
     }
     match foreign.first() {
         None => Ok(()),
-        Some(first) if kind == MechanismKind::Custom && (first.starts_with("grid.") || first.starts_with("trajectory.")) => {
+        Some(first)
+            if kind == MechanismKind::Custom && (first.starts_with("grid.") || first.starts_with("trajectory.")) =>
+        {
             Err(JobError::new(
                 file,
                 first.clone(),

@@ -78,7 +78,11 @@ impl CustomSchema {
             push(COORDINATES[k].to_string(), COORDINATE_UNITS[k], Box::new(move |r| Some(r.coords[k])));
         }
         for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-            push(format!("err_{c}"), unit, Box::new(move |r| (r.status == Status::Ok).then(|| r.total.map(|e| e[i])).flatten()));
+            push(
+                format!("err_{c}"),
+                unit,
+                Box::new(move |r| (r.status == Status::Ok).then(|| r.total.map(|e| e[i])).flatten()),
+            );
         }
         if set >= ColumnSet::Standard {
             for &k in &geom.parasitic {
@@ -91,18 +95,28 @@ impl CustomSchema {
             let actuators = model.actuators();
             for (i, &(l, j)) in actuators.iter().enumerate() {
                 let unit = if geom.limbs[l].joints[j].joint == JointType::R { "rad" } else { "m" };
-                push(format!("q{}", i + 1), unit, Box::new(move |r| r.q.get(i).copied().filter(|_| r.status != Status::Unreachable)));
+                push(
+                    format!("q{}", i + 1),
+                    unit,
+                    Box::new(move |r| r.q.get(i).copied().filter(|_| r.status != Status::Unreachable)),
+                );
             }
             for (i, &(l, j)) in actuators.iter().enumerate() {
                 let unit = if geom.limbs[l].joints[j].joint == JointType::R { "N*m" } else { "N" };
-                push(format!("tau{}", i + 1), unit, Box::new(move |r| loaded(r).then(|| r.tau.get(i).copied()).flatten()));
+                push(
+                    format!("tau{}", i + 1),
+                    unit,
+                    Box::new(move |r| loaded(r).then(|| r.tau.get(i).copied()).flatten()),
+                );
             }
             for (k, kind) in model.kinds.iter().enumerate() {
                 for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
                     push(
                         format!("err_{kind}_{c}"),
                         unit,
-                        Box::new(move |r| loaded(r).then(|| r.kind_errors.get(k).copied().flatten().map(|e| e[i])).flatten()),
+                        Box::new(move |r| {
+                            loaded(r).then(|| r.kind_errors.get(k).copied().flatten().map(|e| e[i])).flatten()
+                        }),
                     );
                 }
             }
@@ -183,9 +197,11 @@ impl CustomSchema {
             Arc::new(StringArray::from_iter_values(results.iter().map(|r| r.status.name()))),
         ];
         if let Some(names) = &self.dominant {
-            out.push(Arc::new(StringArray::from_iter(results.iter().map(|r| {
-                (r.status == Status::Ok).then(|| r.dominant.map(|g| names[g].as_str())).flatten()
-            }))));
+            out.push(Arc::new(StringArray::from_iter(
+                results
+                    .iter()
+                    .map(|r| (r.status == Status::Ok).then(|| r.dominant.map(|g| names[g].as_str())).flatten()),
+            )));
         }
         for f in &self.floats {
             out.push(Arc::new(Float64Array::from_iter(results.iter().map(|r| f(r).filter(|v| v.is_finite())))));

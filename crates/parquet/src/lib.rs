@@ -38,7 +38,8 @@ mod ups;
 mod writer;
 
 pub use custom::{
-    CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, custom_discontinuity_batch, custom_summary_batch,
+    CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, custom_discontinuity_batch,
+    custom_summary_batch,
 };
 pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
 pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSchema, UnitColumns};

@@ -63,7 +63,10 @@ pub struct GroupDef {
 impl GroupDef {
     /// Whether its deciding load is a scalar (a sign decides) or a vector.
     pub fn scalar(&self, joint: JointType) -> bool {
-        matches!((joint, self.group), (_, Group::Backlash) | (JointType::R, Group::Axial) | (JointType::U, Group::Angular))
+        matches!(
+            (joint, self.group),
+            (_, Group::Backlash) | (JointType::R, Group::Axial) | (JointType::U, Group::Angular)
+        )
     }
 }
 
@@ -101,9 +104,7 @@ impl CustomModel {
     /// The model of a custom job; `Err` if it is not one, or its description is refused,
     /// or its systems are singular at home (docs/model.md §12.3).
     pub fn from_job(job: &JobSpec, file: &str) -> Result<Self, JobError> {
-        let d = job
-            .description(file)
-            .ok_or_else(|| JobError::new(file, "mechanism.kind", "is not \"custom\""))??;
+        let d = job.description(file).ok_or_else(|| JobError::new(file, "mechanism.kind", "is not \"custom\""))??;
         let geom = CustomGeometry::new(&d.inputs, d.home, &d.limbs);
         let mut groups = Vec::new();
         let mut kinds = Vec::new();
@@ -151,8 +152,13 @@ impl CustomModel {
         };
         // Rigid at home: the limbs' constraint wrenches span every wrench.
         let home: Vec<f64> = model.geom.inputs.iter().map(|&k| model.geom.home[k]).collect();
-        let p = custom_posture(&model.geom, &home, None)
-            .map_err(|_| JobError::new(file, "mechanism.home", "the joints do not close at home: check the limbs' last joints against the platform's home pose"))?;
+        let p = custom_posture(&model.geom, &home, None).map_err(|_| {
+            JobError::new(
+                file,
+                "mechanism.home",
+                "the joints do not close at home: check the limbs' last joints against the platform's home pose",
+            )
+        })?;
         if !clearance_kinematics::custom::determined_at_home(&model.geom) {
             return Err(JobError::new(
                 file,
@@ -594,7 +600,13 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         let scalar = g.scalar(joint.joint);
         t.load = [load.x, load.y, load.z];
         t.margin = if scalar { load.x.abs() } else { load.norm() };
-        let unit = if scalar { dir } else if t.margin > 0.0 { dir / t.margin } else { V3::zeros() };
+        let unit = if scalar {
+            dir
+        } else if t.margin > 0.0 {
+            dir / t.margin
+        } else {
+            V3::zeros()
+        };
         let disp = unit * g.magnitude;
         t.twist = if rotation { six(disp, pj.centre.cross(&disp)) } else { six(V3::zeros(), disp) };
         // The admissible set's unit responses: the envelope, and whether it moves P.
@@ -687,7 +699,8 @@ fn exact_error(
 ) -> Option<[f64; 6]> {
     let geom = &model.geom;
     // Each joint's take-up as a rotation vector and a translation about its centre.
-    let mut play: Vec<Vec<(V3, V3)>> = geom.limbs.iter().map(|l| vec![(V3::zeros(), V3::zeros()); l.joints.len()]).collect();
+    let mut play: Vec<Vec<(V3, V3)>> =
+        geom.limbs.iter().map(|l| vec![(V3::zeros(), V3::zeros()); l.joints.len()]).collect();
     for (g, t) in model.groups.iter().zip(&out.takes) {
         let e = &mut play[g.limb][g.joint];
         e.0 += w(&t.twist);
