@@ -39,9 +39,9 @@ if os.environ.get("CLEARANCE_ISA"):
 
 
 def _job(job: Job) -> Tuple[str, str]:
-    """(kind, value) for the native module: a path, TOML text or a dict as JSON."""
+    """(kind, value) for the native module: a path, or TOML text (a dict's too)."""
     if isinstance(job, Mapping):
-        return "json", json.dumps(job)
+        return "toml", _clearance.dict_toml(job)
     if isinstance(job, os.PathLike):
         return "path", os.fspath(job)
     if isinstance(job, str):

@@ -14,9 +14,9 @@ use clearance_engine::{
     Codec, ColumnSet, EngineError, JobSpec, Poses, Progress, Reporter, RunOptions, SolveOptions, SolverKind, Writer,
 };
 use pyo3::create_exception;
-use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyList;
+use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyMapping, PyString, PyTuple};
 
 create_exception!(_clearance, JobError, PyValueError, "A job that is not valid; the message is the CLI's.");
 
@@ -61,7 +61,7 @@ fn keep_newest<T>(store: &mut Vec<T>, item: T, kept: usize) {
     store.push(item);
 }
 
-/// `kind` is `path` (a TOML file), `toml` (its text) or `json` (a dict, as JSON).
+/// `kind` is `path` (a TOML file) or `toml` (its text, or a dict's from [`dict_toml`]).
 fn load_job(kind: &str, value: &str) -> PyResult<Job> {
     let job_error = |e: clearance_engine::JobError| JobError::new_err(e.to_string());
     match kind {
@@ -70,15 +70,62 @@ fn load_job(kind: &str, value: &str) -> PyResult<Job> {
             Ok(Job { spec, file: value.to_string() })
         }
         "toml" => Ok(Job { spec: JobSpec::from_toml_str(value, "job").map_err(job_error)?, file: "job".into() }),
-        "json" => {
-            let json: serde_json::Value =
-                serde_json::from_str(value).map_err(|e| JobError::new_err(format!("job: {e}")))?;
-            let toml: toml::Value = serde_json::from_value(json).map_err(|e| JobError::new_err(format!("job: {e}")))?;
-            let text = toml::to_string(&toml).map_err(|e| JobError::new_err(format!("job: {e}")))?;
-            Ok(Job { spec: JobSpec::from_toml_str(&text, "job").map_err(job_error)?, file: "job".into() })
-        }
         _ => Err(PyValueError::new_err(format!("unknown job kind {kind:?}"))),
     }
+}
+
+/// A job given as a dict, as TOML text. Not through JSON: it has no NaN, and a NaN
+/// must reach the job's own check (`must be a finite number`) as it does from a
+/// file. A value a job cannot hold is named by where it is (`job['grid']['z']`).
+#[pyfunction]
+fn dict_toml(job: &Bound<'_, PyAny>) -> PyResult<String> {
+    let value = toml_value(job, "job", false)?;
+    toml::to_string(&value).map_err(|e| JobError::new_err(format!("job: {e}")))
+}
+
+/// `v` as a TOML value; `at` is where it is in the job. NumPy scalars and arrays
+/// are taken through their `tolist()` (once: `converted`).
+fn toml_value(v: &Bound<'_, PyAny>, at: &str, converted: bool) -> PyResult<toml::Value> {
+    if let Ok(b) = v.cast::<PyBool>() {
+        return Ok(toml::Value::Boolean(b.is_true()));
+    }
+    if let Ok(s) = v.cast::<PyString>() {
+        return Ok(toml::Value::String(s.to_cow()?.into_owned()));
+    }
+    if v.cast::<PyInt>().is_ok() {
+        return v
+            .extract::<i64>()
+            .map(toml::Value::Integer)
+            .map_err(|_| PyValueError::new_err(format!("{at}: {v} does not fit in a 64-bit integer")));
+    }
+    if let Ok(f) = v.cast::<PyFloat>() {
+        return Ok(toml::Value::Float(f.value()));
+    }
+    if let Ok(m) = v.cast::<PyMapping>() {
+        let mut table = toml::Table::new();
+        for item in m.items()?.iter() {
+            let (key, value): (Bound<'_, PyAny>, Bound<'_, PyAny>) = item.extract()?;
+            let Ok(key) = key.cast::<PyString>() else {
+                let kind = key.get_type().name()?;
+                return Err(PyTypeError::new_err(format!("{at}: keys must be strings, got {key} ({kind})")));
+            };
+            let key = key.to_cow()?;
+            table.insert(key.to_string(), toml_value(&value, &format!("{at}['{key}']"), false)?);
+        }
+        return Ok(toml::Value::Table(table));
+    }
+    if v.cast::<PyList>().is_ok() || v.cast::<PyTuple>().is_ok() {
+        let items = v.try_iter()?.enumerate().map(|(i, item)| toml_value(&item?, &format!("{at}[{i}]"), false));
+        return items.collect::<PyResult<_>>().map(toml::Value::Array);
+    }
+    if v.is_none() {
+        return Err(PyTypeError::new_err(format!("{at}: None is not a value of a job; leave the key out")));
+    }
+    if !converted && v.hasattr("tolist")? {
+        return toml_value(&v.call_method0("tolist")?, at, true);
+    }
+    let kind = v.get_type().name()?;
+    Err(PyTypeError::new_err(format!("{at}: a job holds numbers, strings, bools, lists and dicts, not {kind}")))
 }
 
 /// An error and its causes, each once, joined by `: `.
@@ -336,6 +383,7 @@ fn _clearance(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(check, m)?)?;
     m.add_function(wrap_pyfunction!(plot, m)?)?;
     m.add_function(wrap_pyfunction!(cap_isa, m)?)?;
+    m.add_function(wrap_pyfunction!(dict_toml, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
