@@ -11,8 +11,10 @@ use arrow::array::{Array, RecordBatch, StructArray};
 use arrow::datatypes::SchemaRef;
 use arrow::ffi::{FFI_ArrowArray, FFI_ArrowSchema};
 use clearance_engine::{
-    Codec, ColumnSet, EngineError, JobSpec, Poses, Progress, Reporter, RunOptions, SolveOptions, SolverKind, Writer,
+    Codec, ColumnSet, EngineError, JobSpec, OutputDirError, Poses, Progress, Reporter, RunOptions, SolveOptions,
+    SolverKind, Writer,
 };
+use clearance_plot::PlotError;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -140,27 +142,81 @@ fn with_causes(e: &dyn std::error::Error) -> String {
     msg
 }
 
-/// An engine error as a Python exception, its causes once each.
+/// An engine error as a Python exception, its causes once each. The engine's
+/// messages name the command line's flags; those about the arguments of `run`
+/// are worded here with the Python ones.
 fn to_py(e: EngineError) -> PyErr {
+    match e {
+        EngineError::Job(_) => JobError::new_err(with_causes(&e)),
+        EngineError::OutputDir(e) => PyValueError::new_err(out_dir_message(&e)),
+        EngineError::Samples(_) => PyValueError::new_err(with_causes(&e)),
+        EngineError::MissingStats { path, source } => {
+            PyOSError::new_err(format!("missing {}: finish the run with resume=True: {source}", path.display()))
+        }
+        EngineError::Io { .. } => PyOSError::new_err(with_causes(&e)),
+        _ => PyRuntimeError::new_err(with_causes(&e)),
+    }
+}
+
+/// Why `out` cannot take the run, and what to pass instead.
+fn out_dir_message(e: &OutputDirError) -> String {
+    match e {
+        OutputDirError::NotEmpty { dir } => format!(
+            "out: {} is not empty; pass resume=True to finish the run in it, overwrite=True to replace it, \
+             or choose another out",
+            dir.display()
+        ),
+        OutputDirError::OtherJob { dir } => {
+            format!(
+                "out: {} holds a different job; pass overwrite=True to replace it, or choose another out",
+                dir.display()
+            )
+        }
+        // overwrite=True would refuse too (NotARunToOverwrite): only another folder will do.
+        OutputDirError::NotARun { dir } => {
+            format!("out: {} holds files that are not a clearance run; choose another out", dir.display())
+        }
+        OutputDirError::NotARunToOverwrite { dir } => format!(
+            "out: {} holds files that are not a clearance run (no job.toml); overwrite=True replaces only a run: \
+             choose another out",
+            dir.display()
+        ),
+    }
+}
+
+/// A plot error as a Python exception: a folder that is no finished run is the
+/// `dir` given.
+fn plot_to_py(e: PlotError) -> PyErr {
     let msg = with_causes(&e);
     match e {
-        EngineError::Job(_) => JobError::new_err(msg),
-        EngineError::OutputDir(_) | EngineError::Samples(_) => PyValueError::new_err(msg),
-        EngineError::Io { .. } | EngineError::MissingStats { .. } => PyOSError::new_err(msg),
+        PlotError::NotARun { .. } | PlotError::Unsupported { .. } => PyValueError::new_err(format!("dir: {msg}")),
+        PlotError::Job(_) => JobError::new_err(msg),
+        PlotError::Io { .. } | PlotError::Parquet { .. } | PlotError::Arrow { .. } => PyOSError::new_err(msg),
         _ => PyRuntimeError::new_err(msg),
     }
 }
 
+/// `'a', 'b' or 'c'`.
+fn one_of(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+    match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    }
+}
+
 fn columns(name: &str) -> PyResult<ColumnSet> {
-    ColumnSet::parse(name)
-        .ok_or_else(|| PyValueError::new_err(format!("unknown column set `{name}`; use minimal, standard or full")))
+    ColumnSet::parse(name).ok_or_else(|| {
+        PyValueError::new_err(format!("columns must be {}, got '{name}'", one_of(&["minimal", "standard", "full"])))
+    })
 }
 
 fn solver(name: &str) -> PyResult<SolverKind> {
     match name {
         "fast" => Ok(SolverKind::Fast),
         "general" => Ok(SolverKind::General),
-        _ => Err(PyValueError::new_err(format!("unknown solver `{name}`; use fast or general"))),
+        _ => Err(PyValueError::new_err(format!("solver must be {}, got '{name}'", one_of(&["fast", "general"])))),
     }
 }
 
@@ -324,12 +380,12 @@ fn run(
 ) -> PyResult<(u64, u64, f64, bool)> {
     let job = load_job(kind, value)?;
     if let Some((i, n)) = shard
-        && (n == 0 || i >= n)
+        && i >= n
     {
-        return Err(PyValueError::new_err(format!("shard {i}/{n}: need 0 <= I < N")));
+        return Err(PyValueError::new_err(format!("shard must be a pair (i, n) with 0 <= i < n, got ({i}, {n})")));
     }
     if chunk_size == 0 {
-        return Err(PyValueError::new_err("chunk_size must be positive"));
+        return Err(PyValueError::new_err("chunk_size must be a positive int, got 0"));
     }
     let opts = RunOptions {
         out,
@@ -340,7 +396,7 @@ fn run(
         chunk_size,
         solver: SolverKind::Fast,
         compression: Codec::parse(compression).ok_or_else(|| {
-            PyValueError::new_err(format!("unknown compression `{compression}`; use {}", Codec::NAMES.join(", ")))
+            PyValueError::new_err(format!("compression must be {}, got '{compression}'", one_of(&Codec::NAMES)))
         })?,
         writer: Writer::Engine,
         progress: PyProgress::reporter(progress),
@@ -363,7 +419,7 @@ fn check(kind: &str, value: &str) -> PyResult<String> {
 #[pyo3(signature = (dir, out=None))]
 fn plot(py: Python<'_>, dir: PathBuf, out: Option<PathBuf>) -> PyResult<Vec<PathBuf>> {
     let out = out.unwrap_or_else(|| clearance_engine::Layout::new(&dir).plots());
-    py.detach(|| clearance_plot::plot_run(&dir, &out)).map_err(|e| PyRuntimeError::new_err(with_causes(&e)))
+    py.detach(|| clearance_plot::plot_run(&dir, &out)).map_err(plot_to_py)
 }
 
 /// Caps the vector instruction set (`portable`, `avx2`, `avx512`) of the whole process.
