@@ -9,13 +9,18 @@ The engine of the ``clearance`` command line, in Python:
 - :func:`check` returns a job's plan; :func:`plot` draws a finished run.
 
 A job is a path to a TOML file, TOML text, or a dict of the same keys. A job that
-is not valid raises :class:`JobError` with the command line's message. The GIL is
-released while the engine computes, so calls in several threads run at once.
+is not valid raises :class:`JobError` with the command line's message. Any other
+argument that is wrong raises ``TypeError`` (not a type it takes) or
+``ValueError`` (not a value it takes) before anything is computed or written,
+with a message that names the argument. The GIL is released while the engine
+computes, so calls in several threads run at once.
 """
 
 from __future__ import annotations
 
 import json
+import math
+import operator
 import os
 from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
 
@@ -38,17 +43,72 @@ if os.environ.get("CLEARANCE_ISA"):
         pass
 
 
+# The most threads a call takes: more than any machine's cores, fewer than would
+# exhaust a process's threads.
+_MAX_THREADS = 4096
+
+
+def _type(value: Any) -> str:
+    return type(value).__name__
+
+
 def _job(job: Job) -> Tuple[str, str]:
-    """(kind, value) for the native module: a path, TOML text or a dict as JSON."""
+    """(kind, value) for the native module: a path, or TOML text (a dict's too)."""
     if isinstance(job, Mapping):
-        return "json", json.dumps(job)
+        return "toml", _clearance.dict_toml(job)
     if isinstance(job, os.PathLike):
-        return "path", os.fspath(job)
+        return "path", os.fsdecode(os.fspath(job))
     if isinstance(job, str):
         if "\n" not in job and (job.endswith(".toml") or os.path.exists(job)):
             return "path", job
         return "toml", job
-    raise TypeError(f"a job is a path, TOML text or a dict, not {type(job).__name__}")
+    raise TypeError(f"job must be a path (str or os.PathLike), TOML text (str) or a dict, got {_type(job)}")
+
+
+def _folder(name: str, value: Any) -> str:
+    """A folder argument as a str: a path that is not a file."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise TypeError(f"{name} must be a path (str or os.PathLike), got {_type(value)}")
+    path = os.fsdecode(os.fspath(value))
+    if not path:
+        raise ValueError(f"{name} must name a folder, got ''")
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise ValueError(f"{name}: {path} is a file, not a folder")
+    return path
+
+
+def _int(name: str, value: Any, accepted: str) -> int:
+    """An int argument: an int or a NumPy integer, not a bool."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be {accepted}, got bool")
+    try:
+        return operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be {accepted}, got {_type(value)}") from None
+
+
+def _threads(threads: Any) -> Optional[int]:
+    """``threads``: None (all cores) or an int from 1 to _MAX_THREADS."""
+    if threads is None:
+        return None
+    accepted = f"None (all cores) or an int from 1 to {_MAX_THREADS}"
+    n = _int("threads", threads, accepted)
+    if not 1 <= n <= _MAX_THREADS:
+        raise ValueError(f"threads must be {accepted}, got {n}")
+    return n
+
+
+def _flag(name: str, value: Any) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {_type(value)}")
+    return bool(value)
+
+
+def _name(name: str, value: Any, names: Sequence[str]) -> str:
+    """A str argument that takes one of ``names`` (the native module checks which)."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a str, one of {', '.join(map(repr, names))}; got {_type(value)}")
+    return value
 
 
 def _progress(progress: Union[bool, Callable[[int, int], Any], None], desc: str):
@@ -58,6 +118,8 @@ def _progress(progress: Union[bool, Callable[[int, int], Any], None], desc: str)
         return None, lambda: None
     if callable(progress):
         return progress, lambda: None
+    if progress is not True:
+        raise TypeError(f"progress must be True, False, None or a callable(done, total), got {_type(progress)}")
     try:
         from tqdm.auto import tqdm
     except ImportError:
@@ -72,13 +134,49 @@ def _progress(progress: Union[bool, Callable[[int, int], Any], None], desc: str)
     return update, bar.close
 
 
-def _f64(name: str, values: Any, n: int) -> bytes:
-    a = np.asarray(values, dtype=np.float64)
-    if a.ndim == 0:
-        a = np.full(n, float(a))
-    if a.ndim != 1:
-        raise ValueError(f"{name} must be a scalar or a 1-d array, got shape {a.shape}")
-    return np.ascontiguousarray(a).tobytes()
+_KINDS = {"b": "bools", "c": "complex numbers", "O": "objects", "U": "strings", "S": "bytes", "M": "datetimes"}
+
+
+def _floats(name: str, values: Any) -> np.ndarray:
+    """A pose argument as float64: a real number or a 1-d array of them. Whether an
+    array's values are finite is the engine's check (it names the first index that
+    is not)."""
+    accepted = "a number or a 1-d array of numbers"
+    try:
+        a = np.asarray(values)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} must be {accepted}: {e}") from None
+    if a.dtype.kind not in "iuf":
+        got = _type(values) if a.ndim == 0 else f"an array of {_KINDS.get(a.dtype.kind, a.dtype.name)}"
+        raise TypeError(f"{name} must be {accepted}, got {got}")
+    if a.ndim > 1:
+        raise ValueError(f"{name} must be {accepted}, got an array of shape {a.shape}")
+    a = a.astype(np.float64, copy=False)
+    if a.ndim == 0 and not math.isfinite(a):
+        shown = "NaN" if math.isnan(a) else str(float(a))  # as the engine names an array's
+        raise ValueError(f"{name} is {shown}: a pose's z, psi and theta must be finite numbers")
+    return a
+
+
+def _poses(z: Any, psi: Any, theta: Any) -> dict:
+    """The native module's ``z``, ``psi`` and ``theta`` (float64 bytes), or nothing
+    for the job's own samples."""
+    given = {k: v for k, v in (("z", z), ("psi", psi), ("theta", theta)) if v is not None}
+    if not given:
+        return {}
+    missing = [k for k in ("z", "psi", "theta") if k not in given]
+    if missing:
+        raise ValueError(
+            f"{' and '.join(missing)} missing: give all of z, psi and theta (a number is broadcast), "
+            "or none of them for the job's own poses"
+        )
+    arrays = {k: _floats(k, v) for k, v in given.items()}
+    lengths = {k: a.size for k, a in arrays.items() if a.ndim == 1}
+    if len(set(lengths.values())) > 1:
+        got = ", ".join(f"{k} has {n}" for k, n in lengths.items())
+        raise ValueError(f"z, psi and theta must have the same length: {got}")
+    n = next(iter(lengths.values()), 1)
+    return {k: (np.full(n, a) if a.ndim == 0 else a).tobytes() for k, a in arrays.items()}
 
 
 def solve(
@@ -99,25 +197,32 @@ def solve(
     ``minimal``, ``standard`` or ``full``), one block of rows per (variant, mode)
     in the order a run writes them.
 
-    ``z``, ``psi`` and ``theta`` replace the job's grid or trajectory by an explicit
-    list of poses (m, rad, rad): arrays of equal length, or scalars broadcast to the
-    arrays' length. Such poses have no velocities, so the job's modes must be
-    kinetostatic only. ``threads`` bounds the threads (default: all cores);
-    ``progress=True`` shows a tqdm bar (if tqdm is installed), or a callable gets
-    ``(done, total)`` poses.
+    What each argument takes; anything else raises ``TypeError`` (a wrong type)
+    or ``ValueError`` (a wrong value) naming the argument, before anything is
+    computed:
+
+    - ``job``: a path (``os.PathLike``, or a ``str`` ending in ``.toml`` or naming
+      a file), TOML text, or a dict of the job's keys whose values are numbers,
+      strings, bools, lists and dicts (NumPy scalars and arrays count as numbers
+      and lists). A job that is not valid raises :class:`JobError`.
+    - ``z``, ``psi``, ``theta``: poses (m, rad, rad) in place of the job's grid or
+      trajectory: all three, each a real number or a 1-d array of them, the
+      arrays of equal length, a number broadcast to that length. Every value must
+      be finite: a NaN or an infinity raises ``ValueError`` naming the argument and
+      the first such index. Such poses have no velocities, so the job's modes
+      must be kinetostatic only.
+    - ``columns``: ``"minimal"``, ``"standard"`` or ``"full"``.
+    - ``solver``: ``"fast"`` or ``"general"``.
+    - ``threads``: ``None`` (all cores) or an int from 1 to 4096: the threads that
+      compute the call.
+    - ``progress``: ``True`` shows a tqdm bar (if tqdm is installed), a callable
+      is called with ``(done, total)`` poses, ``None`` or ``False`` shows nothing.
     """
     kind, value = _job(job)
-    arrays = {"z": z, "psi": psi, "theta": theta}
-    given = {k: v for k, v in arrays.items() if v is not None}
-    poses: dict = {}
-    if given:
-        sizes = {np.size(v) for v in given.values() if np.ndim(v) > 0}
-        if len(sizes) > 1:
-            raise ValueError(f"z, psi and theta must have the same length, got {sizes}")
-        if len(given) < 3:
-            raise ValueError("give all of z, psi and theta (scalars are broadcast)")
-        n = sizes.pop() if sizes else 1
-        poses = {k: _f64(k, v, n) for k, v in given.items()}
+    poses = _poses(z, psi, theta)
+    columns = _name("columns", columns, ("minimal", "standard", "full"))
+    solver = _name("solver", solver, ("fast", "general"))
+    threads = _threads(threads)
     callback, close = _progress(progress, "solve")
     try:
         batches = _clearance.solve(
@@ -144,19 +249,58 @@ def run(
     """Runs ``job`` into the directory ``out``: the same dataset as
     ``clearance run JOB --out OUT`` (docs/interface.md §4).
 
-    ``shard=(i, n)`` computes shard ``i`` of ``n``; ``resume`` finishes an
-    interrupted run; ``overwrite`` replaces an earlier one. Returns
-    ``{"computed", "total", "seconds", "complete"}``.
+    Returns ``{"computed", "total", "seconds", "complete"}``.
+
+    What each argument takes; anything else raises ``TypeError`` (a wrong type)
+    or ``ValueError`` (a wrong value) naming the argument, before anything is
+    written:
+
+    - ``job``: as for :func:`solve`.
+    - ``out``: the run's folder (``str`` or ``os.PathLike``), created if needed;
+      not a file. A folder that is not empty is refused unless ``resume`` or
+      ``overwrite`` is given, and then it must hold a run (of this job, to
+      resume it).
+    - ``threads``: ``None`` (all cores) or an int from 1 to 4096.
+    - ``shard``: ``None``, or a pair ``(i, n)`` of ints with ``0 <= i < n``:
+      compute shard ``i`` of ``n`` into ``out``.
+    - ``resume``: ``True`` finishes an interrupted run in ``out``, keeping its
+      complete part files; ``overwrite``: ``True`` replaces the run in ``out``.
+      Each ``True`` or ``False``, not both ``True``.
+    - ``columns``: ``"minimal"``, ``"standard"`` or ``"full"``.
+    - ``compression``: ``"none"``, ``"lz4"`` or ``"zstd"``.
+    - ``chunk_size``: samples per part file, a positive int.
+    - ``progress``: as for :func:`solve`.
     """
     kind, value = _job(job)
+    out = _folder("out", out)
+    threads = _threads(threads)
+    if shard is not None:
+        pair = "None or a pair (i, n) of ints with 0 <= i < n"
+        if isinstance(shard, (str, bytes)) or not isinstance(shard, Sequence) or len(shard) != 2:
+            raise TypeError(f"shard must be {pair}, got {shard!r}")
+        i, n = (_int("shard", k, pair) for k in shard)
+        if not 0 <= i < n:
+            raise ValueError(f"shard must be {pair}, got ({i}, {n})")
+        shard = (i, n)
+    resume = _flag("resume", resume)
+    overwrite = _flag("overwrite", overwrite)
+    if resume and overwrite:
+        raise ValueError(
+            "resume=True and overwrite=True: pass one (resume finishes the run in out, overwrite replaces it)"
+        )
+    columns = _name("columns", columns, ("minimal", "standard", "full"))
+    compression = _name("compression", compression, ("none", "lz4", "zstd"))
+    chunk_size = _int("chunk_size", chunk_size, "a positive int")
+    if not 1 <= chunk_size < 2**64:
+        raise ValueError(f"chunk_size must be a positive int (below 2**64), got {chunk_size}")
     callback, close = _progress(progress, "run")
     try:
         computed, total, seconds, complete = _clearance.run(
             kind,
             value,
-            os.fspath(out),
+            out,
             threads=threads,
-            shard=tuple(shard) if shard is not None else None,
+            shard=shard,
             resume=resume,
             overwrite=overwrite,
             columns_name=columns,
@@ -174,13 +318,23 @@ def check(job: Job) -> dict:
     """Validates ``job`` and returns its plan, as ``clearance check`` prints it:
     ``name``, ``mechanism``, ``samples``, ``sample_count``, ``modes``, ``variants``
     (each ``index`` and ``params``), ``rows`` and, per column set, ``columns`` and
-    the most ``bytes`` its poses take before compression."""
+    the most ``bytes`` its poses take before compression.
+
+    ``job`` is as for :func:`solve`: a path, TOML text or a dict (else
+    ``TypeError``); a job that is not valid raises :class:`JobError`."""
     kind, value = _job(job)
     return json.loads(_clearance.check(kind, value))
 
 
 def plot(dir: Union[str, "os.PathLike[str]"], out: Union[str, "os.PathLike[str]", None] = None) -> Sequence[str]:
     """Draws the figures of the finished run in ``dir`` (``clearance plot``) into
-    ``out`` (default ``dir/plots``); returns the paths written."""
-    files = _clearance.plot(os.fspath(dir), None if out is None else os.fspath(out))
+    ``out`` (default ``dir/plots``); returns the paths written.
+
+    ``dir`` and ``out`` are folders (``str`` or ``os.PathLike``, else
+    ``TypeError``), not files (else ``ValueError``). A ``dir`` that does not hold a
+    finished run raises ``ValueError``; ``out`` is created if needed."""
+    dir = _folder("dir", dir)
+    if out is not None:
+        out = _folder("out", out)
+    files = _clearance.plot(dir, out)
     return [os.fspath(f) for f in files]

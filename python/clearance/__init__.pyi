@@ -1,4 +1,9 @@
-"""Type stubs of ``clearance`` (the docstrings are in ``clearance/__init__.py``)."""
+"""Type stubs of ``clearance`` (the docstrings are in ``clearance/__init__.py``).
+
+An argument of the wrong type raises ``TypeError``, a value an argument does not
+take ``ValueError``, a job that is not valid ``JobError``: each message names the
+argument, and nothing is computed or written.
+"""
 
 import os
 from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, TypedDict, Union
@@ -8,8 +13,10 @@ import pyarrow as pa
 
 __version__: str
 
+# A path, TOML text, or a dict of the job's keys (numbers, strings, bools, lists, dicts).
 Job = Union[str, os.PathLike[str], Mapping[str, Any]]
 Progress = Union[bool, Callable[[int, int], Any], None]
+# A real number or a 1-d array of real numbers, all finite.
 Floats = Union[float, npt.ArrayLike]
 
 class JobError(ValueError):
@@ -32,7 +39,14 @@ def solve(
     threads: Optional[int] = None,
     progress: Progress = None,
 ) -> pa.Table:
-    """Computes ``job`` in memory: a ``variant`` column, then the columns of a run's poses."""
+    """Computes ``job`` in memory: a ``variant`` column, then the columns of a run's poses.
+
+    ``z``, ``psi``, ``theta``: all three or none, arrays of one length (a number is
+    broadcast), finite (a NaN or infinity raises ``ValueError`` naming the argument
+    and index). ``columns``: minimal, standard or full; ``solver``: fast or general;
+    ``threads``: None (all cores) or an int from 1 to 4096; ``progress``: a bool, None
+    or a callable(done, total).
+    """
 
 def run(
     job: Job,
@@ -47,10 +61,18 @@ def run(
     chunk_size: int = 65536,
     progress: Progress = None,
 ) -> RunReport:
-    """Runs ``job`` into ``out``: the dataset of ``clearance run``."""
+    """Runs ``job`` into ``out``: the dataset of ``clearance run``.
+
+    ``out``: a folder, not a file; one that is not empty needs ``resume=True`` (the
+    same job's run) or ``overwrite=True`` (a run), not both. ``threads``: None (all
+    cores) or an int from 1 to 4096; ``shard``: None or ``(i, n)`` with
+    ``0 <= i < n``; ``columns``: minimal, standard or full; ``compression``: none,
+    lz4 or zstd; ``chunk_size``: a positive int.
+    """
 
 def check(job: Job) -> dict[str, Any]:
     """The plan of ``job``, as ``clearance check`` prints it."""
 
 def plot(dir: Union[str, os.PathLike[str]], out: Union[str, os.PathLike[str], None] = None) -> Sequence[str]:
-    """The figures of the finished run in ``dir``; the paths written."""
+    """The figures of the finished run in ``dir`` (a folder holding one, else
+    ``ValueError``) written into the folder ``out``; the paths written."""

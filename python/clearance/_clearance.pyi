@@ -1,7 +1,7 @@
 """The native module behind ``clearance`` (use the functions of ``clearance``)."""
 
 import os
-from typing import Any, Callable, Optional, Tuple
+from typing import Any, Callable, Mapping, Optional, Tuple
 
 import pyarrow as pa
 
@@ -37,3 +37,4 @@ def run(
 def check(kind: str, value: str) -> str: ...
 def plot(dir: str, out: Optional[str] = None) -> list[os.PathLike[str]]: ...
 def cap_isa(name: str) -> None: ...
+def dict_toml(job: Mapping[str, Any]) -> str: ...

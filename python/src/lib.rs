@@ -11,12 +11,14 @@ use arrow::array::{Array, RecordBatch, StructArray};
 use arrow::datatypes::SchemaRef;
 use arrow::ffi::{FFI_ArrowArray, FFI_ArrowSchema};
 use clearance_engine::{
-    Codec, ColumnSet, EngineError, JobSpec, Poses, Progress, Reporter, RunOptions, SolveOptions, SolverKind, Writer,
+    Codec, ColumnSet, EngineError, JobSpec, OutputDirError, Poses, Progress, Reporter, RunOptions, SolveOptions,
+    SolverKind, Writer,
 };
+use clearance_plot::PlotError;
 use pyo3::create_exception;
-use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyList;
+use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyMapping, PyString, PyTuple};
 
 create_exception!(_clearance, JobError, PyValueError, "A job that is not valid; the message is the CLI's.");
 
@@ -61,7 +63,7 @@ fn keep_newest<T>(store: &mut Vec<T>, item: T, kept: usize) {
     store.push(item);
 }
 
-/// `kind` is `path` (a TOML file), `toml` (its text) or `json` (a dict, as JSON).
+/// `kind` is `path` (a TOML file) or `toml` (its text, or a dict's from [`dict_toml`]).
 fn load_job(kind: &str, value: &str) -> PyResult<Job> {
     let job_error = |e: clearance_engine::JobError| JobError::new_err(e.to_string());
     match kind {
@@ -70,15 +72,62 @@ fn load_job(kind: &str, value: &str) -> PyResult<Job> {
             Ok(Job { spec, file: value.to_string() })
         }
         "toml" => Ok(Job { spec: JobSpec::from_toml_str(value, "job").map_err(job_error)?, file: "job".into() }),
-        "json" => {
-            let json: serde_json::Value =
-                serde_json::from_str(value).map_err(|e| JobError::new_err(format!("job: {e}")))?;
-            let toml: toml::Value = serde_json::from_value(json).map_err(|e| JobError::new_err(format!("job: {e}")))?;
-            let text = toml::to_string(&toml).map_err(|e| JobError::new_err(format!("job: {e}")))?;
-            Ok(Job { spec: JobSpec::from_toml_str(&text, "job").map_err(job_error)?, file: "job".into() })
-        }
         _ => Err(PyValueError::new_err(format!("unknown job kind {kind:?}"))),
     }
+}
+
+/// A job given as a dict, as TOML text. Not through JSON: it has no NaN, and a NaN
+/// must reach the job's own check (`must be a finite number`) as it does from a
+/// file. A value a job cannot hold is named by where it is (`job['grid']['z']`).
+#[pyfunction]
+fn dict_toml(job: &Bound<'_, PyAny>) -> PyResult<String> {
+    let value = toml_value(job, "job", false)?;
+    toml::to_string(&value).map_err(|e| JobError::new_err(format!("job: {e}")))
+}
+
+/// `v` as a TOML value; `at` is where it is in the job. NumPy scalars and arrays
+/// are taken through their `tolist()` (once: `converted`).
+fn toml_value(v: &Bound<'_, PyAny>, at: &str, converted: bool) -> PyResult<toml::Value> {
+    if let Ok(b) = v.cast::<PyBool>() {
+        return Ok(toml::Value::Boolean(b.is_true()));
+    }
+    if let Ok(s) = v.cast::<PyString>() {
+        return Ok(toml::Value::String(s.to_cow()?.into_owned()));
+    }
+    if v.cast::<PyInt>().is_ok() {
+        return v
+            .extract::<i64>()
+            .map(toml::Value::Integer)
+            .map_err(|_| PyValueError::new_err(format!("{at}: {v} does not fit in a 64-bit integer")));
+    }
+    if let Ok(f) = v.cast::<PyFloat>() {
+        return Ok(toml::Value::Float(f.value()));
+    }
+    if let Ok(m) = v.cast::<PyMapping>() {
+        let mut table = toml::Table::new();
+        for item in m.items()?.iter() {
+            let (key, value): (Bound<'_, PyAny>, Bound<'_, PyAny>) = item.extract()?;
+            let Ok(key) = key.cast::<PyString>() else {
+                let kind = key.get_type().name()?;
+                return Err(PyTypeError::new_err(format!("{at}: keys must be strings, got {key} ({kind})")));
+            };
+            let key = key.to_cow()?;
+            table.insert(key.to_string(), toml_value(&value, &format!("{at}['{key}']"), false)?);
+        }
+        return Ok(toml::Value::Table(table));
+    }
+    if v.cast::<PyList>().is_ok() || v.cast::<PyTuple>().is_ok() {
+        let items = v.try_iter()?.enumerate().map(|(i, item)| toml_value(&item?, &format!("{at}[{i}]"), false));
+        return items.collect::<PyResult<_>>().map(toml::Value::Array);
+    }
+    if v.is_none() {
+        return Err(PyTypeError::new_err(format!("{at}: None is not a value of a job; leave the key out")));
+    }
+    if !converted && v.hasattr("tolist")? {
+        return toml_value(&v.call_method0("tolist")?, at, true);
+    }
+    let kind = v.get_type().name()?;
+    Err(PyTypeError::new_err(format!("{at}: a job holds numbers, strings, bools, lists and dicts, not {kind}")))
 }
 
 /// An error and its causes, each once, joined by `: `.
@@ -93,27 +142,81 @@ fn with_causes(e: &dyn std::error::Error) -> String {
     msg
 }
 
-/// An engine error as a Python exception, its causes once each.
+/// An engine error as a Python exception, its causes once each. The engine's
+/// messages name the command line's flags; those about the arguments of `run`
+/// are worded here with the Python ones.
 fn to_py(e: EngineError) -> PyErr {
+    match e {
+        EngineError::Job(_) => JobError::new_err(with_causes(&e)),
+        EngineError::OutputDir(e) => PyValueError::new_err(out_dir_message(&e)),
+        EngineError::Samples(_) => PyValueError::new_err(with_causes(&e)),
+        EngineError::MissingStats { path, source } => {
+            PyOSError::new_err(format!("missing {}: finish the run with resume=True: {source}", path.display()))
+        }
+        EngineError::Io { .. } => PyOSError::new_err(with_causes(&e)),
+        _ => PyRuntimeError::new_err(with_causes(&e)),
+    }
+}
+
+/// Why `out` cannot take the run, and what to pass instead.
+fn out_dir_message(e: &OutputDirError) -> String {
+    match e {
+        OutputDirError::NotEmpty { dir } => format!(
+            "out: {} is not empty; pass resume=True to finish the run in it, overwrite=True to replace it, \
+             or choose another out",
+            dir.display()
+        ),
+        OutputDirError::OtherJob { dir } => {
+            format!(
+                "out: {} holds a different job; pass overwrite=True to replace it, or choose another out",
+                dir.display()
+            )
+        }
+        // overwrite=True would refuse too (NotARunToOverwrite): only another folder will do.
+        OutputDirError::NotARun { dir } => {
+            format!("out: {} holds files that are not a clearance run; choose another out", dir.display())
+        }
+        OutputDirError::NotARunToOverwrite { dir } => format!(
+            "out: {} holds files that are not a clearance run (no job.toml); overwrite=True replaces only a run: \
+             choose another out",
+            dir.display()
+        ),
+    }
+}
+
+/// A plot error as a Python exception: a folder that is no finished run is the
+/// `dir` given.
+fn plot_to_py(e: PlotError) -> PyErr {
     let msg = with_causes(&e);
     match e {
-        EngineError::Job(_) => JobError::new_err(msg),
-        EngineError::OutputDir(_) | EngineError::Samples(_) => PyValueError::new_err(msg),
-        EngineError::Io { .. } | EngineError::MissingStats { .. } => PyOSError::new_err(msg),
+        PlotError::NotARun { .. } | PlotError::Unsupported { .. } => PyValueError::new_err(format!("dir: {msg}")),
+        PlotError::Job(_) => JobError::new_err(msg),
+        PlotError::Io { .. } | PlotError::Parquet { .. } | PlotError::Arrow { .. } => PyOSError::new_err(msg),
         _ => PyRuntimeError::new_err(msg),
     }
 }
 
+/// `'a', 'b' or 'c'`.
+fn one_of(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+    match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    }
+}
+
 fn columns(name: &str) -> PyResult<ColumnSet> {
-    ColumnSet::parse(name)
-        .ok_or_else(|| PyValueError::new_err(format!("unknown column set `{name}`; use minimal, standard or full")))
+    ColumnSet::parse(name).ok_or_else(|| {
+        PyValueError::new_err(format!("columns must be {}, got '{name}'", one_of(&["minimal", "standard", "full"])))
+    })
 }
 
 fn solver(name: &str) -> PyResult<SolverKind> {
     match name {
         "fast" => Ok(SolverKind::Fast),
         "general" => Ok(SolverKind::General),
-        _ => Err(PyValueError::new_err(format!("unknown solver `{name}`; use fast or general"))),
+        _ => Err(PyValueError::new_err(format!("solver must be {}, got '{name}'", one_of(&["fast", "general"])))),
     }
 }
 
@@ -277,12 +380,12 @@ fn run(
 ) -> PyResult<(u64, u64, f64, bool)> {
     let job = load_job(kind, value)?;
     if let Some((i, n)) = shard
-        && (n == 0 || i >= n)
+        && i >= n
     {
-        return Err(PyValueError::new_err(format!("shard {i}/{n}: need 0 <= I < N")));
+        return Err(PyValueError::new_err(format!("shard must be a pair (i, n) with 0 <= i < n, got ({i}, {n})")));
     }
     if chunk_size == 0 {
-        return Err(PyValueError::new_err("chunk_size must be positive"));
+        return Err(PyValueError::new_err("chunk_size must be a positive int, got 0"));
     }
     let opts = RunOptions {
         out,
@@ -293,7 +396,7 @@ fn run(
         chunk_size,
         solver: SolverKind::Fast,
         compression: Codec::parse(compression).ok_or_else(|| {
-            PyValueError::new_err(format!("unknown compression `{compression}`; use {}", Codec::NAMES.join(", ")))
+            PyValueError::new_err(format!("compression must be {}, got '{compression}'", one_of(&Codec::NAMES)))
         })?,
         writer: Writer::Engine,
         progress: PyProgress::reporter(progress),
@@ -316,7 +419,7 @@ fn check(kind: &str, value: &str) -> PyResult<String> {
 #[pyo3(signature = (dir, out=None))]
 fn plot(py: Python<'_>, dir: PathBuf, out: Option<PathBuf>) -> PyResult<Vec<PathBuf>> {
     let out = out.unwrap_or_else(|| clearance_engine::Layout::new(&dir).plots());
-    py.detach(|| clearance_plot::plot_run(&dir, &out)).map_err(|e| PyRuntimeError::new_err(with_causes(&e)))
+    py.detach(|| clearance_plot::plot_run(&dir, &out)).map_err(plot_to_py)
 }
 
 /// Caps the vector instruction set (`portable`, `avx2`, `avx512`) of the whole process.
@@ -336,6 +439,7 @@ fn _clearance(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(check, m)?)?;
     m.add_function(wrap_pyfunction!(plot, m)?)?;
     m.add_function(wrap_pyfunction!(cap_isa, m)?)?;
+    m.add_function(wrap_pyfunction!(dict_toml, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

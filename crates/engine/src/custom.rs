@@ -357,7 +357,7 @@ fn vector_switches(
         .collect();
     for Refined { x, m, at_x, .. } in select(&refined, mags) {
         let (x, m) = match (x.fract() != 0.0).then(|| at_x.or_else(|| at(x))).flatten() {
-            Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(p))
+            Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), at)
                 .map_or((x, m), |(p, fp)| (p, norm(fp))),
             None => (x, m),
         };

@@ -12,10 +12,9 @@ pub enum EngineError {
     /// The job file is not valid (the message names the file, the key and the reason).
     #[error(transparent)]
     Job(#[from] JobError),
-    /// The output directory cannot take this run (it is not empty, holds another
-    /// job, ...): nothing was written.
-    #[error("{0}")]
-    OutputDir(String),
+    /// The output directory cannot take this run: nothing was written.
+    #[error(transparent)]
+    OutputDir(#[from] OutputDirError),
     /// The samples given in place of the job's do not fit it.
     #[error("{0}")]
     Samples(String),
@@ -31,6 +30,25 @@ pub enum EngineError {
     /// A Parquet or side file could not be written or encoded.
     #[error(transparent)]
     Write(#[from] ParquetError),
+}
+
+/// Why an output directory cannot take a run. The messages name the command
+/// line's flags (`--resume`, `--overwrite`, `--out`); another door words the
+/// remedy in its own terms from the variant.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputDirError {
+    /// Not empty, and neither resume, overwrite nor a shard was asked for.
+    #[error("{} is not empty; pass --resume to finish it, --overwrite to replace it, or choose another --out", dir.display())]
+    NotEmpty { dir: PathBuf },
+    /// Asked to resume (or to add a shard) where a run of another job is.
+    #[error("{} holds a different job; use --overwrite to replace it, or another --out", dir.display())]
+    OtherJob { dir: PathBuf },
+    /// Asked to resume (or to add a shard) where files that are not a run are.
+    #[error("{} holds files that are not a clearance run; use --overwrite to replace it, or another --out", dir.display())]
+    NotARun { dir: PathBuf },
+    /// Asked to overwrite files that are not a run (no `job.toml`): they stay.
+    #[error("{} is not empty and holds no clearance run (no job.toml); refusing to overwrite it", dir.display())]
+    NotARunToOverwrite { dir: PathBuf },
 }
 
 impl EngineError {

@@ -43,7 +43,7 @@ mod status;
 mod ups;
 
 pub use describe::describe;
-pub use error::EngineError;
+pub use error::{EngineError, OutputDirError};
 pub use estimate::{Calibration, Estimate, calibration_dir, estimate, scaled};
 pub use kernel::{bench_job, kernel_rate};
 pub use layout::Layout;

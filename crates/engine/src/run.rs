@@ -31,7 +31,7 @@ use clearance_parquet::{
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
 
-use crate::error::EngineError;
+use crate::error::{EngineError, OutputDirError};
 use crate::groups::{Group, groups, membership};
 use crate::layout::Layout;
 use crate::progress::Reporter;
@@ -277,10 +277,7 @@ pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) ->
         let same_job = existing.as_deref() == Some(job_toml);
         if opts.overwrite {
             if existing.is_none() {
-                return Err(EngineError::OutputDir(format!(
-                    "{} is not empty and holds no clearance run (no job.toml); refusing to overwrite it",
-                    out.display()
-                )));
+                return Err(OutputDirError::NotARunToOverwrite { dir: out.to_path_buf() }.into());
             }
             for path in Layout::RUN_FILES.iter().map(|f| out.join(f)).chain(layout.final_files()) {
                 let _ = std::fs::remove_file(path);
@@ -298,17 +295,13 @@ pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) ->
             }
         } else if opts.resume || opts.shard.is_some() {
             if !same_job {
-                return Err(EngineError::OutputDir(format!(
-                    "{} holds {}; use --overwrite to replace it, or another --out",
-                    out.display(),
-                    if existing.is_some() { "a different job" } else { "files that are not a clearance run" }
-                )));
+                let dir = out.to_path_buf();
+                let e =
+                    if existing.is_some() { OutputDirError::OtherJob { dir } } else { OutputDirError::NotARun { dir } };
+                return Err(e.into());
             }
         } else {
-            return Err(EngineError::OutputDir(format!(
-                "{} is not empty; pass --resume to finish it, --overwrite to replace it, or choose another --out",
-                out.display()
-            )));
+            return Err(OutputDirError::NotEmpty { dir: out.to_path_buf() }.into());
         }
     }
     std::fs::create_dir_all(out).map_err(EngineError::io("create the output directory", out))?;

@@ -16,7 +16,8 @@ use crate::progress::Reporter;
 
 /// Poses given in place of the job's grid or trajectory: sample `i` is
 /// `(z[i], psi[i], theta[i])` (m, rad, rad), with no time and no rates, so only
-/// kinetostatics can solve them.
+/// kinetostatics can solve them. [`solve`] refuses arrays of different lengths and
+/// values that are not finite.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Poses {
     pub z: Vec<f64>,
@@ -161,6 +162,17 @@ pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<Recor
                 p.psi.len(),
                 p.theta.len()
             )));
+        }
+        // A NaN or infinite input is the caller's mistake, refused before anything
+        // is computed, as the job's own inputs are: solved, it would come back as
+        // rows of a status that blames the mechanism.
+        for (name, values) in [("z", &p.z), ("psi", &p.psi), ("theta", &p.theta)] {
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return Err(EngineError::Samples(format!(
+                    "{name}[{i}] is {}: a pose's z, psi and theta must be finite numbers",
+                    values[i]
+                )));
+            }
         }
         if job.analysis.modes.contains(&Mode::Dynamic) {
             return Err(EngineError::Samples(

@@ -25,10 +25,10 @@ fn column_of_custom(name: &str) -> String {
 }
 
 fn compared(name: &str) -> bool {
-    !(name.starts_with('q') && name[1..].chars().all(|c| c.is_ascii_digit()))
-        && !name.starts_with("cond_")
-        && !(name.starts_with("m_u") && !name.contains('_') == false && name.matches('_').count() == 1)
-        && name != "variant"
+    let actuator = name.starts_with('q') && name[1..].chars().all(|c| c.is_ascii_digit());
+    // The 6-UPS's scalar μ_i (`m_u1`): a custom run writes the couple's components.
+    let scalar_couple = name.starts_with("m_u") && name.matches('_').count() == 1;
+    !(actuator || scalar_couple || name.starts_with("cond_") || name == "variant")
 }
 
 fn check(text: &str) {

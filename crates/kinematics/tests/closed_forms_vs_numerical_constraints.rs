@@ -122,7 +122,7 @@ fn newton_solves_layouts_without_closed_forms() {
                     assert!((along.dot(&geom.rail(j)) - pose.q[j]).abs() < 1e-13, "q_{j} is the slider's travel");
                     assert!((pose.a[j] - pose.b[j]).dot(&geom.rail(j)) > 0.0, "slider behind A_{j}");
                 }
-                MechanismKind::Rps3 | MechanismKind::Ups6 => {
+                MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                     assert!((leg - pose.q[j]).abs() < 1e-13, "leg {j} length {leg} against q {}", pose.q[j]);
                     assert!(pose.q[j] >= geom.stroke.0 && pose.q[j] <= geom.stroke.1, "stroke");
                 }

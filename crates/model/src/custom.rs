@@ -543,7 +543,7 @@ pub fn all_kinds(limbs: &[Limb]) -> Vec<CustomKind> {
             }
         }
     }
-    found.sort_by(|a, b| (a.0, a.1, a.2).cmp(&(b.0, b.1, b.2)));
+    found.sort_by_key(|a| (a.0, a.1, a.2));
     found
         .into_iter()
         .map(|(_, _, group, joint)| CustomKind { key: format!("{joint}_{}", group.name()), joint, group })

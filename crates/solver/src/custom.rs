@@ -389,7 +389,7 @@ pub fn solve_custom(model: &CustomModel, inputs: &[f64], rates: Option<(&[f64], 
         return out;
     };
     out.cond = basis.cond;
-    if !(basis.cond <= model.singular_cond) {
+    if basis.cond.is_nan() || basis.cond > model.singular_cond {
         out.status = Status::NearSingular;
         return out;
     }
@@ -676,7 +676,7 @@ fn dominant(model: &CustomModel, takes: &[GroupTake]) -> Option<usize> {
     let candidates: Vec<usize> =
         (0..model.groups.len()).filter(|&i| model.groups[i].magnitude > 0.0 && takes[i].mobile).collect();
     let best = candidates.iter().map(|&i| takes[i].dp).fold(f64::NEG_INFINITY, f64::max);
-    if !(best > 0.0) {
+    if best.is_nan() || best <= 0.0 {
         return None;
     }
     let key = |i: usize| {

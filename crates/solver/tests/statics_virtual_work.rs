@@ -31,7 +31,7 @@ fn loaded(model: &Model, z: f64, psi: f64, theta: f64) -> Loaded {
     for j in 0..3 {
         match model.geometry.kind {
             MechanismKind::Prs3 => com_points.push((model.mass.leg_mass, 0.5 * (pose.a[j] + pose.b[j]))),
-            MechanismKind::Rps3 | MechanismKind::Ups6 => {
+            MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
                 com_points.push((cyl.mass, pose.b[j] + 0.5 * cyl.length * pose.e[j]));
                 com_points.push((pis.mass, pose.a[j] - 0.5 * pis.length * pose.e[j]));
             }
@@ -47,7 +47,7 @@ fn actuator_forces(model: &Model, z: f64, psi: f64, theta: f64, r: &clearance_so
     let pose = inverse_kinematics(&model.geometry, z, psi, theta).unwrap();
     std::array::from_fn(|j| match model.geometry.kind {
         MechanismKind::Prs3 => r.reactions.f_r[j].dot(&model.geometry.rail(j)),
-        MechanismKind::Rps3 | MechanismKind::Ups6 => {
+        MechanismKind::Rps3 | MechanismKind::Ups6 | MechanismKind::Custom => {
             pose.e[j].dot(&(r.reactions.f_s[j] - model.mass.piston.mass * model.gravity))
         }
     })
