@@ -1181,7 +1181,10 @@ def take_up(M, g, jgd, f, m):
         load = f
     if g.scalar:
         margin = np.abs(load)
-        disp = -g.mag * np.sign(load)[:, None] * ax
+        # A load at or below the floor decides nothing: the take-up is then along +axis
+        # (the 6-UPS's convention for its U tilt play, whose load is round-off).
+        floor = M.indet_frac * M.W
+        disp = -g.mag * np.where(np.abs(load) <= floor, -1.0, np.sign(load))[:, None] * ax
     else:
         margin = np.linalg.norm(load, axis=-1)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -1518,10 +1521,15 @@ def _rows(M, res, mode, t, sample0, extras=False):
             for gd in G.values():
                 gr = gd["group"]
                 r, u = play.get(id(gr.joint), (np.zeros((sel.size, 3)), np.zeros((sel.size, 3))))
+                # A vector load at or below the floor on an ok row belongs to a group that
+                # cannot move P: its direction is round-off, so it is not displaced here
+                # (its second-order effect would be noise); a scalar one is along +axis.
+                live = (gr.scalar or gd["margin"][sel] > M.indet_frac * M.W)
+                live = np.broadcast_to(np.asarray(live)[..., None] if np.ndim(live) else live, (sel.size, 1))
                 if gr.rot:
-                    r = r + gd["disp"][sel]
+                    r = r + np.where(live, gd["disp"][sel], 0.0)
                 else:
-                    u = u + gd["disp"][sel]
+                    u = u + np.where(live, gd["disp"][sel], 0.0)
                 play[id(gr.joint)] = (r, u)
             geo_s = [[{k: (v[sel] if isinstance(v, np.ndarray) and v.ndim >= 1 and v.shape[0] == N else v)
                        for k, v in g.items()} for g in jg] for jg in res["geo"]]

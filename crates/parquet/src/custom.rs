@@ -89,7 +89,8 @@ impl CustomSchema {
                 push(
                     COORDINATES[k].to_string(),
                     COORDINATE_UNITS[k],
-                    Box::new(move |r| (r.status != Status::Unreachable).then_some(r.coords[k])),
+                    // Known wherever the closure was solved (a joint out of its range too).
+                    Box::new(move |r| Some(r.coords[k])),
                 );
             }
             let actuators = model.actuators();

@@ -152,7 +152,12 @@ impl CustomModel {
         };
         // Rigid at home: the limbs' constraint wrenches span every wrench.
         let home: Vec<f64> = model.geom.inputs.iter().map(|&k| model.geom.home[k]).collect();
-        let p = custom_posture(&model.geom, &home, None).map_err(|_| {
+        // Ranges bound the poses, not home: the closure there is checked without them.
+        let mut free = model.geom.clone();
+        for j in free.limbs.iter_mut().flat_map(|l| l.joints.iter_mut()) {
+            j.range = None;
+        }
+        let p = custom_posture(&free, &home, None).map_err(|_| {
             JobError::new(
                 file,
                 "mechanism.home",
@@ -193,6 +198,11 @@ impl CustomModel {
 
     fn joint_type(&self, g: &GroupDef) -> JointType {
         self.geom.limbs[g.limb].joints[g.joint].joint
+    }
+
+    /// Whether a group's deciding load is a scalar.
+    pub fn scalar_group(&self, g: &GroupDef) -> bool {
+        g.scalar(self.joint_type(g))
     }
 
     /// Whether group `g`'s deciding load is a scalar.
@@ -600,7 +610,12 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         let scalar = g.scalar(joint.joint);
         t.load = [load.x, load.y, load.z];
         t.margin = if scalar { load.x.abs() } else { load.norm() };
-        let unit = if scalar {
+        // A scalar load at or below the floor decides nothing: the take-up is then along
+        // +axis (the 6-UPS's convention for its U tilt play, whose load is round-off).
+        // `dir` is −axis·signum(load), signum never 0.
+        let unit = if scalar && t.margin <= model.floor {
+            -dir * load.x.signum()
+        } else if scalar {
             dir
         } else if t.margin > 0.0 {
             dir / t.margin
@@ -702,6 +717,12 @@ fn exact_error(
     let mut play: Vec<Vec<(V3, V3)>> =
         geom.limbs.iter().map(|l| vec![(V3::zeros(), V3::zeros()); l.joints.len()]).collect();
     for (g, t) in model.groups.iter().zip(&out.takes) {
+        // On an ok pose a vector load at or below the floor is that of a group that
+        // cannot move P: its direction is round-off, so it is not displaced (its
+        // second-order effect would be noise). A scalar one is along +axis (`take_up`).
+        if t.margin <= model.floor && !model.scalar_group(g) {
+            continue;
+        }
         let e = &mut play[g.limb][g.joint];
         e.0 += w(&t.twist);
         // A rotation's twist carries c × δ in its second half; the translation is the rest.
