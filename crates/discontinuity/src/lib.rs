@@ -33,6 +33,10 @@
 //! not depend on the sample spacing, short of dips too narrow for it to show.
 //! Which samples the search looks at comes from each sample's [`Trace`], recorded
 //! while a run solves it.
+//!
+//! [`vector_load`] holds the rule for one vector load along one path apart from any
+//! mechanism (the 6-UPS search calls it, and so can any search that has a path's
+//! sampled loads and a way to solve the load between samples).
 
 mod dips;
 mod minimise;
@@ -41,6 +45,7 @@ mod scalar;
 mod search;
 mod shortcut;
 mod trace;
+pub mod vector_load;
 
 pub use minimise::{brent_min, brent_root, interpolated_root, vector_min, vector_polish};
 pub use paths::{Along, Axis, Path, axes, paths};
