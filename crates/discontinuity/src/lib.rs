@@ -97,20 +97,6 @@ pub struct SearchOptions {
     pub dip_threshold: f64,
 }
 
-impl SearchOptions {
-    /// The magnitude from which a sampled minimum of a vector load is set aside
-    /// without refinement when the directions at it and at its two neighbours are
-    /// within 90° of each other: twice the threshold, where the threshold is above the
-    /// noise floor (else none). A dip there that could be a switch lies below the
-    /// threshold, so the walks from it stop at once, at two of those three samples,
-    /// and their directions agree: no switch (docs/model.md §8). The search applies it
-    /// to the loads it solves, and a run's traces to the loads the pass solved (the
-    /// same bits), so that a line with no other candidate is not solved at all.
-    pub fn set_aside_from(&self, model: &Model) -> Option<f64> {
-        (self.dip_threshold > model.indeterminate_floor).then_some(2.0 * self.dip_threshold)
-    }
-}
-
 /// Whether the search looks at the lines along `along` at all: not those along which
 /// no load changes (the Z-lines of a 3-PRS with vertical rails, docs/model.md §8).
 pub fn searched_along(model: &Model, along: Along) -> bool {
@@ -484,7 +470,7 @@ pub fn search_untraced(
         clearance_solver::solve_poses(model, &samples, mode, ws, &mut results);
         let (traces, loads): (Vec<Trace>, Vec<Loads>) = results.iter().map(|r| trace_loads(r, model)).unzip();
         let axis = Axis { along: path.along, stride: 1, n: n as u64, params: path.params.clone() };
-        keep_local_minima(&[axis], 0, &traces, &loads, opts.set_aside_from(model))
+        keep_local_minima(&[axis], 0, &traces, &loads)
     };
     search_path(model, source, path, mode, opts, |i| traces[path.position(i)], ws)
 }
