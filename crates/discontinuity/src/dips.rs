@@ -1,11 +1,13 @@
 //! Switches of a vector load, `f_Sj` or `f⊥j` (docs/model.md §8): where its magnitude
 //! dips below `discontinuity_load_fraction·W` and its direction swings round by more
-//! than 90° across the dip.
+//! than 90° across the dip, read where the magnitude has risen back to twice the
+//! minimum, located between samples ([`crate::vector_load::locate`]).
 
 use clearance_solver::Workspace;
 
-use crate::search::{Segment, Solved};
+use crate::search::{Segment, Side, Solved};
 use crate::trace::{Decider, Trace, min_bit, turn_bit};
+use crate::vector_load::locate;
 use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector, vector_min, vector_polish};
 
 /// A refined minimum of the magnitude lying between samples `lo` and `hi` (the
@@ -121,7 +123,8 @@ pub(crate) fn switches(
         }
         // Where the magnitude has risen back to twice the minimum (never less than
         // twice the noise floor: at a load through zero the minimum is round-off),
-        // else at the sampled maximum before it falls again (beyond, a direction
+        // located between the sample where the walk gets there and the point before
+        // it; else at the sampled maximum before it falls again (beyond, a direction
         // belongs to the next dip), else at the segment's end.
         let twice = 2.0 * dip.m.max(floor);
         let stop = |from: usize, next: Option<usize>, solved: &mut Solved<'_>, ws: &mut Workspace| {
@@ -136,16 +139,33 @@ pub(crate) fn switches(
             let beyond = dips.partition_point(|other| other.p <= lo);
             here > mag(solved, next, ws) || dips.get(beyond).is_some_and(|other| other.p < hi)
         };
+        // The point a walk's stop gives: the located one where the magnitude reaches
+        // `twice` (the sample itself where that point cannot be solved), else the sample.
+        let read = |(k, previous): (usize, Option<usize>), solved: &mut Solved<'_>, ws: &mut Workspace| {
+            let here = load(solved, k, ws);
+            if crate::norm(here) < twice {
+                return (Side::Sample(k), here);
+            }
+            let inner = match previous {
+                Some(i) => (ev.param(i), mag(solved, i, ws)),
+                None => (dip.p, dip.m),
+            };
+            match locate(inner, (ev.param(k), here), twice, LOCATE_TOL, |p| at(p, ws)) {
+                Some((p, fp)) if p != ev.param(k) => (Side::At(p), fp),
+                _ => (Side::Sample(k), here),
+            }
+        };
         let left = walk(segment.before(dip.lo + 1), |i, next| stop(i, next, solved, ws));
         let right = walk(segment.after(dip.hi), |i, next| stop(i, next, solved, ws));
-        if dot(load(solved, left, ws), load(solved, right, ws)) >= 0.0 {
+        let ((left, at_left), (right, at_right)) = (read(left, solved, ws), read(right, solved, ws));
+        if dot(at_left, at_right) >= 0.0 {
             continue;
         }
         let (lo, hi) = (ev.param(dip.lo), ev.param(dip.hi));
         let width = 2.0 * SCAN_TOL * (hi - lo);
         let vector =
             at(dip.p, ws).and_then(|fp| vector_polish(dip.p, fp, width.max(DIFF_STEP), (lo, hi), |p| at(p, ws)));
-        let (before, after) = (solved.errors(left, ws), solved.errors(right, ws));
+        let (before, after) = (left.errors(solved, ws), right.errors(solved, ws));
         out.push(match vector {
             // The load at the point from the polish's model: no solve of its own.
             Some((p, fp)) => ev.record_margin(kind, j, p, crate::norm(fp), &before, &after),
@@ -157,14 +177,20 @@ pub(crate) fn switches(
     }
 }
 
-/// The first of `side` (not empty) where `stops(i, the one after i)`.
-fn walk(mut side: impl Iterator<Item = usize>, mut stops: impl FnMut(usize, Option<usize>) -> bool) -> usize {
+/// The first of `side` (not empty) where `stops(i, the one after i)`, and the one
+/// before it (`None`: the first).
+fn walk(
+    mut side: impl Iterator<Item = usize>,
+    mut stops: impl FnMut(usize, Option<usize>) -> bool,
+) -> (usize, Option<usize>) {
     let mut here = side.next().expect("a determinate sample on either side");
+    let mut previous = None;
     loop {
         let next = side.next();
         if stops(here, next) {
-            return here;
+            return (here, previous);
         }
+        previous = Some(here);
         here = next.expect("the last sample stops");
     }
 }

@@ -19,7 +19,8 @@
 //!   [`vector_min`]), and so is every interval whose end directions differ by more than
 //!   90°; a refined minimum below `discontinuity_load_fraction·W` is a switch if the
 //!   take-up directions where the magnitude has risen back to twice that minimum
-//!   (never less than twice the noise floor), at the sampled maximum before another
+//!   (never less than twice the noise floor; the point located between the samples
+//!   that bracket it, [`vector_load::locate`]), at the sampled maximum before another
 //!   dip, or at the path's ends, differ by more than 90°. A switch is then polished
 //!   as the root of `f·df/ds` ([`vector_polish`]). Brent's methods
 //!   ([`brent_root`], [`brent_min`]) take over where a pose between samples is
