@@ -157,7 +157,7 @@ fn stats_name(chunk: u64) -> String {
 }
 
 fn trace_name(chunk: u64) -> String {
-    format!("_stats/variant=0/kinetostatic-{chunk:06}.trace3")
+    format!("_stats/variant=0/kinetostatic-{chunk:06}.trace4")
 }
 
 /// Every file below `dir`, relative to it.
@@ -213,7 +213,7 @@ fn assert_failed_cleanly(o: &Output, out: &Path, failed: &str) {
             assert_eq!(parquet_rows(&path), CHUNK as usize, "{name}");
             let chunk: u64 = name.trim_end_matches(".parquet").rsplit('-').next().unwrap().parse().unwrap();
             assert!(out.join(stats_name(chunk)).exists(), "{name} has no statistics");
-        } else if name.starts_with("_stats/") && name.ends_with(".trace3") {
+        } else if name.starts_with("_stats/") && name.ends_with(".trace4") {
             // One 8-byte discontinuity trace per pose of the part.
             assert_eq!(std::fs::metadata(&path).unwrap().len(), 8 * CHUNK, "{name}");
         } else if name.starts_with("_stats/") {

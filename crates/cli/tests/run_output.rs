@@ -243,7 +243,7 @@ fn same_data_for_any_threads_chunks_shards_and_resume() {
     let len = std::fs::metadata(&torn).unwrap().len();
     std::fs::OpenOptions::new().write(true).open(&torn).unwrap().set_len(len / 2).unwrap();
     std::fs::write(sharded.join("poses/variant=0/part-kinetostatic-000000.parquet"), b"").unwrap();
-    std::fs::remove_file(sharded.join("_stats/variant=0/kinetostatic-000002.trace3")).unwrap();
+    std::fs::remove_file(sharded.join("_stats/variant=0/kinetostatic-000002.trace4")).unwrap();
     // A whole part whose statistics file was torn is computed again too.
     std::fs::write(sharded.join("_stats/variant=0/kinetostatic-000003.json"), b"{\"samp").unwrap();
     let o = run(&["run", j, "--out", s, "--chunk-size", "40", "--resume", "-q"]);

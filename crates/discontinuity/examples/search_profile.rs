@@ -41,7 +41,7 @@ fn main() {
                 loads.push(l);
             }
         }
-        let traced = keep_local_minima(&axes(&source), 0, &raw, &loads, opts.set_aside_from(&model));
+        let traced = keep_local_minima(&axes(&source), 0, &raw, &loads);
         inputs.push((model, source, opts, mode, traced, values));
     }
     let mut best = f64::INFINITY;

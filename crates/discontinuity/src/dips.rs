@@ -1,12 +1,13 @@
 //! Switches of a vector load, `f_Sj` or `f⊥j` (docs/model.md §8): where its magnitude
 //! dips below `discontinuity_load_fraction·W` and its direction swings round by more
-//! than 90° across the dip.
+//! than 90° across the dip, read where the magnitude has risen back to twice the
+//! minimum, located between samples ([`crate::vector_load::locate`]).
 
 use clearance_solver::Workspace;
 
-use crate::search::{Segment, Solved};
-use crate::shortcut::Shortcut;
+use crate::search::{Segment, Side, Solved};
 use crate::trace::{Decider, Trace, min_bit, turn_bit};
+use crate::vector_load::locate;
 use crate::{Discontinuity, LOCATE_TOL, SCAN_TOL, brent_min, brent_root, dot, vector, vector_min, vector_polish};
 
 /// A refined minimum of the magnitude lying between samples `lo` and `hi` (the
@@ -25,13 +26,6 @@ struct Dip {
 /// minimiser's tolerance).
 const EDGE: f64 = 10.0 * SCAN_TOL;
 
-/// Checking a short segment whole for a turn of its load before refining its minima.
-static WHOLE_SEGMENT: Shortcut = Shortcut::new();
-
-/// Segments of at most this many samples are checked whole for a turn of the load
-/// (every pair of samples) before their minima are refined.
-const FEW: usize = 16;
-
 /// The least half-width of [`vector_polish`]'s stencil, and the step of the
 /// five-point difference of `|f|²` that polishes a minimum where it cannot: wide
 /// enough that the round-off of the loads (`ε·|f|/h` in the slope) moves the point
@@ -47,7 +41,6 @@ pub(crate) fn switches(
     ws: &mut Workspace,
     out: &mut Vec<Discontinuity>,
 ) {
-    crate::trace::SET_ASIDE.minimising();
     let ev = solved.ev;
     let (model, kind) = (ev.model, d.kind());
     let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(solved.forces(k, ws), model, kind, j);
@@ -58,7 +51,6 @@ pub(crate) fn switches(
     // loads there and at `third` (a sample beyond it, or else the interval's middle).
     let min_on = |solved: &mut Solved<'_>, lo: usize, hi: usize, third: Option<usize>, ws: &mut Workspace| {
         let (plo, phi) = (ev.param(lo), ev.param(hi));
-        WHOLE_SEGMENT.minimising();
         let third = match third {
             Some(k) => Some((ev.param(k), load(solved, k, ws))),
             None => at(0.5 * (plo + phi), ws).map(|v| (0.5 * (plo + phi), v)),
@@ -75,26 +67,9 @@ pub(crate) fn switches(
     let edge = |lo: usize, hi: usize| EDGE * (ev.param(hi) - ev.param(lo));
     let inside = |p: f64, lo: usize, hi: usize| p > ev.param(lo) + edge(lo, hi) && p < ev.param(hi) - edge(lo, hi);
 
-    // A switch reads its take-up directions at two determinate samples of the
-    // segment. Where every two of them point within 90° of each other, as along a
-    // Z-line of vertical rails (moving all sliders together leaves the loads as they
-    // are, but for round-off that makes sampled minima), none can be: on a short
-    // segment, checked before any refinement.
-    if segment.end - segment.start <= FEW && WHOLE_SEGMENT.on() {
-        // On the stack: one allocation per segment made the threads of a 3-D grid's
-        // search wait on the allocator's locks.
-        let mut loads = [[0.0; 3]; FEW];
-        let mut n = 0;
-        for k in segment.after(segment.start) {
-            loads[n] = load(solved, k, ws);
-            n += 1;
-        }
-        let loads = &loads[..n];
-        if loads.iter().enumerate().all(|(i, a)| loads[i + 1..].iter().all(|b| dot(*a, *b) >= 0.0)) {
-            return;
-        }
-    }
-    // Every interior sampled minimum, refined on each side on its own.
+    // Every interior sampled minimum, refined on each side on its own. No minimum is
+    // set aside for the directions at its samples: a switch's directions are read at
+    // points located between samples, which the sample directions do not tell.
     let mut minima = Vec::new();
     let mut dips = Vec::new();
     for (a, k, c) in segment.triples() {
@@ -106,16 +81,6 @@ pub(crate) fn switches(
             continue;
         }
         minima.push(k);
-        // A dip here that could be a switch is below the threshold, so the walks
-        // from it stop at once where the samples either side are at twice the
-        // threshold or more, and read the directions at two of `a`, `k`, `c`. If
-        // those agree to within 90°, no refinement here can give a switch, nor
-        // stop another dip's walk (which stops at these samples too): skip it.
-        let (la, lk, lc) = (load(solved, a, ws), load(solved, k, ws), load(solved, c, ws));
-        let high = ev.opts.set_aside_from(model).is_some_and(|from| here >= from);
-        if high && dot(la, lk) >= 0.0 && dot(lk, lc) >= 0.0 && dot(la, lc) >= 0.0 {
-            continue;
-        }
         let (left, right) = (min_on(solved, a, k, Some(c), ws), min_on(solved, k, c, Some(a), ws));
         let (in_left, in_right) = (inside(left.0, a, k), inside(right.0, k, c));
         if in_left {
@@ -158,7 +123,8 @@ pub(crate) fn switches(
         }
         // Where the magnitude has risen back to twice the minimum (never less than
         // twice the noise floor: at a load through zero the minimum is round-off),
-        // else at the sampled maximum before it falls again (beyond, a direction
+        // located between the sample where the walk gets there and the point before
+        // it; else at the sampled maximum before it falls again (beyond, a direction
         // belongs to the next dip), else at the segment's end.
         let twice = 2.0 * dip.m.max(floor);
         let stop = |from: usize, next: Option<usize>, solved: &mut Solved<'_>, ws: &mut Workspace| {
@@ -173,16 +139,33 @@ pub(crate) fn switches(
             let beyond = dips.partition_point(|other| other.p <= lo);
             here > mag(solved, next, ws) || dips.get(beyond).is_some_and(|other| other.p < hi)
         };
+        // The point a walk's stop gives: the located one where the magnitude reaches
+        // `twice` (the sample itself where that point cannot be solved), else the sample.
+        let read = |(k, previous): (usize, Option<usize>), solved: &mut Solved<'_>, ws: &mut Workspace| {
+            let here = load(solved, k, ws);
+            if crate::norm(here) < twice {
+                return (Side::Sample(k), here);
+            }
+            let inner = match previous {
+                Some(i) => (ev.param(i), mag(solved, i, ws)),
+                None => (dip.p, dip.m),
+            };
+            match locate(inner, (ev.param(k), here), twice, LOCATE_TOL, |p| at(p, ws)) {
+                Some((p, fp)) if p != ev.param(k) => (Side::At(p), fp),
+                _ => (Side::Sample(k), here),
+            }
+        };
         let left = walk(segment.before(dip.lo + 1), |i, next| stop(i, next, solved, ws));
         let right = walk(segment.after(dip.hi), |i, next| stop(i, next, solved, ws));
-        if dot(load(solved, left, ws), load(solved, right, ws)) >= 0.0 {
+        let ((left, at_left), (right, at_right)) = (read(left, solved, ws), read(right, solved, ws));
+        if dot(at_left, at_right) >= 0.0 {
             continue;
         }
         let (lo, hi) = (ev.param(dip.lo), ev.param(dip.hi));
         let width = 2.0 * SCAN_TOL * (hi - lo);
         let vector =
             at(dip.p, ws).and_then(|fp| vector_polish(dip.p, fp, width.max(DIFF_STEP), (lo, hi), |p| at(p, ws)));
-        let (before, after) = (solved.errors(left, ws), solved.errors(right, ws));
+        let (before, after) = (left.errors(solved, ws), right.errors(solved, ws));
         out.push(match vector {
             // The load at the point from the polish's model: no solve of its own.
             Some((p, fp)) => ev.record_margin(kind, j, p, crate::norm(fp), &before, &after),
@@ -194,14 +177,20 @@ pub(crate) fn switches(
     }
 }
 
-/// The first of `side` (not empty) where `stops(i, the one after i)`.
-fn walk(mut side: impl Iterator<Item = usize>, mut stops: impl FnMut(usize, Option<usize>) -> bool) -> usize {
+/// The first of `side` (not empty) where `stops(i, the one after i)`, and the one
+/// before it (`None`: the first).
+fn walk(
+    mut side: impl Iterator<Item = usize>,
+    mut stops: impl FnMut(usize, Option<usize>) -> bool,
+) -> (usize, Option<usize>) {
     let mut here = side.next().expect("a determinate sample on either side");
+    let mut previous = None;
     loop {
         let next = side.next();
         if stops(here, next) {
-            return here;
+            return (here, previous);
         }
+        previous = Some(here);
         here = next.expect("the last sample stops");
     }
 }
@@ -234,25 +223,5 @@ fn polish(p: f64, lo: f64, hi: f64, width: f64, mut squared: impl FnMut(f64) -> 
             return p;
         }
         width *= 16.0;
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::WHOLE_SEGMENT;
-
-    /// On a 3-D grid of vertical rails with an added mass (its Z-lines carry the
-    /// same loads at every height, but for round-off), the check spares minimisations
-    /// and changes no switch; its Ψ- and Θ-lines are short too, and hold switches.
-    #[test]
-    fn short_segments_without_a_turn_lose_no_switch() {
-        let text = "[clearance]\ns_radial = 1e-4\nr_radial = 1e-4\n\
-            [mass]\npoints = [ { mass = 20.0, at = [0.0, 0.0, 1.0] } ]\n\
-            [grid]\nz = { start = 1.95, stop = 2.1, n = 4 }\npsi = { start = -0.5, stop = 0.5, n = 15 }\n\
-            theta = { start = -0.5, stop = 0.5, n = 16 }\n";
-        let [(all, minimised), (checked, fewer)] = WHOLE_SEGMENT.both_ways(text);
-        assert!(all.len() > 10, "{} switches to lose", all.len());
-        assert_eq!(all, checked);
-        assert!(fewer < minimised, "{fewer} of {minimised} intervals minimised");
     }
 }

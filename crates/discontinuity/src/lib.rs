@@ -19,7 +19,8 @@
 //!   [`vector_min`]), and so is every interval whose end directions differ by more than
 //!   90°; a refined minimum below `discontinuity_load_fraction·W` is a switch if the
 //!   take-up directions where the magnitude has risen back to twice that minimum
-//!   (never less than twice the noise floor), at the sampled maximum before another
+//!   (never less than twice the noise floor; the point located between the samples
+//!   that bracket it, [`vector_load::locate`]), at the sampled maximum before another
 //!   dip, or at the path's ends, differ by more than 90°. A switch is then polished
 //!   as the root of `f·df/ds` ([`vector_polish`]). Brent's methods
 //!   ([`brent_root`], [`brent_min`]) take over where a pose between samples is
@@ -33,6 +34,10 @@
 //! not depend on the sample spacing, short of dips too narrow for it to show.
 //! Which samples the search looks at comes from each sample's [`Trace`], recorded
 //! while a run solves it.
+//!
+//! [`vector_load`] holds the rule for one vector load along one path apart from any
+//! mechanism (the 6-UPS search calls it, and so can any search that has a path's
+//! sampled loads and a way to solve the load between samples).
 
 mod dips;
 mod minimise;
@@ -41,6 +46,7 @@ mod scalar;
 mod search;
 mod shortcut;
 mod trace;
+pub mod vector_load;
 
 pub use minimise::{brent_min, brent_root, interpolated_root, vector_min, vector_polish};
 pub use paths::{Along, Axis, Path, axes, paths};
@@ -90,20 +96,6 @@ pub struct SearchOptions {
     /// `discontinuity_load_fraction·W`: refined vector-load minima at or above this
     /// are not switches.
     pub dip_threshold: f64,
-}
-
-impl SearchOptions {
-    /// The magnitude from which a sampled minimum of a vector load is set aside
-    /// without refinement when the directions at it and at its two neighbours are
-    /// within 90° of each other: twice the threshold, where the threshold is above the
-    /// noise floor (else none). A dip there that could be a switch lies below the
-    /// threshold, so the walks from it stop at once, at two of those three samples,
-    /// and their directions agree: no switch (docs/model.md §8). The search applies it
-    /// to the loads it solves, and a run's traces to the loads the pass solved (the
-    /// same bits), so that a line with no other candidate is not solved at all.
-    pub fn set_aside_from(&self, model: &Model) -> Option<f64> {
-        (self.dip_threshold > model.indeterminate_floor).then_some(2.0 * self.dip_threshold)
-    }
 }
 
 /// Whether the search looks at the lines along `along` at all: not those along which
@@ -479,7 +471,7 @@ pub fn search_untraced(
         clearance_solver::solve_poses(model, &samples, mode, ws, &mut results);
         let (traces, loads): (Vec<Trace>, Vec<Loads>) = results.iter().map(|r| trace_loads(r, model)).unzip();
         let axis = Axis { along: path.along, stride: 1, n: n as u64, params: path.params.clone() };
-        keep_local_minima(&[axis], 0, &traces, &loads, opts.set_aside_from(model))
+        keep_local_minima(&[axis], 0, &traces, &loads)
     };
     search_path(model, source, path, mode, opts, |i| traces[path.position(i)], ws)
 }

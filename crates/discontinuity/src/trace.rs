@@ -7,11 +7,7 @@ use clearance_solver::{Model, PoseResult, solve_in_blocks};
 use rayon::prelude::*;
 
 use crate::paths::{Along, Axis, axes};
-use crate::shortcut::Shortcut;
 use crate::{SearchOptions, axial, margin, solvable, vector};
-
-/// Clearing, in the traces, the minimum bits the search would set aside unrefined.
-pub(crate) static SET_ASIDE: Shortcut = Shortcut::new();
 
 /// One sample's [`Trace`], as bits. Bit 0: the sample is solvable. Per kind `k`
 /// (order of `KINDS`) and limb `j`, bit `1 + 3k + j`: the deciding load is above
@@ -26,8 +22,7 @@ pub(crate) static SET_ASIDE: Shortcut = Shortcut::new();
 ///   samples in hand show ([`keep_local_minima`]), an interior local minimum of the
 ///   magnitude along the line through the sample, whatever its value (a dip below the
 ///   threshold can hide between samples above it, so only the refined minimum
-///   decides), and for `f_Sj` and `f⊥j` not one the search would set aside unrefined
-///   ([`crate::SearchOptions::set_aside_from`]);
+///   decides);
 /// - bits `43 + 6x + 3d + j` (`f_Sj`, `f⊥j`): the load's direction may turn by more
 ///   than 90° to the next sample along the line (or that sample is indeterminate, or
 ///   not in hand), so a dip may hide between monotone samples.
@@ -191,13 +186,6 @@ const SLACK: f64 = 1e-9;
 /// by more than 90° (the rounding of each is about 1e-7).
 const TURN_SLACK: f32 = 1e-4;
 
-/// Two single-precision unit directions whose dot product is at least this are
-/// within 90° of each other for the search too: each component is the load's over its
-/// magnitude to about 1.2e-7, so the product of the exact directions is within 5e-7 of
-/// it, and the search's product of the loads themselves (double precision, rounding
-/// 3.3e-16 of the magnitudes' product) is then positive.
-const WITHIN_SURE: f32 = 1e-5;
-
 /// The traces of the samples `first..first + traces.len()` with the candidate bits
 /// cleared where the samples in hand rule them out, input by input: a minimum bit
 /// where the sample is not an interior local minimum of that magnitude along the
@@ -205,19 +193,11 @@ const WITHIN_SURE: f32 = 1e-5;
 /// next sample along it (and every bit of an input that does not vary).
 /// A neighbour outside the range, or indeterminate, leaves the bit set (the search
 /// decides), so the result never depends on where a range starts or ends; only the
-/// work does. A minimum bit of `f_Sj` or `f⊥j` is cleared too where the sample's
-/// magnitude is at least `set_aside` and both neighbours are in hand, determinate, and
-/// their directions and its own within 90° of each other: the search would set that
-/// minimum aside without refining it (its rule, [`crate::SearchOptions::set_aside_from`]),
-/// and the intervals beside it hold no turn. Samples are settled in parallel.
-pub fn keep_local_minima(
-    axes: &[Axis],
-    first: u64,
-    traces: &[Trace],
-    loads: &[Loads],
-    set_aside: Option<f64>,
-) -> Vec<Trace> {
-    keep_local_minima_of(axes, first, traces, loads, set_aside, 0..traces.len())
+/// work does. No minimum bit is cleared for the directions at the samples: the
+/// search compares directions at points between samples, which those do not tell.
+/// Samples are settled in parallel.
+pub fn keep_local_minima(axes: &[Axis], first: u64, traces: &[Trace], loads: &[Loads]) -> Vec<Trace> {
+    keep_local_minima_of(axes, first, traces, loads, 0..traces.len())
 }
 
 /// [`keep_local_minima`] of the samples `which` (indices into `traces`) alone, the
@@ -227,7 +207,6 @@ pub fn keep_local_minima_of(
     first: u64,
     traces: &[Trace],
     loads: &[Loads],
-    set_aside: Option<f64>,
     which: std::ops::Range<usize>,
 ) -> Vec<Trace> {
     assert_eq!(traces.len(), loads.len(), "one load set per trace");
@@ -273,26 +252,6 @@ pub fn keep_local_minima_of(
                             if !(interior && allows(before) && allows(Some(after))) {
                                 t &= !bit;
                             }
-                            // Where the search would set it aside: its neighbours in
-                            // hand and determinate, every two directions within 90°.
-                            let within = |x: usize, y: usize| {
-                                let (u, v) = (loads[x].direction[slot], loads[y].direction[slot]);
-                                u[0] * v[0] + u[1] * v[1] + u[2] * v[2] >= WITHIN_SURE
-                            };
-                            let neighbour = |k: Option<usize>| {
-                                k.filter(|&k| k < n && traces[k] & SOLVABLE != 0 && traces[k] & det != 0)
-                            };
-                            if d != Decider::Axial
-                                && interior
-                                && set_aside.is_some_and(|from| here >= from)
-                                && let (Some(b), Some(c)) = (neighbour(before), neighbour(Some(after)))
-                                && within(b, i)
-                                && within(i, c)
-                                && within(b, c)
-                                && SET_ASIDE.on()
-                            {
-                                t &= !bit;
-                            }
                         }
                         if d == Decider::Axial || t & turn_bit(d, j, a.along) == 0 {
                             continue;
@@ -331,6 +290,8 @@ const TRACE_CHUNK: u64 = 1 << 16;
 const BLOCK: u64 = 1024;
 
 /// The [`Trace`] of the samples in `range` of a (variant, mode), solving each once.
+/// `opts` are the search's settings (no bit depends on them since the traces stopped
+/// clearing the minima the search set aside for their sample directions).
 pub fn traces(
     model: &Model,
     source: &SampleSource,
@@ -338,6 +299,7 @@ pub fn traces(
     range: std::ops::Range<u64>,
     opts: &SearchOptions,
 ) -> Vec<Trace> {
+    let _ = opts;
     let axes = axes(source);
     let mut out = Vec::with_capacity((range.end - range.start) as usize);
     for chunk in clearance_grid::chunks(range.end - range.start, TRACE_CHUNK) {
@@ -348,40 +310,7 @@ pub fn traces(
         })
         .flatten_iter()
         .unzip();
-        out.extend(keep_local_minima(&axes, first, &t, &loads, opts.set_aside_from(model)));
+        out.extend(keep_local_minima(&axes, first, &t, &loads));
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::SET_ASIDE;
-    use clearance_model::ClearanceKind;
-
-    /// Minimum bits the search would set aside unrefined, cleared in the traces, change
-    /// no switch: on a 3-D grid of a 3-PRS with a mass (vector switches) and on one of
-    /// the 3-RPS (whose Z-lines are searched), the same switches with the clearing and
-    /// without, and fewer searches of a vector load along a segment.
-    #[test]
-    fn minima_set_aside_in_the_traces_lose_no_switch() {
-        let kinds = "[clearance]\ns_radial = 1e-4\nr_radial = 1e-4\nr_axial = 1e-4\nr_angular = 1e-4\n";
-        let prs = format!(
-            "{kinds}[mass]\npoints = [ {{ mass = 20.0, at = [0.0, 0.0, 1.0] }} ]\n\
-             [grid]\nz = {{ start = 1.95, stop = 2.1, n = 3 }}\npsi = {{ start = -0.5, stop = 0.5, n = 41 }}\n\
-             theta = {{ start = -0.5, stop = 0.5, n = 37 }}\n"
-        );
-        let [(all, searched), (quick, fewer)] = SET_ASIDE.both_ways(&prs);
-        let vector = all.iter().filter(|d| matches!(d.kind, ClearanceKind::SRadial | ClearanceKind::RRadial)).count();
-        assert!(vector > 10, "{vector} vector switches to lose");
-        assert_eq!(all, quick);
-        assert!(fewer < searched, "{fewer} of {searched} searched");
-        let rps = format!(
-            "[mechanism]\nkind = \"3-RPS\"\n{kinds}[grid]\nz = {{ start = 1.0, stop = 1.4, n = 5 }}\n\
-             psi = {{ start = -0.4, stop = 0.4, n = 31 }}\ntheta = {{ start = -0.4, stop = 0.4, n = 29 }}\n"
-        );
-        let [(all, searched), (quick, fewer)] = SET_ASIDE.both_ways(&rps);
-        assert!(all.len() > 10, "{} switches to lose", all.len());
-        assert_eq!(all, quick);
-        assert!(fewer < searched, "{fewer} of {searched} searched");
-    }
 }

@@ -6,16 +6,17 @@
 //! The discontinuity search follows every grid line of every input, or the trajectory,
 //! for every joint group with play (docs/model.md §8, by the load's dimension): a
 //! scalar load (R axial, U angular, backlash) switches where its sign changes, located
-//! by Brent's root finder; a vector load by the rule of sampled and refined minima,
-//! shared with the 6-UPS ([`crate::ups`]). Groups that cannot move the platform are
-//! never searched.
+//! by Brent's root finder; a vector load by the rule of every mechanism
+//! ([`vector_load::switches`]: refined minima, directions read where the magnitude has
+//! risen to twice the minimum, located between samples). Groups that cannot move the
+//! platform are never searched.
 
 use std::path::Path;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_discontinuity::brent_min;
-use clearance_discontinuity::{brent_root, vector_polish};
+use clearance_discontinuity::brent_root;
+use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
 use clearance_grid::SampleSource;
 use clearance_model::{JobError, JobSpec, Mode, Variant};
 use clearance_parquet::{
@@ -31,9 +32,10 @@ use crate::run::{
     RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
     sync_units, write_marker,
 };
-use crate::ups::{
-    LOCATE_TOL, Mags, POLISH_WIDTH, Refined, UpsPath, can_flip, minima, refine, select, sides, ups_paths,
-};
+use crate::ups::{UpsPath, ups_paths};
+
+/// The location tolerance of a scalar load's root, in the path parameter (sample steps).
+const LOCATE_TOL: f64 = 1e-10;
 
 type Result<T, E = EngineError> = std::result::Result<T, E>;
 
@@ -325,7 +327,8 @@ fn switch(
     }
 }
 
-/// The vector rule of docs/model.md §8 on one group's loads along one path.
+/// The vector rule of docs/model.md §8 on one group's loads along one path; the jump
+/// is the kind's error between the two points where the directions were read.
 #[allow(clippy::too_many_arguments)]
 fn vector_switches(
     path: &UpsPath,
@@ -339,42 +342,21 @@ fn vector_switches(
     solve_at: &SolveAt,
     out: &mut Vec<CustomSwitch>,
 ) {
-    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> =
-        loads.iter().map(|l| l.map(|v| (norm(v), nalgebra::Vector3::from(v))).filter(|(m, _)| *m > floor)).collect();
-    let mags: &Mags = &mags;
-    let mut at_mut = |p: f64| at(p);
-    let refined: Vec<Refined> = minima(mags)
-        .into_iter()
-        .filter(|&(lo, _)| can_flip(mags, lo as usize))
-        .map(|(lo, hi)| match refine(mags, lo as usize, &mut at_mut) {
-            Some((x, f)) => Refined { lo, hi, x, m: norm(f), at_x: Some(f) },
-            None => {
-                let (x, m) = brent_min(lo, hi, LOCATE_TOL, |p| at(p).map_or(f64::MAX, norm));
-                Refined { lo, hi, x, m, at_x: None }
-            }
-        })
+    let mags: Vec<SampledLoad> = loads
+        .iter()
+        .map(|l| l.map(|v| nalgebra::Vector3::from(v)).map(|v| (v.norm(), v)).filter(|(m, _)| *m > floor))
         .collect();
-    for Refined { x, m, at_x, .. } in select(&refined, mags) {
-        let (x, m) = match (x.fract() != 0.0).then(|| at_x.or_else(|| at(x))).flatten() {
-            Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), at)
-                .map_or((x, m), |(p, fp)| (p, norm(fp))),
-            None => (x, m),
+    let rule = VectorRule { threshold, floor };
+    for found in vector_load::switches(&mags, &rule, at) {
+        let error = |r: &Reading| match r.sample {
+            Some(k) => kind_error(&samples[k], kind),
+            None => kind_error(&solve_at(r.at).2, kind),
         };
-        if m >= threshold {
-            continue;
-        }
-        let reach = 2.0 * m.max(floor);
-        let Some((before, after)) = sides(mags, x, reach) else { continue };
-        let (db, da) = (mags[before].expect("determinate").1, mags[after].expect("determinate").1);
-        if db.dot(&da) >= 0.0 {
-            continue;
-        }
-        let jump = match (kind_error(&samples[before], kind), kind_error(&samples[after], kind)) {
+        let jump = match (error(&found.before), error(&found.after)) {
             (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
             _ => [f64::NAN; 6],
         };
-        let (t, s, r) = solve_at(x);
-        out.push(switch(path, limb, kind, t, &s, &r, m, jump));
+        let (t, s, r) = solve_at(found.at);
+        out.push(switch(path, limb, kind, t, &s, &r, found.margin, jump));
     }
 }

@@ -7,7 +7,7 @@
 //!   discontinuities.parquet                         one row per refined switch
 //!   summary.parquet                                 one row per (variant, mode)
 //!   _stats/variant=K/<mode>-<chunk>.json            each part's partial statistics
-//!   _stats/variant=K/<mode>-<chunk>.trace3          each part's discontinuity traces
+//!   _stats/variant=K/<mode>-<chunk>.trace4          each part's discontinuity traces
 //!   _stats/switches-I-of-N.bin                      the switches shard I found (sharded runs)
 //!   _SUCCESS.shard-I-of-N                           shard I is done (sharded runs)
 //!   _SUCCESS                                        written last
@@ -80,9 +80,10 @@ impl Layout {
     /// The discontinuity trace of each pose of a part, beside its statistics: the
     /// search at the end of the run reads these instead of solving every pose again.
     pub fn trace(&self, variant: u64, mode: Mode, chunk: u64) -> PathBuf {
-        // The extension names the bits' meaning: a `.trace` or `.trace2` file of an
-        // older engine (whose bits differ) is not read, but rebuilt under this name.
-        self.stats(variant, mode, chunk).with_extension("trace3")
+        // The extension names the bits' meaning: a `.trace`, `.trace2` or `.trace3`
+        // file of an older engine (whose bits differ: a `.trace3` cleared minima that
+        // this search refines) is not read, but rebuilt under this name.
+        self.stats(variant, mode, chunk).with_extension("trace4")
     }
 
     /// The switches shard `i` of `n` found on the grid lines it owns, which the step

@@ -470,7 +470,6 @@ impl<'a> Kept<'a> {
         start: u64,
         traces: &[Trace],
         loads: &[Loads],
-        set_aside: Option<f64>,
     ) -> (Vec<Trace>, Option<(u64, Vec<Trace>)>) {
         let axes = axes(source);
         let stride = axes.iter().filter(|a| searched_along(model, a.along)).map(|a| a.stride as usize).max();
@@ -488,12 +487,12 @@ impl<'a> Kept<'a> {
         // stride of the seam to have its neighbours in hand.
         seam_traces.extend_from_slice(&traces[..n.min(keep)]);
         seam_loads.extend_from_slice(&loads[..n.min(keep)]);
-        let across = |which| keep_local_minima_of(&axes, seam_start, &seam_traces, &seam_loads, set_aside, which);
+        let across = |which| keep_local_minima_of(&axes, seam_start, &seam_traces, &seam_loads, which);
         let again = before.saturating_sub(half);
         let refine = (again < before).then(|| (seam_start + again as u64, across(again..before)));
         let mut settled = across(before..before + n.min(half));
         // The rest of the unit has its neighbours in hand within it.
-        settled.extend(keep_local_minima_of(&axes, start, traces, loads, set_aside, n.min(half)..n));
+        settled.extend(keep_local_minima_of(&axes, start, traces, loads, n.min(half)..n));
         if keep > 0 && start + (n as u64) < source.len() {
             let seam = if n >= keep {
                 Seam {
@@ -1157,20 +1156,12 @@ fn conclude(ctx: &Ctx<'_>, c: Computed<'_>, kept: &mut Kept) -> Concluded {
     // With the whole unit in hand, most samples are seen not to be load
     // minima, so the search solves only the others.
     let start = work.units[0].range.start;
-    let set_aside = search_options(&ctx.variants[ctx.groups[work.group].first() as usize]).set_aside_from(model);
     // The search follows a group's first member (`add_traces`): its traces settle
     // across the seams of its units.
     let (traces, refine) = if ctx.searched_now(work) {
-        kept.settle(
-            (work.group, work.units[0].mode),
-            (model, source),
-            start,
-            &traces,
-            &loads[..traces.len()],
-            set_aside,
-        )
+        kept.settle((work.group, work.units[0].mode), (model, source), start, &traces, &loads[..traces.len()])
     } else {
-        (keep_local_minima(&axes(source), start, &traces, &loads[..traces.len()], set_aside), None)
+        (keep_local_minima(&axes(source), start, &traces, &loads[..traces.len()]), None)
     };
     let layout = ctx.layout;
     let parts = work

@@ -8,14 +8,16 @@
 //! trajectory, for the vector loads `f_Si` (`s_radial`) and `f_Ui` (`u_radial`). It
 //! reads at samples what the pass solved, where this process computed them and they
 //! fit in memory, and solves the rest again (it keeps no traces, so it needs nothing
-//! from the parts and a resumed or sharded run finds the same switches); minima are
-//! refined and polished from the load vectors ([`vector_min`], [`vector_polish`]).
+//! from the parts and a resumed or sharded run finds the same switches). The rule for
+//! each load along each path is [`vector_load::switches`]: minima refined and polished
+//! from the load vectors, directions read where the magnitude has risen back to
+//! twice the minimum, located between samples.
 
 use std::path::Path;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_discontinuity::{brent_min, vector_min, vector_polish};
+use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
 use clearance_grid::SampleSource;
 use clearance_model::{InputSpec, JobSpec, Mode, RangeSpec, SamplesSpec, Variant};
 use clearance_parquet::{
@@ -399,11 +401,6 @@ fn kind_error(r: &UpsResult, kind: usize) -> Option<[f64; 6]> {
         .then(|| [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z])
 }
 
-/// Path parameters closer than this are one minimum.
-const SAME: f64 = 1e-6;
-/// The location tolerance in the path parameter (sample steps).
-pub(crate) const LOCATE_TOL: f64 = 1e-10;
-
 /// The switches of one (group, mode) with the group's magnitudes (`clearance`, as
 /// [`crate::groups::magnitudes`] orders them): every path, in order, on the rayon pool.
 fn search(
@@ -418,8 +415,8 @@ fn search(
     if kinds.is_empty() {
         return Vec::new();
     }
-    let threshold = job.analysis.discontinuity_load_fraction * model.weight();
     let floor = model.assembly.floor;
+    let rule = VectorRule { threshold: job.analysis.discontinuity_load_fraction * model.weight(), floor };
     let trajectory = job.trajectory.as_ref().map(|t| t.inputs6());
     let paths = ups_paths(job, source);
     // Every sample lies on a line of each input that varies: its loads are solved once
@@ -449,7 +446,7 @@ fn search(
             || UpsWorkspace::new(model),
             |ws, path| {
                 // The loads decide everything but the jumps: the error system is solved
-                // only at the two samples a switch's jump is read from.
+                // only at the two points a switch's jump is read from.
                 // Between samples, the legs eliminated in closed form (the same loads
                 // to round-off); at samples, the pass's values or the same solve as its.
                 let loads_at = |ws: &mut UpsWorkspace, p: f64| {
@@ -467,49 +464,27 @@ fn search(
                 let mut out = Vec::new();
                 for &kind in &kinds {
                     for l in 0..6 {
-                        let mags: Vec<Option<(f64, nalgebra::Vector3<f64>)>> = loads
+                        let mags: Vec<SampledLoad> = loads
                             .iter()
                             .map(|r| r[kind][l].map(|f| (f.norm(), f)).filter(|(m, _)| *m > floor))
                             .collect();
-                        // Each interval refined on its own, then the minima kept (`select`).
-                        let at =
-                            |ws: &mut UpsWorkspace, p: f64| load(&loads_at(ws, p), kind, l).map(|v| [v.x, v.y, v.z]);
-                        let refined: Vec<Refined> = minima(&mags)
-                            .into_iter()
-                            .filter(|&(lo, _)| can_flip(&mags, lo as usize))
-                            .map(|(lo, hi)| match refine(&mags, lo as usize, &mut |p| at(ws, p)) {
-                                Some((x, f)) => Refined { lo, hi, x, m: norm(f), at_x: Some(f) },
-                                None => {
-                                    let (x, m) = brent_min(lo, hi, LOCATE_TOL, |p| at(ws, p).map_or(f64::MAX, norm));
-                                    Refined { lo, hi, x, m, at_x: None }
+                        let at = |p: f64| load(&loads_at(ws, p), kind, l).map(|v| [v.x, v.y, v.z]);
+                        for found in vector_load::switches(&mags, &rule, at) {
+                            // The kind's error where each direction was read: the
+                            // pass's (or the same solve) at a sample, solved between.
+                            let mut error = |r: &Reading| match (r.sample, r.sample.and_then(|k| kept(path.index(k)))) {
+                                (_, Some(known)) => known.errors[kind],
+                                (Some(k), None) => kind_error(&solve_ups_pose(model, &sample(k), mode, ws), kind),
+                                (None, None) => {
+                                    let (_, s) = path.sample_at(source, trajectory.as_ref(), r.at);
+                                    kind_error(&solve_ups_pose(model, &s, mode, ws), kind)
                                 }
-                            })
-                            .collect();
-                        for Refined { x, m, at_x, .. } in select(&refined, &mags) {
-                            // A minimum inside its interval, polished to round-off.
-                            let (x, m) = match (x.fract() != 0.0).then(|| at_x.or_else(|| at(ws, x))).flatten() {
-                                Some(fx) => vector_polish(x, fx, POLISH_WIDTH, (x.floor(), x.ceil()), |p| at(ws, p))
-                                    .map_or((x, m), |(p, fp)| (p, norm(fp))),
-                                None => (x, m),
                             };
-                            if m >= threshold {
-                                continue;
-                            }
-                            let reach = 2.0 * m.max(floor);
-                            let Some((before, after)) = sides(&mags, x, reach) else { continue };
-                            let (db, da) = (mags[before].expect("determinate").1, mags[after].expect("determinate").1);
-                            if db.dot(&da) >= 0.0 {
-                                continue; // a dip that does not turn the direction by more than 90°
-                            }
-                            let mut error = |k: usize| match kept(path.index(k)) {
-                                Some(known) => known.errors[kind],
-                                None => kind_error(&solve_ups_pose(model, &sample(k), mode, ws), kind),
-                            };
-                            let jump = match (error(before), error(after)) {
+                            let jump = match (error(&found.before), error(&found.after)) {
                                 (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
                                 _ => [f64::NAN; 6],
                             };
-                            let (t, s) = path.sample_at(source, trajectory.as_ref(), x);
+                            let (t, s) = path.sample_at(source, trajectory.as_ref(), found.at);
                             out.push(UpsSwitch {
                                 variant: 0, // set per member by `finalize`
                                 mode,
@@ -518,7 +493,7 @@ fn search(
                                 along: path.along,
                                 t,
                                 inputs: s.map(|v| v[0]),
-                                margin: m,
+                                margin: found.margin,
                                 jump,
                             });
                         }
@@ -529,152 +504,4 @@ fn search(
         )
         .collect();
     found.into_iter().flatten().collect()
-}
-
-pub(crate) type Mags = [Option<(f64, nalgebra::Vector3<f64>)>];
-
-/// The half-width (in samples) of the stencil that polishes a minimum
-/// ([`vector_polish`]).
-pub(crate) const POLISH_WIDTH: f64 = 1e-3;
-
-/// The tolerance (in samples) of the first location of a minimum ([`vector_min`]),
-/// which [`vector_polish`] takes to round-off.
-const SCAN_TOL: f64 = 1e-6;
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
-/// Where on the interval `(k, k + 1)` the load magnitude is least, and the load
-/// there, by [`vector_min`] from the loads at its ends and at the sample beyond the
-/// sampled minimum it borders (else at its middle). `None` where that does not settle.
-pub(crate) fn refine(mags: &Mags, k: usize, at: &mut impl FnMut(f64) -> Option<[f64; 3]>) -> Option<(f64, [f64; 3])> {
-    let known = |i: usize| mags.get(i).copied().flatten().map(|(_, v)| (i as f64, [v.x, v.y, v.z]));
-    let (a, b) = (known(k)?, known(k + 1)?);
-    let beyond = if is_min(mags, k + 1) {
-        known(k + 2)
-    } else if is_min(mags, k) {
-        k.checked_sub(1).and_then(known)
-    } else {
-        None
-    };
-    let third = match beyond {
-        Some(third) => third,
-        None => (k as f64 + 0.5, at(k as f64 + 0.5)?),
-    };
-    vector_min(a, b, third, SCAN_TOL, at)
-}
-
-/// A minimum of the load magnitude found by refining the interval `[lo, hi]`.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Refined {
-    pub(crate) lo: f64,
-    pub(crate) hi: f64,
-    pub(crate) x: f64,
-    pub(crate) m: f64,
-    /// The load at `x`, where the refinement evaluated it.
-    pub(crate) at_x: Option<[f64; 3]>,
-}
-
-/// A refined minimum within this of an interval's end sits on that sample.
-const END: f64 = 1e-7;
-
-/// The distinct interior minima among the refined intervals: a minimum found at an
-/// interval's end is the interval's lowest point, not a dip of it, so it is kept only
-/// when that end is a sampled minimum and the interval on its other side found no dip
-/// of its own (then the dip is at the sample itself); minima closer than [`SAME`] are one.
-pub(crate) fn select(refined: &[Refined], mags: &Mags) -> Vec<Refined> {
-    let at_end = |r: &Refined| [r.lo, r.hi].into_iter().find(|e| (r.x - e).abs() < END);
-    let mut out: Vec<Refined> = Vec::new();
-    for r in refined {
-        if let Some(end) = at_end(r) {
-            let inner_beside = refined.iter().any(|o| (o.lo == end || o.hi == end) && at_end(o).is_none());
-            if !is_min(mags, end as usize) || inner_beside {
-                continue;
-            }
-        }
-        if out.iter().all(|o| (o.x - r.x).abs() >= SAME) {
-            out.push(*r);
-        }
-    }
-    out
-}
-
-/// Whether sample `k` is an interior local minimum among determinate neighbours.
-fn is_min(mags: &Mags, k: usize) -> bool {
-    if k == 0 || k + 1 >= mags.len() {
-        return false;
-    }
-    match (mags[k - 1], mags[k], mags[k + 1]) {
-        // Strict on one side, so that a flat stretch is not a minimum at every sample.
-        (Some((a, _)), Some((m, _)), Some((b, _))) => m < a && m <= b,
-        _ => false,
-    }
-}
-
-/// The intervals `(k, k + 1)` to refine: both beside each sampled interior minimum,
-/// searched on their own, and every interval whose end directions differ by more
-/// than 90° although neither end is a sampled minimum (a dip between monotone samples).
-pub(crate) fn minima(mags: &Mags) -> Vec<(f64, f64)> {
-    let mut out = Vec::new();
-    for k in 0..mags.len().saturating_sub(1) {
-        let (Some((_, a)), Some((_, b))) = (mags[k], mags[k + 1]) else { continue };
-        if is_min(mags, k) || is_min(mags, k + 1) || a.dot(&b) < 0.0 {
-            out.push((k as f64, (k + 1) as f64));
-        }
-    }
-    out
-}
-
-/// Whether a minimum refined anywhere in `[k, k + 1]` can pass the direction test:
-/// [`sides`] starts at `k − 1` or `k` on the left and at `k + 1` or `k + 2` on the right
-/// (wherever in the interval the minimum lies) and stops at one of the samples its walk
-/// passes ([`rising`], wherever `reach` puts it). When no pair of those turns by more than 90°, the
-/// interval's refined minimum gives no switch whatever its value, so it is not refined:
-/// the switches found are the same, without the load solves of the refinement.
-pub(crate) fn can_flip(mags: &Mags, k: usize) -> bool {
-    let last = mags.len() - 1;
-    let direction = |k: usize| mags[k].expect("a walk passes determinate samples").1;
-    let walked = |starts: [usize; 2], step: isize| -> Vec<nalgebra::Vector3<f64>> {
-        starts.into_iter().flat_map(|start| rising(mags, start, step)).map(direction).collect()
-    };
-    let (left, right) = (walked([k.saturating_sub(1), k], -1), walked([k + 1, (k + 2).min(last)], 1));
-    left.iter().any(|b| right.iter().any(|a| b.dot(a) < 0.0))
-}
-
-/// The samples a walk from `start` by `step` passes: the start, then on while the
-/// magnitude does not fall (the next dip's begins where it falls), up to a gap or the
-/// path's end; nothing from an indeterminate start. [`sides`] stops on one of them.
-fn rising(mags: &Mags, start: usize, step: isize) -> impl Iterator<Item = usize> + '_ {
-    std::iter::successors(mags[start].map(|_| start), move |&k| {
-        let m = mags[k]?.0;
-        let next = usize::try_from(k as isize + step).ok()?;
-        match mags.get(next).copied().flatten() {
-            Some((n, _)) if n >= m => Some(next),
-            _ => None,
-        }
-    })
-}
-
-/// The samples where the direction is read on either side of a minimum at `x`: the
-/// first sample whose magnitude has risen to `reach`, else the sampled maximum where
-/// the magnitude falls again, else the last determinate sample before a gap or the
-/// path's end. `None` if a side has no determinate sample.
-pub(crate) fn sides(mags: &Mags, x: f64, reach: f64) -> Option<(usize, usize)> {
-    // The first sample of the walk whose magnitude has risen to `reach`, else its last.
-    let walk = |start: usize, step: isize| -> Option<usize> {
-        let mut last = None;
-        for k in rising(mags, start, step) {
-            last = Some(k);
-            if mags[k].is_some_and(|(m, _)| m >= reach) {
-                break;
-            }
-        }
-        last
-    };
-    let below = x.floor() as usize;
-    let above = (x.ceil() as usize).min(mags.len() - 1);
-    let before = if (x - below as f64) < SAME && below > 0 { below - 1 } else { below };
-    let after = if (above as f64 - x) < SAME && above + 1 < mags.len() { above + 1 } else { above };
-    Some((walk(before, -1)?, walk(after, 1)?))
 }

@@ -68,7 +68,7 @@ fn trace_files(dir: &Path) -> Vec<std::path::PathBuf> {
         if v.is_dir() {
             for f in std::fs::read_dir(&v).unwrap() {
                 let f = f.unwrap().path();
-                if f.extension().is_some_and(|e| e == "trace3") {
+                if f.extension().is_some_and(|e| e == "trace4") {
                     out.push(f);
                 }
             }
