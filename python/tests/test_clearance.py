@@ -63,7 +63,36 @@ def read_run(out: pathlib.Path) -> pa.Table:
     return plain(t)
 
 
-@pytest.mark.parametrize("job", [GRID, TRAJECTORY], ids=["grid", "trajectory"])
+# A mechanism described by its joints (a 3-RRS wrist), along a trajectory in both modes.
+CUSTOM = """
+[mechanism]
+kind = "custom"
+inputs = ["z", "psi", "theta"]
+home = [0.0, 0.0, 0.6, 0.0, 0.0, 0.0]
+[[mechanism.limb]]
+repeat = 3
+joints = [
+  { type = "R", name = "crank", at = [0.25, 0.0, 0.0], axis = [0.0, 1.0, 0.0], actuated = true },
+  { type = "R", name = "knee", at = [0.45, 0.0, 0.0], axis = [0.0, 1.0, 0.0] },
+  { type = "S", at = [0.15, 0.0, 0.6] },
+]
+bodies = [{ mass = 1.2 }, { mass = 2.0 }]
+[mass]
+platform = 5.0
+[clearance]
+knee_axial = 5e-5
+crank_backlash = [2e-4, 1e-4, 2e-4]
+[analysis]
+modes = ["kinetostatic", "dynamic"]
+[trajectory]
+time = { start = 0.0, stop = 2.0, n = 41 }
+z = 0.6
+psi = { offset = 0.0, harmonics = [{ amplitude = 0.2, period = 2.0 }] }
+theta = 0.05
+"""
+
+
+@pytest.mark.parametrize("job", [GRID, TRAJECTORY, CUSTOM], ids=["grid", "trajectory", "custom"])
 def test_solve_equals_run_read_back(job, tmp_path):
     out = tmp_path / "run"
     report = clearance.run(job, out, threads=2, chunk_size=100)
@@ -80,6 +109,13 @@ def test_solve_equals_run_read_back(job, tmp_path):
     for name in solved.column_names:
         a, b = solved.column(name).combine_chunks(), written.column(name).combine_chunks()
         assert a.equals(b), name
+
+
+def test_custom_columns_come_from_the_description():
+    t = clearance.solve(CUSTOM)
+    for name in ["q1", "tau3", "err_knee_axial_z", "err_crank_backlash_rx", "margin_crank2_backlash", "x", "phi"]:
+        assert name in t.column_names, name
+    assert set(t.column("status").to_pylist()) <= {"ok", "indeterminate_contact"}
 
 
 def test_explicit_poses_equal_the_grid():
