@@ -131,6 +131,17 @@ impl Serialize for ClearanceSpec {
 }
 
 impl ClearanceSpec {
+    /// Marks the kind the magnitudes belong to. A built-in kind keeps its numbers in
+    /// the named fields: of [`Self::given`] it keeps only per-limb lists, which
+    /// validation refuses for it (so a job and its provenance `job.toml` are equal).
+    pub fn settle(&mut self, kind: MechanismKind) {
+        self.ups = kind == MechanismKind::Ups6;
+        self.custom = kind == MechanismKind::Custom;
+        if !self.custom {
+            self.given.retain(|(_, m)| matches!(m, Magnitude::PerLimb(_)));
+        }
+    }
+
     /// The magnitude of one kind.
     pub fn get(&self, kind: ClearanceKind) -> f64 {
         match kind {
@@ -514,7 +525,7 @@ impl JobSpec {
         self.mass.fill_defaults(self.mechanism.kind);
         let ups = self.mechanism.kind == MechanismKind::Ups6;
         self.clearance.ups = ups;
-        self.clearance.custom = self.mechanism.kind == MechanismKind::Custom;
+        self.clearance.settle(self.mechanism.kind);
         if ups {
             // Written out, so that a sweep can name every input.
             if let Some(g) = &mut self.grid {

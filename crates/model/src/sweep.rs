@@ -63,8 +63,7 @@ impl JobSpec {
             let mut job: JobSpec = t.try_into().map_err(|e: toml::de::Error| {
                 JobError::new(file, "sweep", format!("variant {index}: {}", e.message().trim()))
             })?;
-            job.clearance.ups = job.mechanism.kind == crate::MechanismKind::Ups6;
-            job.clearance.custom = job.mechanism.kind == crate::MechanismKind::Custom;
+            job.clearance.settle(job.mechanism.kind);
             job.validate(file).map_err(|mut e| {
                 let what = params.iter().map(|(p, v)| format!("{p} = {v}")).collect::<Vec<_>>().join(", ");
                 e.reason = format!("{} (in the sweep variant {index}: {what})", e.reason);
