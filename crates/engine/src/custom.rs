@@ -344,7 +344,7 @@ fn vector_switches(
 ) {
     let mags: Vec<SampledLoad> = loads
         .iter()
-        .map(|l| l.map(|v| nalgebra::Vector3::from(v)).map(|v| (v.norm(), v)).filter(|(m, _)| *m > floor))
+        .map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v)).filter(|(m, _)| *m > floor))
         .collect();
     let rule = VectorRule { threshold, floor };
     for found in vector_load::switches(&mags, &rule, at) {
