@@ -226,7 +226,28 @@ fn kind_error(r: &CustomResult, kind: usize) -> Option<[f64; 6]> {
     r.loaded().then(|| r.kind_errors[kind].map(|e| [e[0], e[1], e[2], e[3], e[4], e[5]])).flatten()
 }
 
-/// The switches of one (variant, mode): every path, in order, on the rayon pool.
+/// What the search reads of one sample: each group's deciding load and each kind's error.
+struct Sampled {
+    loads: Vec<Option<[f64; 3]>>,
+    errors: Vec<Option<[f64; 6]>>,
+}
+
+impl Sampled {
+    fn of(model: &CustomModel, r: &CustomResult) -> Self {
+        Sampled {
+            loads: (0..model.groups.len()).map(|g| group_load(r, g)).collect(),
+            errors: (0..model.kinds.len()).map(|k| kind_error(r, k)).collect(),
+        }
+    }
+}
+
+/// The most memory the table of every sample's loads and errors may take; beyond, each
+/// path solves its samples again.
+const SHARED_BYTES: u64 = 1 << 29;
+
+/// The switches of one (variant, mode): every path, in order, on the rayon pool. Every
+/// sample lies on a line of each input that varies: its loads are solved once for all
+/// of them where the table fits in memory.
 fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode) -> Vec<CustomSwitch> {
     let groups: Vec<usize> = (0..model.groups.len()).filter(|&g| model.groups[g].magnitude > 0.0).collect();
     if groups.is_empty() {
@@ -236,6 +257,17 @@ fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode)
     let floor = model.floor;
     let trajectory = job.trajectory.as_ref().map(|t| t.inputs6());
     let paths = ups_paths(job, source);
+    let n = source.len();
+    let entry = (model.groups.len() * 32 + model.kinds.len() * 56 + 64) as u64;
+    let shared: Option<Vec<Sampled>> = (n.saturating_mul(entry) <= SHARED_BYTES).then(|| {
+        (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let (_, inputs) = inputs_of(model, source, i);
+                Sampled::of(model, &solve_inputs(model, &inputs, mode))
+            })
+            .collect()
+    });
     let found: Vec<Vec<CustomSwitch>> = paths
         .par_iter()
         .map(|path| {
@@ -244,18 +276,25 @@ fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode)
                 let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
                 (t, s, solve_inputs(model, &inputs, mode))
             };
-            let samples: Vec<CustomResult> = (0..path.len).map(|k| solve_at(k as f64).2).collect();
+            let own: Vec<Sampled>;
+            let samples: Vec<&Sampled> = match &shared {
+                Some(all) => (0..path.len).map(|k| &all[path.index(k) as usize]).collect(),
+                None => {
+                    own = (0..path.len).map(|k| Sampled::of(model, &solve_at(k as f64).2)).collect();
+                    own.iter().collect()
+                }
+            };
             let mut out = Vec::new();
             for &g in &groups {
                 let def = &model.groups[g];
-                let loads: Vec<Option<[f64; 3]>> = samples.iter().map(|r| group_load(r, g)).collect();
+                let loads: Vec<Option<[f64; 3]>> = samples.iter().map(|r| r.loads[g]).collect();
+                let errors: Vec<Option<[f64; 6]>> = samples.iter().map(|r| r.errors[def.kind]).collect();
                 let at = |p: f64| group_load(&solve_at(p).2, g);
                 if model.scalar(g) {
-                    scalar_switches(path, &loads, &samples, floor, def.kind, def.limb, &at, &solve_at, &mut out);
+                    scalar_switches(path, &loads, &errors, floor, def.limb, &at, &solve_at, &mut out, def.kind);
                 } else {
-                    vector_switches(
-                        path, &loads, &samples, floor, threshold, def.kind, def.limb, &at, &solve_at, &mut out,
-                    );
+                    let rule = VectorRule { threshold, floor };
+                    vector_switches(path, &loads, &errors, &rule, def.kind, def.limb, &at, &solve_at, &mut out);
                 }
             }
             out
@@ -272,13 +311,13 @@ type SolveAt<'a> = dyn Fn(f64) -> (Option<f64>, [[f64; 3]; 6], CustomResult) + '
 fn scalar_switches(
     path: &UpsPath,
     loads: &[Option<[f64; 3]>],
-    samples: &[CustomResult],
+    errors: &[Option<[f64; 6]>],
     floor: f64,
-    kind: usize,
     limb: usize,
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
     solve_at: &SolveAt,
     out: &mut Vec<CustomSwitch>,
+    kind: usize,
 ) {
     let value = |l: &Option<[f64; 3]>| l.map(|v| v[0]).filter(|v| v.abs() > floor);
     for k in 0..loads.len().saturating_sub(1) {
@@ -289,7 +328,7 @@ fn scalar_switches(
         let x = brent_root(k as f64, (k + 1) as f64, a, b, LOCATE_TOL, |p| at(p).map_or(0.0, |v| v[0]));
         let (t, s, r) = solve_at(x);
         let margin = group_margin(&r, at(x));
-        let jump = match (kind_error(&samples[k], kind), kind_error(&samples[k + 1], kind)) {
+        let jump = match (errors[k], errors[k + 1]) {
             (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
             _ => [f64::NAN; 6],
         };
@@ -333,9 +372,8 @@ fn switch(
 fn vector_switches(
     path: &UpsPath,
     loads: &[Option<[f64; 3]>],
-    samples: &[CustomResult],
-    floor: f64,
-    threshold: f64,
+    errors: &[Option<[f64; 6]>],
+    rule: &VectorRule,
     kind: usize,
     limb: usize,
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
@@ -344,12 +382,11 @@ fn vector_switches(
 ) {
     let mags: Vec<SampledLoad> = loads
         .iter()
-        .map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v)).filter(|(m, _)| *m > floor))
+        .map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v)).filter(|(m, _)| *m > rule.floor))
         .collect();
-    let rule = VectorRule { threshold, floor };
-    for found in vector_load::switches(&mags, &rule, at) {
+    for found in vector_load::switches(&mags, rule, at) {
         let error = |r: &Reading| match r.sample {
-            Some(k) => kind_error(&samples[k], kind),
+            Some(k) => errors[k],
             None => kind_error(&solve_at(r.at).2, kind),
         };
         let jump = match (error(&found.before), error(&found.after)) {

@@ -256,7 +256,7 @@ pub(crate) struct UpsPath {
 }
 
 impl UpsPath {
-    fn index(&self, k: usize) -> u64 {
+    pub(crate) fn index(&self, k: usize) -> u64 {
         self.origin + k as u64 * self.stride
     }
 
