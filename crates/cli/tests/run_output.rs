@@ -354,7 +354,10 @@ fn bench_suite_reports_every_job_and_cleans_up() {
                 "trajectory_dynamic",
                 "prs_inclined",
                 "rps_grid",
-                "ups_grid"
+                "ups_grid",
+                "prs_described",
+                "custom_3rrs",
+                "custom_6pus"
             ]
         );
         let columns: Vec<&str> = jobs.iter().map(|j| j["columns"].as_str().unwrap()).collect();
