@@ -95,7 +95,7 @@ pub fn plot_run(run_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, PlotErro
             });
         }
         let source = SampleSource::new(&variant.job);
-        let layout = Layout::of(&source, variant.job.mechanism.kind)
+        let layout = Layout::of(&source, variant.job.mechanism.kind, variant.job.mechanism.inputs.as_deref())
             .map_err(|why| PlotError::Unsupported { dir: run_dir.to_path_buf(), why })?;
         let dir = out_dir.join(format!("variant={}", variant.index));
         std::fs::create_dir_all(&dir).map_err(PlotError::io(&dir))?;
@@ -155,6 +155,31 @@ impl Context<'_> {
     /// The clearances a figure of `source` includes, as `r_radial = 100 µm, ...`.
     fn clearances(&self, source: Source) -> String {
         let c = &self.variant.job.clearance;
+        if c.custom {
+            // A custom mechanism's kinds are its joint groups, as the job names them.
+            let list: Vec<String> = c
+                .given
+                .iter()
+                .filter(|(_, m)| m.max() != 0.0)
+                .map(|(k, m)| {
+                    // Angular play, and an R joint's backlash, are rotations.
+                    let joint = k.rsplit_once('_').map_or("", |(j, _)| j);
+                    let revolute = self
+                        .variant
+                        .job
+                        .mechanism
+                        .limb
+                        .iter()
+                        .flatten()
+                        .flat_map(|l| &l.joints)
+                        .any(|j| j.name() == joint && j.joint == clearance_model::custom::JointType::R);
+                    let rotation = k.ends_with("_angular") || (k.ends_with("_backlash") && revolute);
+                    let unit = if rotation { "µrad" } else { "µm" };
+                    format!("{k} = {} {unit}", short(m.max() * 1e6))
+                })
+                .collect();
+            return if list.is_empty() { "no clearance (rigid joints)".to_string() } else { list.join(", ") };
+        }
         let list: Vec<String> = self
             .kinds()
             .iter()

@@ -166,25 +166,34 @@ impl Layout {
     /// The layout of `source`'s samples for a mechanism of `kind`. A 3-limb grid is
     /// mapped over Ψ–Θ (the paper's maps); a 6-UPS grid over its first two swept
     /// inputs, in the order of [`INPUTS`]. `Err` says why a grid has no such plane.
-    pub fn of(source: &SampleSource, kind: MechanismKind) -> Result<Self, String> {
+    pub fn of(source: &SampleSource, kind: MechanismKind, custom_inputs: Option<&[String]>) -> Result<Self, String> {
         let SampleSource::Grid(grid) = source else {
             let stride = stride(source.len(), MAX_TRAJECTORY_POINTS);
             return Ok(Layout::Trajectory { samples: (0..source.len()).step_by(stride as usize).collect(), stride });
         };
         let ranges = grid.axes6();
         let shape = ranges.map(|r| r.len());
-        let inputs = kind.inputs();
+        // A custom mechanism's inputs are its description's; the others are parasitic.
+        let custom: Vec<&'static str>;
+        let inputs: &[&'static str] = match custom_inputs {
+            Some(list) => {
+                custom = INPUTS.iter().copied().filter(|i| list.iter().any(|l| l == i)).collect();
+                &custom
+            }
+            None => kind.inputs(),
+        };
         let index_of = |name: &str| INPUTS.iter().position(|i| *i == name).expect("an input");
-        let (a, u) = if kind == MechanismKind::Ups6 {
+        let (a, u) = if matches!(kind, MechanismKind::Ups6 | MechanismKind::Custom) {
             let swept: Vec<usize> = (0..6).filter(|&k| shape[k] > 1).collect();
             match swept[..] {
                 [a, u, ..] => (a, u),
                 _ => {
                     let names: Vec<&str> = swept.iter().map(|&k| INPUTS[k]).collect();
                     return Err(format!(
-                        "a 6-UPS grid is drawn as maps over two swept inputs (ranges), and this one sweeps {}; \
+                        "a {} grid is drawn as maps over two swept inputs (ranges), and this one sweeps {}; \
                          give two of {} as {{ start, stop, n }}, or read the poses/ Parquet files with \
                          pyarrow, Polars or DuckDB",
+                        kind.name(),
                         if names.is_empty() { "none".to_string() } else { format!("only `{}`", names.join("`, `")) },
                         inputs.join(", "),
                     ));
