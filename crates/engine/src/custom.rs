@@ -75,23 +75,14 @@ fn solve_rows(
 
 /// The poses of a custom job as record batches, one per (variant, mode), in memory.
 pub(crate) fn solve_custom_job(job: &JobSpec, file: &str, columns: ColumnSet) -> Result<Vec<RecordBatch>> {
-    use arrow::array::{ArrayRef, UInt64Array};
-    use arrow::datatypes::{DataType, Field, Schema};
-    use std::sync::Arc;
     let mut out = Vec::new();
     for v in job.variants(file)? {
         let model = model_of(&v.job, file)?;
         let schema = CustomSchema::new(&model, columns, job.analysis.exact);
-        let mut fields = vec![Arc::new(Field::new("variant", DataType::UInt64, false))];
-        fields.extend(schema.schema().fields().iter().cloned());
-        let out_schema = Arc::new(Schema::new(fields));
         let source = SampleSource::new(&v.job);
         for &mode in &v.job.analysis.modes {
             let (rows, results) = solve_rows(&model, &source, 0..source.len(), mode);
-            let batch = schema.batch(mode, &rows, &results);
-            let mut columns: Vec<ArrayRef> = vec![Arc::new(UInt64Array::from_value(v.index, batch.num_rows()))];
-            columns.extend(batch.columns().iter().cloned());
-            out.push(RecordBatch::try_new(out_schema.clone(), columns).expect("columns match the schema"));
+            out.push(crate::solve::with_variant(&schema.batch(mode, &rows, &results), v.index));
         }
     }
     Ok(out)

@@ -224,3 +224,16 @@ pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<Recor
     progress.finish();
     Ok(batches)
 }
+
+/// `batch` with a leading `variant` column (UInt64) holding `variant`: a row of
+/// [`solve`]'s output, as a run's part file is read back with its Hive path.
+pub(crate) fn with_variant(batch: &RecordBatch, variant: u64) -> RecordBatch {
+    use arrow::array::{ArrayRef, UInt64Array};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use std::sync::Arc;
+    let mut fields = vec![Arc::new(Field::new("variant", DataType::UInt64, false))];
+    fields.extend(batch.schema().fields().iter().cloned());
+    let mut columns: Vec<ArrayRef> = vec![Arc::new(UInt64Array::from_value(variant, batch.num_rows()))];
+    columns.extend(batch.columns().iter().cloned());
+    RecordBatch::try_new(Arc::new(Schema::new(fields)), columns).expect("columns match the schema")
+}

@@ -65,13 +65,7 @@ fn solve_rows(model: &UpsModel, samples: &[UpsSample], mode: Mode) -> Vec<UpsRes
 /// The poses of a 6-UPS job as record batches, one per (variant, mode), in memory:
 /// a `variant` column, then the columns of a run's part files.
 pub(crate) fn solve_ups(job: &JobSpec, file: &str, columns: ColumnSet) -> Result<Vec<RecordBatch>> {
-    use arrow::array::{ArrayRef, UInt64Array};
-    use arrow::datatypes::{DataType, Field, Schema};
-    use std::sync::Arc;
     let schema = UpsSchema::new(columns, job.analysis.exact);
-    let mut fields = vec![Arc::new(Field::new("variant", DataType::UInt64, false))];
-    fields.extend(schema.schema().fields().iter().cloned());
-    let out_schema = Arc::new(Schema::new(fields));
     let mut out = Vec::new();
     for v in job.variants(file)? {
         let model = UpsModel::from_job(&v.job);
@@ -79,9 +73,7 @@ pub(crate) fn solve_ups(job: &JobSpec, file: &str, columns: ColumnSet) -> Result
         let (rows, samples) = samples(&source, 0..source.len());
         for &mode in &v.job.analysis.modes {
             let batch = schema.batch(mode, &rows, &solve_rows(&model, &samples, mode));
-            let mut columns: Vec<ArrayRef> = vec![Arc::new(UInt64Array::from_value(v.index, batch.num_rows()))];
-            columns.extend(batch.columns().iter().cloned());
-            out.push(RecordBatch::try_new(out_schema.clone(), columns).expect("columns match the schema"));
+            out.push(crate::solve::with_variant(&batch, v.index));
         }
     }
     Ok(out)

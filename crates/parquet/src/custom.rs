@@ -17,21 +17,9 @@ use clearance_solver::Status;
 use clearance_solver::custom::{CustomModel, CustomResult};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS};
 use crate::summary::{Series, SummaryTable, field};
-
-const COORDINATE_UNITS: [&str; 6] = ["m", "m", "m", "rad", "rad", "rad"];
-const ERR_PARTS: [(&str, &str); 9] = [
-    ("x", "m"),
-    ("y", "m"),
-    ("z", "m"),
-    ("rx", "rad"),
-    ("ry", "rad"),
-    ("rz", "rad"),
-    ("phi", "rad"),
-    ("psi", "rad"),
-    ("theta", "rad"),
-];
+use crate::ups::INPUT_UNITS;
 
 /// One sample's identity: its index and its time (trajectories).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -75,7 +63,7 @@ impl CustomSchema {
         let geom = &model.geom;
         // Minimal: the inputs and the total errors; standard adds the parasitic coordinates.
         for &k in &geom.inputs {
-            push(COORDINATES[k].to_string(), COORDINATE_UNITS[k], Box::new(move |r| Some(r.coords[k])));
+            push(COORDINATES[k].to_string(), INPUT_UNITS[k], Box::new(move |r| Some(r.coords[k])));
         }
         for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
             push(
@@ -88,7 +76,7 @@ impl CustomSchema {
             for &k in &geom.parasitic {
                 push(
                     COORDINATES[k].to_string(),
-                    COORDINATE_UNITS[k],
+                    INPUT_UNITS[k],
                     // Known wherever the closure was solved (a joint out of its range too).
                     Box::new(move |r| Some(r.coords[k])),
                 );
@@ -386,7 +374,7 @@ pub fn custom_discontinuity_batch(model: &CustomModel, rows: &[CustomSwitch]) ->
         Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.along))),
         Arc::new(Float64Array::from_iter(rows.iter().map(|d| d.t))),
     ];
-    for (i, (name, unit)) in COORDINATES.iter().zip(COORDINATE_UNITS).enumerate() {
+    for (i, (name, unit)) in COORDINATES.iter().zip(INPUT_UNITS).enumerate() {
         fields.push(field(name, DataType::Float64, true, unit));
         cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.coords[i]).filter(|v| v.is_finite())))));
     }

@@ -97,7 +97,8 @@ pub struct PoseSchema {
 pub(crate) const ENVELOPE_PARTS: [(&str, &str); 8] =
     [("x", "m"), ("y", "m"), ("z", "m"), ("rx", "rad"), ("ry", "rad"), ("rz", "rad"), ("p", "m"), ("alpha", "rad")];
 
-const ERR_PARTS: [(&str, &str); 9] = [
+/// The nine components of an error column: `[Δp; Δα]`, then the Euler-angle errors.
+pub(crate) const ERR_PARTS: [(&str, &str); 9] = [
     ("x", "m"),
     ("y", "m"),
     ("z", "m"),

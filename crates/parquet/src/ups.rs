@@ -18,23 +18,13 @@ use clearance_solver::ups::{UPS_KINDS, UpsResult};
 use clearance_solver::{PoseError, Status};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS};
 use crate::summary::{Series, SummaryTable, field};
 
 /// The six inputs, in the grid's row-major order.
 pub const UPS_INPUTS: [&str; 6] = ["x", "y", "z", "phi", "psi", "theta"];
-const INPUT_UNITS: [&str; 6] = ["m", "m", "m", "rad", "rad", "rad"];
-const ERR_PARTS: [(&str, &str); 9] = [
-    ("x", "m"),
-    ("y", "m"),
-    ("z", "m"),
-    ("rx", "rad"),
-    ("ry", "rad"),
-    ("rz", "rad"),
-    ("phi", "rad"),
-    ("psi", "rad"),
-    ("theta", "rad"),
-];
+/// The units of `x, y, z, phi, psi, theta`.
+pub(crate) const INPUT_UNITS: [&str; 6] = ["m", "m", "m", "rad", "rad", "rad"];
 
 /// One 6-UPS sample's identity: its index, its time (trajectories) and inputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
