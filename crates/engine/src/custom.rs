@@ -282,7 +282,7 @@ fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode)
                 let errors: Vec<Option<[f64; 6]>> = samples.iter().map(|r| r.errors[def.kind]).collect();
                 let at = |p: f64| group_load(&solve_at(p).2, g);
                 if model.scalar(g) {
-                    scalar_switches(path, &loads, &errors, floor, def.limb, &at, &solve_at, &mut out, def.kind);
+                    scalar_switches(path, &loads, &errors, floor, def.limb, &at, &solve_at, &mut out, def.kind, g);
                 } else {
                     let rule = VectorRule { threshold, floor };
                     vector_switches(path, &loads, &errors, &rule, def.kind, def.limb, &at, &solve_at, &mut out);
@@ -309,6 +309,7 @@ fn scalar_switches(
     solve_at: &SolveAt,
     out: &mut Vec<CustomSwitch>,
     kind: usize,
+    group: usize,
 ) {
     let value = |l: &Option<[f64; 3]>| l.map(|v| v[0]).filter(|v| v.abs() > floor);
     for k in 0..loads.len().saturating_sub(1) {
@@ -318,17 +319,14 @@ fn scalar_switches(
         }
         let x = brent_root(k as f64, (k + 1) as f64, a, b, LOCATE_TOL, |p| at(p).map_or(0.0, |v| v[0]));
         let (t, s, r) = solve_at(x);
-        let margin = group_margin(&r, at(x));
+        // |load| of the pose just solved (a scalar load sits in its first component).
+        let margin = group_load(&r, group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
         let jump = match (errors[k], errors[k + 1]) {
             (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
             _ => [f64::NAN; 6],
         };
         out.push(switch(path, limb, kind, t, &s, &r, margin, jump));
     }
-}
-
-fn group_margin(_r: &CustomResult, load: Option<[f64; 3]>) -> f64 {
-    load.map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
 }
 
 #[allow(clippy::too_many_arguments)]
