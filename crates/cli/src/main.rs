@@ -1,6 +1,7 @@
 //! `clearance`: pose errors of a 3-PRS robot due to joint clearances, from a job
 //! file to a Parquet dataset. See README.md and docs/interface.md.
 
+mod allocate;
 mod bench;
 mod check;
 mod progress;
@@ -94,6 +95,40 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// The cheapest clearance of each joint kind for an error budget over every pose
+    /// of the job (its `[allocate]` table: kinds, weights, bounds; docs/model.md §13).
+    Allocate {
+        /// The job file (TOML).
+        job: PathBuf,
+        /// Budget on |Δp| at every pose (m), e.g. 1e-4.
+        #[arg(long, required_unless_present = "budgets", value_parser = parse_budget)]
+        max_dp: Option<f64>,
+        /// Budget on |Δα| at every pose (rad).
+        #[arg(long, value_parser = parse_budget)]
+        max_dalpha: Option<f64>,
+        /// `takeup` (the loads decide each joint's take-up) or `envelope` (any take-up).
+        #[arg(long, default_value = "takeup", value_parser = parse_model)]
+        model: clearance_engine::AllocModel,
+        /// One magnitude per limb of each allocated kind (the job gives each as a list).
+        #[arg(long)]
+        per_limb: bool,
+        /// The trade-off curve instead: budgets on |Δp| (m), comma-separated, e.g. 5e-5,1e-4,2e-4.
+        #[arg(long, value_delimiter = ',', value_parser = parse_budget, conflicts_with = "max_dp")]
+        budgets: Vec<f64>,
+        /// Where to write the answer (default: the current directory); also runs the job
+        /// at the allocated magnitudes into OUT/verify.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print allocation.json on stdout instead of the summary.
+        #[arg(long)]
+        json: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No progress output.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Is the run in DIR (or every shard of it) complete? Exit 0 if so.
     Status { dir: PathBuf },
     /// Solver and end-to-end throughput, poses/s.
@@ -130,6 +165,17 @@ enum Command {
         #[arg(long)]
         job: Option<std::path::PathBuf>,
     },
+}
+
+fn parse_budget(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
+        _ => Err(format!("budget `{s}` is not a positive number (m or rad)")),
+    }
+}
+
+fn parse_model(s: &str) -> Result<clearance_engine::AllocModel, String> {
+    clearance_engine::AllocModel::parse(s).ok_or_else(|| format!("unknown model `{s}`; use takeup or envelope"))
 }
 
 fn parse_solver(s: &str) -> Result<SolverKind, String> {
@@ -331,6 +377,17 @@ fn main() -> ExitCode {
                 }
                 Err(e) => return usage(e),
             }
+        }
+        Command::Allocate { job, max_dp, max_dalpha, model, per_limb, budgets, out, json, threads, quiet } => {
+            if let Err(e) = load_job(&job) {
+                return usage(e);
+            }
+            let mut opts = clearance_engine::AllocateOptions::new(max_dp.unwrap_or(f64::NAN));
+            opts.max_dalpha = max_dalpha;
+            opts.model = model;
+            opts.per_limb = per_limb;
+            let args = allocate::Args { job, opts, budgets, out, json, quiet };
+            init_threads(threads).and_then(|()| allocate::allocate(&args))
         }
         Command::Status { dir } => return status::status(&dir),
         Command::Plot { dir, out } => {

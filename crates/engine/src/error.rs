@@ -30,6 +30,13 @@ pub enum EngineError {
     /// A Parquet or side file could not be written or encoded.
     #[error(transparent)]
     Write(#[from] ParquetError),
+    /// `allocate` was asked for what no magnitudes can give, or what the job cannot
+    /// allocate (the message says which and why).
+    #[error("{0}")]
+    Allocation(String),
+    /// The conic solver of `allocate` stopped without an answer.
+    #[error("the conic solver stopped without an answer: {0}")]
+    Solver(String),
 }
 
 /// Why an output directory cannot take a run. The messages name the command
@@ -55,7 +62,10 @@ impl EngineError {
     /// Whether the error is the caller's (a bad job or output directory: exit code
     /// 2 in the binary) rather than the machine's.
     pub fn is_usage(&self) -> bool {
-        matches!(self, EngineError::Job(_) | EngineError::OutputDir(_) | EngineError::Samples(_))
+        matches!(
+            self,
+            EngineError::Job(_) | EngineError::OutputDir(_) | EngineError::Samples(_) | EngineError::Allocation(_)
+        )
     }
 
     pub(crate) fn io(action: &'static str, path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> Self {

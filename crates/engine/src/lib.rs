@@ -27,6 +27,7 @@
 //! assert!(batches[0].schema().field_with_name("err_z").is_ok());
 //! ```
 
+mod allocate;
 mod custom;
 mod describe;
 mod error;
@@ -42,6 +43,7 @@ mod solve;
 mod status;
 mod ups;
 
+pub use allocate::{AllocModel, AllocateOptions, Allocation, Binding, Variable, allocate, allocate_budgets};
 pub use describe::describe;
 pub use error::{EngineError, OutputDirError};
 pub use estimate::{Calibration, Estimate, calibration_dir, estimate, scaled};

@@ -33,6 +33,25 @@ pub struct JobSpec {
     pub trajectory: Option<TrajectorySpec>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sweep: Vec<SweepSpec>,
+    /// What `clearance allocate` chooses and what it costs; `run` ignores it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub allocate: Option<AllocateSpec>,
+}
+
+/// `[allocate]`: the clearance kinds `clearance allocate` chooses, the weight of each
+/// in the cost `Σ w_k / c_k`, and bounds on each magnitude (m or rad). Keys name
+/// `[clearance]` keys; no `kinds` means every kind the job gives a magnitude.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AllocateSpec {
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub kinds: Vec<String>,
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub weights: std::collections::BTreeMap<String, f64>,
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub min: std::collections::BTreeMap<String, f64>,
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub max: std::collections::BTreeMap<String, f64>,
 }
 
 /// External wrench on the platform.
@@ -139,6 +158,60 @@ impl ClearanceSpec {
         self.custom = kind == MechanismKind::Custom;
         if !self.custom {
             self.given.retain(|(_, m)| matches!(m, Magnitude::PerLimb(_)));
+        }
+    }
+
+    /// The `[clearance]` keys of a job of `kind` that hold a magnitude: a custom
+    /// mechanism's given keys, a built-in kind's keys with a non-zero magnitude.
+    pub fn keys(&self, kind: MechanismKind) -> Vec<String> {
+        if kind == MechanismKind::Custom {
+            return self.given.iter().map(|(k, _)| k.clone()).collect();
+        }
+        kind.clearance_keys()
+            .iter()
+            .filter(|k| self.magnitude(k).is_some_and(|m| m != Magnitude::All(0.0)))
+            .map(|k| k.to_string())
+            .collect()
+    }
+
+    /// The magnitude `key` holds: a custom group's as given, a built-in kind's
+    /// field (`None` for a key the job does not know).
+    pub fn magnitude(&self, key: &str) -> Option<Magnitude> {
+        if let Some((_, m)) = self.given.iter().find(|(k, _)| k == key) {
+            return Some(m.clone());
+        }
+        if self.custom {
+            return None;
+        }
+        Some(Magnitude::All(match key {
+            "s_radial" => self.s_radial,
+            "r_radial" => self.r_radial,
+            "r_axial" => self.r_axial,
+            "r_angular" => self.r_angular,
+            "u_radial" => self.u_radial,
+            "u_angular" => self.u_angular,
+            _ => return None,
+        }))
+    }
+
+    /// Sets `key`'s magnitude: a built-in kind's field (a number), or a custom
+    /// group's entry of [`Self::given`] (added last if the job had none).
+    pub fn set(&mut self, key: &str, value: Magnitude) {
+        if let Magnitude::All(v) = value {
+            match key {
+                "s_radial" => self.s_radial = v,
+                "r_radial" => self.r_radial = v,
+                "r_axial" => self.r_axial = v,
+                "r_angular" => self.r_angular = v,
+                "u_radial" => self.u_radial = v,
+                "u_angular" => self.u_angular = v,
+                _ => {}
+            }
+        }
+        match self.given.iter_mut().find(|(k, _)| k == key) {
+            Some(entry) => entry.1 = value,
+            None if self.custom => self.given.push((key.to_string(), value)),
+            None => {}
         }
     }
 
@@ -719,6 +792,9 @@ impl JobSpec {
                 finite(file, &format!("sweep.{i}.values.{k}"), *v)?;
             }
         }
+        if let Some(a) = &self.allocate {
+            self.validate_allocate(file, a)?;
+        }
         // Checked before anything is expanded or counted in u64.
         let variants = self.variant_count();
         if variants > crate::sweep::MAX_VARIANTS {
@@ -744,6 +820,51 @@ impl JobSpec {
 }
 
 impl JobSpec {
+    /// `[allocate]`: kinds the mechanism has (each once), and weights and bounds of
+    /// allocated kinds only, each in its range.
+    fn validate_allocate(&self, file: &str, a: &AllocateSpec) -> Result<(), JobError> {
+        let err = |key: &str, reason: String| Err(JobError::new(file, key, reason));
+        let kind = self.mechanism.kind;
+        let known: Vec<String> = if kind == MechanismKind::Custom {
+            self.clearance.given.iter().map(|(k, _)| k.clone()).collect()
+        } else {
+            kind.clearance_keys().iter().map(|k| k.to_string()).collect()
+        };
+        for (i, k) in a.kinds.iter().enumerate() {
+            if !known.contains(k) {
+                let what = if kind == MechanismKind::Custom { "keys of [clearance]" } else { "clearance kinds" };
+                return err(&format!("allocate.kinds.{i}"), format!("{k:?} is not one of the job's {what}: {}", known.join(", ")));
+            }
+            if a.kinds[..i].contains(k) {
+                return err(&format!("allocate.kinds.{i}"), format!("{k:?} is listed twice"));
+            }
+        }
+        let allocated = if a.kinds.is_empty() { self.clearance.keys(kind) } else { a.kinds.clone() };
+        for (table, values) in [("weights", &a.weights), ("min", &a.min), ("max", &a.max)] {
+            for (k, &v) in values {
+                let key = format!("allocate.{table}.{k}");
+                if !allocated.contains(k) {
+                    return err(&key, format!("names no allocated kind (allocated: {})", allocated.join(", ")));
+                }
+                let ok = match table {
+                    "weights" | "max" => v.is_finite() && v > 0.0,
+                    _ => v.is_finite() && v >= 0.0,
+                };
+                if !ok {
+                    let what = if table == "weights" { "a positive cost weight" } else { "a magnitude in m or rad" };
+                    let bound = if table == "min" { "non-negative" } else { "positive" };
+                    return err(&key, format!("must be {bound}, {what}, got {v:?}"));
+                }
+            }
+        }
+        for (k, lo) in &a.min {
+            if let Some(hi) = a.max.get(k).filter(|&&hi| hi <= *lo) {
+                return err(&format!("allocate.max.{k}"), format!("{hi:?} is not above allocate.min.{k} = {lo:?}"));
+            }
+        }
+        Ok(())
+    }
+
     /// `[mechanism]` and the limb masses: the keys of the job's kind only, each in
     /// its physical range.
     fn validate_mechanism(&self, file: &str) -> Result<(), JobError> {

@@ -7,7 +7,18 @@ use crate::mechanism::{MECHANISM_KINDS, MechanismKind};
 /// The allowed keys of each table, by dotted path with list indices as `*`.
 fn allowed(path: &str) -> Option<&'static [&'static str]> {
     Some(match path {
-        "" => &["name", "mechanism", "mass", "load", "clearance", "analysis", "grid", "trajectory", "sweep"],
+        "" => &[
+            "name",
+            "mechanism",
+            "mass",
+            "load",
+            "clearance",
+            "analysis",
+            "grid",
+            "trajectory",
+            "sweep",
+            "allocate",
+        ],
         // Every kind's keys; a key of another kind than the job's is refused after.
         "mechanism" => &[
             "kind",
@@ -56,6 +67,7 @@ fn allowed(path: &str) -> Option<&'static [&'static str]> {
         | "trajectory.psi.harmonics.*"
         | "trajectory.theta.harmonics.*" => &["amplitude", "period", "phase"],
         "sweep.*" => &["param", "values"],
+        "allocate" => &["kinds", "weights", "min", "max"],
         _ => return None,
     })
 }

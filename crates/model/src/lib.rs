@@ -31,7 +31,7 @@ mod sweep;
 
 pub use error::JobError;
 pub use job::{
-    AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, Mode, RangeSpec, SamplesSpec,
+    AllocateSpec, AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, Mode, RangeSpec, SamplesSpec,
     SweepSpec, TrajectorySpec,
 };
 pub use kinds::{ClearanceKind, KINDS, joint_label, joint_name};

@@ -51,6 +51,7 @@ mod error_map;
 mod figure;
 mod run_dir;
 mod switches;
+mod tradeoff;
 mod trajectory;
 
 use std::path::{Path, PathBuf};
@@ -61,6 +62,7 @@ use clearance_model::{MechanismKind, Variant};
 pub use dominant_map::dominant_colour;
 pub use error::PlotError;
 pub use error_map::MAP_SIZE;
+pub use tradeoff::{TRADEOFF_SIZE, plot_tradeoff};
 pub use trajectory::ERROR_SIZE;
 
 use figure::{COMPONENTS, ENVELOPE_COMPONENTS, Source, clearance_of};
