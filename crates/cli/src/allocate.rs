@@ -64,7 +64,8 @@ fn summary(job: &str, a: &Allocation) -> String {
         s.push_str(&format!("largest |Δα| at these magnitudes: {:.6} µrad\n", r * 1e6));
     }
     if let Some(b) = a.binding.first() {
-        let at: Vec<String> = b.coords.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+        let at: Vec<String> =
+            b.coords.iter().map(|(k, v)| format!("{k} = {}", clearance_engine::short_coordinate(*v))).collect();
         s.push_str(&format!(
             "{} binding poses; the costliest ({}): variant {} {} sample {} ({})\n",
             a.binding.len(),

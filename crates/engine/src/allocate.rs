@@ -692,8 +692,15 @@ fn coords(data: &Data, p: usize) -> Vec<(String, f64)> {
 
 fn pose_name(data: &Data, p: usize) -> String {
     let (variant, mode, sample) = data.ids[p];
-    let c: Vec<String> = coords(data, p).iter().map(|(k, v)| format!("{k} = {v}")).collect();
+    let c: Vec<String> = coords(data, p).iter().map(|(k, v)| format!("{k} = {}", short(*v))).collect();
     format!("variant {variant} {} sample {sample} ({})", mode.name(), c.join(", "))
+}
+
+/// A coordinate for a message: six decimals at most, round-off shown as 0.
+pub fn short(v: f64) -> String {
+    let s = format!("{:.6}", if v.abs() < 5e-7 { 0.0 } else { v });
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
 }
 
 /// The magnitudes scaled down (towards the lower bounds) until no pose exceeds its
@@ -858,6 +865,8 @@ fn collect(
         let mut solved: Vec<Vec<RecordBatch>> = Vec::new();
         for (set, _) in solves {
             let mut vjob = v.job.clone();
+            // Its magnitudes are no longer the ones `[allocate]` was checked against.
+            vjob.allocate = None;
             for (k, m) in set {
                 vjob.clearance.set(k, m.clone());
             }
