@@ -30,7 +30,7 @@ import pyarrow as pa
 from . import _clearance
 from ._clearance import JobError
 
-__all__ = ["JobError", "solve", "run", "check", "plot", "__version__"]
+__all__ = ["JobError", "solve", "run", "check", "allocate", "plot", "__version__"]
 __version__ = _clearance.__version__
 
 Job = Union[str, "os.PathLike[str]", Mapping[str, Any]]
@@ -324,6 +324,72 @@ def check(job: Job) -> dict:
     ``TypeError``); a job that is not valid raises :class:`JobError`."""
     kind, value = _job(job)
     return json.loads(_clearance.check(kind, value))
+
+
+def _budget(name: str, value: Any) -> float:
+    """A budget: a positive, finite real number (m or rad)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a positive real number, got {_type(value)}")
+    value = float(value)
+    if not (value > 0.0 and np.isfinite(value)):
+        raise ValueError(f"{name} must be a positive real number, got {value!r}")
+    return value
+
+
+def allocate(
+    job: Job,
+    max_dp: float,
+    *,
+    max_dalpha: Optional[float] = None,
+    model: str = "takeup",
+    per_limb: bool = False,
+    threads: Optional[int] = None,
+    progress: Union[bool, Callable[[int, int], Any], None] = None,
+) -> dict:
+    """The cheapest clearance magnitudes for an error budget: ``clearance allocate``
+    in memory (docs/model.md §13, docs/interface.md "clearance allocate").
+
+    Minimises ``Σ w_k / c_k`` over the kinds of the job's ``[allocate]`` table
+    (its weights and bounds) so that ``|Δp| <= max_dp`` (and ``|Δα| <= max_dalpha``)
+    at every ``ok`` or ``indeterminate_contact`` pose of every variant and mode.
+    Returns the content of ``allocation.json`` as a dict: ``magnitudes``,
+    ``fixed``, ``cost``, ``shadow_price_per_um``, ``largest_dp``, ``binding`` (the
+    poses where the budget binds, with their dual values), ``clearance`` (the whole
+    table at the answer) and the rest.
+
+    - ``job``: as for :func:`solve`.
+    - ``max_dp`` (m), ``max_dalpha`` (rad, or ``None``): positive real numbers.
+    - ``model``: ``"takeup"`` (the loads decide each take-up) or ``"envelope"``
+      (any take-up).
+    - ``per_limb``: ``True`` allocates each limb's joint its own magnitude (the
+      job gives each allocated kind as a list of one value per limb).
+    - ``threads``, ``progress``: as for :func:`solve`.
+
+    A budget no magnitudes can meet (the kinds not allocated already exceed it,
+    or the bounds forbid it) raises ``ValueError`` with the reason.
+    """
+    kind, value = _job(job)
+    max_dp = _budget("max_dp", max_dp)
+    if max_dalpha is not None:
+        max_dalpha = _budget("max_dalpha", max_dalpha)
+    model = _name("model", model, ("takeup", "envelope"))
+    per_limb = _flag("per_limb", per_limb)
+    threads = _threads(threads)
+    callback, close = _progress(progress, "allocate")
+    try:
+        text = _clearance.allocate(
+            kind,
+            value,
+            max_dp,
+            max_dalpha=max_dalpha,
+            model=model,
+            per_limb=per_limb,
+            threads=threads,
+            progress=callback,
+        )
+    finally:
+        close()
+    return json.loads(text)
 
 
 def plot(dir: Union[str, "os.PathLike[str]"], out: Union[str, "os.PathLike[str]", None] = None) -> Sequence[str]:

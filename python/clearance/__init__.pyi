@@ -73,6 +73,20 @@ def run(
 def check(job: Job) -> dict[str, Any]:
     """The plan of ``job``, as ``clearance check`` prints it."""
 
+def allocate(
+    job: Job,
+    max_dp: float,
+    *,
+    max_dalpha: Optional[float] = None,
+    model: str = "takeup",
+    per_limb: bool = False,
+    threads: Optional[int] = None,
+    progress: Progress = None,
+) -> dict[str, Any]:
+    """The cheapest magnitudes of the job's ``[allocate]`` kinds for the budget, as
+    ``allocation.json``. ``model``: takeup or envelope; an infeasible budget raises
+    ``ValueError`` with the reason."""
+
 def plot(dir: Union[str, os.PathLike[str]], out: Union[str, os.PathLike[str], None] = None) -> Sequence[str]:
     """The figures of the finished run in ``dir`` (a folder holding one, else
     ``ValueError``) written into the folder ``out``; the paths written."""

@@ -149,7 +149,7 @@ fn to_py(e: EngineError) -> PyErr {
     match e {
         EngineError::Job(_) => JobError::new_err(with_causes(&e)),
         EngineError::OutputDir(e) => PyValueError::new_err(out_dir_message(&e)),
-        EngineError::Samples(_) => PyValueError::new_err(with_causes(&e)),
+        EngineError::Samples(_) | EngineError::Allocation(_) => PyValueError::new_err(with_causes(&e)),
         EngineError::MissingStats { path, source } => {
             PyOSError::new_err(format!("missing {}: finish the run with resume=True: {source}", path.display()))
         }
@@ -431,12 +431,42 @@ fn cap_isa(name: &str) -> PyResult<()> {
     Ok(())
 }
 
+/// `clearance allocate` in memory: `allocation.json` as text.
+#[pyfunction]
+#[pyo3(signature = (kind, value, max_dp, max_dalpha=None, model="takeup", per_limb=false, threads=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn allocate(
+    py: Python<'_>,
+    kind: &str,
+    value: &str,
+    max_dp: f64,
+    max_dalpha: Option<f64>,
+    model: &str,
+    per_limb: bool,
+    threads: Option<usize>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<String> {
+    let job = cached_job(kind, value)?;
+    let model = clearance_engine::AllocModel::parse(model).ok_or_else(|| {
+        PyValueError::new_err(format!("model must be {}, got {model:?}", one_of(&["takeup", "envelope"])))
+    })?;
+    let mut opts = clearance_engine::AllocateOptions::new(max_dp);
+    opts.max_dalpha = max_dalpha;
+    opts.model = model;
+    opts.per_limb = per_limb;
+    opts.progress = PyProgress::reporter(progress);
+    let a =
+        py.detach(|| on_pool(threads, || clearance_engine::allocate(&job.spec, &job.file, &opts)))?.map_err(to_py)?;
+    Ok(a.to_json().to_string())
+}
+
 #[pymodule]
 fn _clearance(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("JobError", m.py().get_type::<JobError>())?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(check, m)?)?;
+    m.add_function(wrap_pyfunction!(allocate, m)?)?;
     m.add_function(wrap_pyfunction!(plot, m)?)?;
     m.add_function(wrap_pyfunction!(cap_isa, m)?)?;
     m.add_function(wrap_pyfunction!(dict_toml, m)?)?;

@@ -245,3 +245,40 @@ def test_two_solves_in_threads_overlap():
     span = {k: (tags.index(k), len(tags) - 1 - tags[::-1].index(k)) for k in (0, 1)}
     overlap = span[0][0] < span[1][1] and span[1][0] < span[0][1]
     assert overlap, f"the calls did not overlap: {tags}"
+
+
+def test_allocate_equals_the_cli_and_meets_the_budget(tmp_path):
+    """clearance.allocate gives the CLI's allocation.json; the budget holds at every
+    ok pose of a solve at the answer; an impossible budget raises ValueError."""
+    job = {
+        "mass": {"points": [{"mass": 30.0, "at": [0.0, 0.0, 1.0]}]},
+        "clearance": {"s_radial": 1e-5, "r_radial": 1e-5, "r_axial": 1e-5, "r_angular": 1e-5},
+        "grid": {"z": 2.05, "psi": {"start": -0.5, "stop": 0.5, "n": 11}, "theta": {"start": -0.5, "stop": 0.5, "n": 11}},
+        "allocate": {"kinds": ["r_radial", "r_axial"], "weights": {"r_radial": 1.0, "r_axial": 3.0}},
+    }
+    a = clearance.allocate(job, 1e-4)
+    path = tmp_path / "job.toml"
+    path.write_text(clearance._clearance.dict_toml(job))
+    cli = subprocess.run(
+        ["cargo", "run", "-q", "-p", "clearance-cli", "--", "allocate", str(path), "--max-dp", "1e-4", "--json", "-q"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
+    assert cli.returncode == 0, cli.stderr
+    import json
+
+    b = json.loads(cli.stdout)
+    assert a["cost"] == b["cost"] and a["magnitudes"] == b["magnitudes"]
+    assert (tmp_path / "allocation.toml").exists() and (tmp_path / "allocation.json").exists()
+    # At the answer (kept kinds s_radial and r_angular at 1e-5), every ok pose is in budget.
+    at = dict(job, clearance=dict(job["clearance"], **a["magnitudes"]))
+    del at["allocate"]
+    t = clearance.solve(at)
+    ok = np.array(t.column("status").to_pylist()) == "ok"
+    dp = np.sqrt(sum(t.column(f"err_{c}").to_numpy(zero_copy_only=False) ** 2 for c in "xyz"))[ok]
+    assert dp.max() <= 1e-4 * (1 + 1e-9)
+    with pytest.raises(ValueError, match="not allocated"):
+        clearance.allocate(job, 1e-7)
+    with pytest.raises(ValueError, match="model"):
+        clearance.allocate(job, 1e-4, model="worst")

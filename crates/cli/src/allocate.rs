@@ -52,10 +52,7 @@ fn summary(job: &str, a: &Allocation) -> String {
     for (k, m) in &a.fixed {
         s.push_str(&format!("  {k:<20} {}   (kept)\n", magnitude_text(m)));
     }
-    s.push_str(&format!(
-        "cost Σ w/c = {:.6e}; one more µm of budget saves {:.6e}\n",
-        a.cost, a.shadow_price_per_um
-    ));
+    s.push_str(&format!("cost Σ w/c = {:.6e}; one more µm of budget saves {:.6e}\n", a.cost, a.shadow_price_per_um));
     if let Some(p) = a.shadow_price_alpha_per_urad {
         s.push_str(&format!("one more µrad of the |Δα| budget saves {p:.6e}\n"));
     }
@@ -123,13 +120,7 @@ pub fn allocate(args: &Args) -> anyhow::Result<()> {
         match a {
             Ok(a) => {
                 let mags: Vec<String> = a.magnitudes().iter().map(|(_, m)| magnitude_text(m)).collect();
-                csv.push_str(&format!(
-                    "{},{},{},{}",
-                    b * 1e6,
-                    a.cost,
-                    a.shadow_price_per_um,
-                    a.largest_dp * 1e6
-                ));
+                csv.push_str(&format!("{},{},{},{}", b * 1e6, a.cost, a.shadow_price_per_um, a.largest_dp * 1e6));
                 for m in &mags {
                     csv.push_str(&format!(",\"{m}\""));
                 }

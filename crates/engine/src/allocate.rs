@@ -27,7 +27,7 @@ use serde_json::{Value, json};
 
 use crate::error::EngineError;
 use crate::progress::Reporter;
-use crate::solve::{SolveOptions, solve};
+use crate::solve::{SolveOptions, solve_range};
 
 type Result<T> = std::result::Result<T, EngineError>;
 
@@ -187,9 +187,8 @@ impl Allocation {
             Magnitude::All(v) => json!(v),
             Magnitude::PerLimb(l) => json!(l),
         };
-        let map = |list: &[(String, Magnitude)]| {
-            Value::Object(list.iter().map(|(k, m)| (k.clone(), magnitude(m))).collect())
-        };
+        let map =
+            |list: &[(String, Magnitude)]| Value::Object(list.iter().map(|(k, m)| (k.clone(), magnitude(m))).collect());
         let mut weights = serde_json::Map::new();
         let (mut min, mut max) = (serde_json::Map::new(), serde_json::Map::new());
         for v in &self.variables {
@@ -431,7 +430,7 @@ impl Problem {
     /// Every pose's constraints, from solves of every variant of the job.
     fn collect(&self, job: &JobSpec, file: &str, scale: f64, progress: &Reporter) -> Result<Data> {
         let solves = self.solves(scale);
-        collect(job, file, self, &solves, scale, progress)
+        collect(job, file, self, &solves, scale, progress, CHUNK)
     }
 
     /// Refuses a variable that moves the platform at no pose: with no upper bound,
@@ -534,7 +533,14 @@ impl Problem {
 
     /// Why no magnitudes meet the budget: the kept kinds alone, the lower bounds, or
     /// else the poses that conflict.
-    fn infeasible(&self, data: &Data, budget: f64, betas: &[f64], lo: &[f64], active: &[(usize, usize)]) -> EngineError {
+    fn infeasible(
+        &self,
+        data: &Data,
+        budget: f64,
+        betas: &[f64],
+        lo: &[f64],
+        active: &[(usize, usize)],
+    ) -> EngineError {
         let worst = |x: &[f64]| {
             let mut w = (0.0, 0, 0);
             for b in 0..data.budgets {
@@ -548,7 +554,13 @@ impl Problem {
             w
         };
         let what = |b: usize| if b == 0 { "|Δp|" } else { "|Δα|" };
-        let limit = |b: usize| if b == 0 { format!("max_dp = {budget:e} m") } else { format!("max_dalpha = {:e} rad", self.max_dalpha.unwrap_or(0.0)) };
+        let limit = |b: usize| {
+            if b == 0 {
+                format!("max_dp = {budget:e} m")
+            } else {
+                format!("max_dalpha = {:e} rad", self.max_dalpha.unwrap_or(0.0))
+            }
+        };
         let (r0, p0, b0) = worst(&vec![0.0; data.n]);
         if r0 > 1.0 {
             let kept: Vec<&str> = self.fixed.iter().map(|(k, _)| k.as_str()).collect();
@@ -598,7 +610,8 @@ impl Problem {
             fixed: clearance.clone(),
             keys: self.keys.clone(),
         };
-        let verify = collect(job, file, &check, &[(clearance.clone(), Vec::new())], data.scale, &Reporter::default())?;
+        let verify =
+            collect(job, file, &check, &[(clearance.clone(), Vec::new())], data.scale, &Reporter::default(), CHUNK)?;
         let largest = |b: usize| (0..verify.len()).map(|p| verify.value(p, b, &[])).fold(0.0, f64::max) * verify.scale;
         let largest_dalpha = self.max_dalpha.map(|_| largest(1));
         let betas = self.betas(data, budget);
@@ -682,12 +695,7 @@ fn top(n: usize, count: usize, f: impl Fn(usize) -> f64) -> Vec<usize> {
 
 fn coords(data: &Data, p: usize) -> Vec<(String, f64)> {
     let c = &data.coords[p * COORDS.len()..(p + 1) * COORDS.len()];
-    data.coord_names
-        .iter()
-        .zip(c)
-        .filter(|(_, v)| v.is_finite())
-        .map(|(k, v)| (k.to_string(), *v))
-        .collect()
+    data.coord_names.iter().zip(c).filter(|(_, v)| v.is_finite()).map(|(k, v)| (k.to_string(), *v)).collect()
 }
 
 fn pose_name(data: &Data, p: usize) -> String {
@@ -839,10 +847,10 @@ fn collect(
     solves: &[(Vec<(String, Magnitude)>, Vec<usize>)],
     scale: f64,
     progress: &Reporter,
+    chunk: u64,
 ) -> Result<Data> {
     let n = problem.vars.len();
     let budgets = 1 + problem.max_dalpha.is_some() as usize;
-    let s = stride(n);
     let variants = job.variants(file)?;
     let progress = progress.get();
     let per = job.sample_count() * job.analysis.modes.len() as u64;
@@ -858,70 +866,98 @@ fn collect(
         coords: Vec::new(),
         skipped: 0,
     };
-    let envelope = problem.model == AllocModel::Envelope;
+    // The group's jobs of each variant, solved a chunk of samples at a time: memory
+    // holds one chunk's columns, not the job's.
+    let samples = job.sample_count();
     for v in &variants {
         progress.stage(&format!("variant {}", v.index));
-        // One solve's batches (a batch per mode) per entry of `solves`.
-        let mut solved: Vec<Vec<RecordBatch>> = Vec::new();
-        for (set, _) in solves {
-            let mut vjob = v.job.clone();
-            // Its magnitudes are no longer the ones `[allocate]` was checked against.
-            vjob.allocate = None;
-            for (k, m) in set {
-                vjob.clearance.set(k, m.clone());
-            }
+        let jobs: Vec<JobSpec> = solves
+            .iter()
+            .map(|(set, _)| {
+                let mut vjob = v.job.clone();
+                // Its magnitudes are no longer the ones `[allocate]` was checked against.
+                vjob.allocate = None;
+                for (k, m) in set {
+                    vjob.clearance.set(k, m.clone());
+                }
+                vjob
+            })
+            .collect();
+        for start in (0..samples).step_by(chunk as usize) {
+            let chunk = start..(start + chunk).min(samples);
             let opts = SolveOptions { columns: ColumnSet::Standard, ..SolveOptions::default() };
-            solved.push(solve(&vjob, file, &opts)?);
-            done += per;
-            progress.advance(per, done);
-        }
-        for m in 0..solved[0].len() {
-            let batches: Vec<&RecordBatch> = solved.iter().map(|s| &s[m]).collect();
-            let rows = batches[0].num_rows();
-            if rows == 0 {
-                continue;
-            }
-            let mode = match str_col(batches[0], "mode").value(0) {
-                "dynamic" => Mode::Dynamic,
-                _ => Mode::Kinetostatic,
-            };
-            let sample = batches[0].column_by_name("sample").and_then(|c| c.as_any().downcast_ref::<UInt64Array>());
-            let statuses: Vec<&StringArray> = batches.iter().map(|b| str_col(b, "status")).collect();
-            let coords: Vec<Option<&Float64Array>> = COORDS.iter().map(|c| f64_col(batches[0], c)).collect();
-            let mut row = vec![0.0; s];
-            for i in 0..rows {
-                if !statuses.iter().all(|st| matches!(st.value(i), "ok" | "indeterminate_contact")) {
-                    data.skipped += 1;
-                    continue;
-                }
-                for (parts, env) in [(P_PARTS, "p"), (A_PARTS, "alpha")].into_iter().take(budgets) {
-                    row.fill(0.0);
-                    // The kept kinds, from the first solve.
-                    for (k, _) in &problem.fixed {
-                        let (e, lin) = kind_at(batches[0], k, &parts, env, i, envelope)?;
-                        for c in 0..3 {
-                            row[c] += e[c] / scale;
-                        }
-                        row[3] += lin / scale;
-                    }
-                    for (batch, (_, vars)) in batches.iter().zip(solves) {
-                        for &k in vars {
-                            let (e, lin) = kind_at(batch, &problem.vars[k].kind, &parts, env, i, envelope)?;
-                            for c in 0..3 {
-                                row[4 + c * n + k] = e[c] / scale;
-                            }
-                            row[4 + 3 * n + k] = lin / scale;
-                        }
-                    }
-                    data.values.extend_from_slice(&row);
-                }
-                data.ids.push((v.index, mode, sample.map_or(i as u64, |s| s.value(i))));
-                data.coords.extend(coords.iter().map(|c| c.filter(|c| c.is_valid(i)).map_or(f64::NAN, |c| c.value(i))));
-            }
+            let solved: Vec<Vec<RecordBatch>> =
+                jobs.iter().map(|j| solve_range(j, file, &opts, Some(chunk.clone()))).collect::<Result<_>>()?;
+            let poses = (chunk.end - chunk.start) * job.analysis.modes.len() as u64 * jobs.len() as u64;
+            done += poses;
+            progress.advance(poses, done);
+            read_chunk(&mut data, problem, solves, &solved, v.index)?;
         }
     }
     progress.finish();
     Ok(data)
+}
+
+/// Samples solved at a time by [`collect`].
+const CHUNK: u64 = 1 << 16;
+
+/// The constraints of one chunk's poses (`solved`: per entry of `solves`, a batch per
+/// mode) appended to `data`.
+fn read_chunk(
+    data: &mut Data,
+    problem: &Problem,
+    solves: &[(Vec<(String, Magnitude)>, Vec<usize>)],
+    solved: &[Vec<RecordBatch>],
+    variant: u64,
+) -> Result<()> {
+    let (n, budgets, scale) = (data.n, data.budgets, data.scale);
+    let s = stride(n);
+    let envelope = problem.model == AllocModel::Envelope;
+    for m in 0..solved[0].len() {
+        let batches: Vec<&RecordBatch> = solved.iter().map(|s| &s[m]).collect();
+        let rows = batches[0].num_rows();
+        if rows == 0 {
+            continue;
+        }
+        let mode = match str_col(batches[0], "mode").value(0) {
+            "dynamic" => Mode::Dynamic,
+            _ => Mode::Kinetostatic,
+        };
+        let sample = batches[0].column_by_name("sample").and_then(|c| c.as_any().downcast_ref::<UInt64Array>());
+        let statuses: Vec<&StringArray> = batches.iter().map(|b| str_col(b, "status")).collect();
+        let coords: Vec<Option<&Float64Array>> = COORDS.iter().map(|c| f64_col(batches[0], c)).collect();
+        let mut row = vec![0.0; s];
+        for i in 0..rows {
+            if !statuses.iter().all(|st| matches!(st.value(i), "ok" | "indeterminate_contact")) {
+                data.skipped += 1;
+                continue;
+            }
+            for (parts, env) in [(P_PARTS, "p"), (A_PARTS, "alpha")].into_iter().take(budgets) {
+                row.fill(0.0);
+                // The kept kinds, from the first solve.
+                for (k, _) in &problem.fixed {
+                    let (e, lin) = kind_at(batches[0], k, &parts, env, i, envelope)?;
+                    for c in 0..3 {
+                        row[c] += e[c] / scale;
+                    }
+                    row[3] += lin / scale;
+                }
+                for (batch, (_, vars)) in batches.iter().zip(solves) {
+                    for &k in vars {
+                        let (e, lin) = kind_at(batch, &problem.vars[k].kind, &parts, env, i, envelope)?;
+                        for c in 0..3 {
+                            row[4 + c * n + k] = e[c] / scale;
+                        }
+                        row[4 + 3 * n + k] = lin / scale;
+                    }
+                }
+                data.values.extend_from_slice(&row);
+            }
+            data.ids.push((variant, mode, sample.map_or(i as u64, |s| s.value(i))));
+            data.coords.extend(coords.iter().map(|c| c.filter(|c| c.is_valid(i)).map_or(f64::NAN, |c| c.value(i))));
+        }
+    }
+    Ok(())
 }
 
 fn f64_col<'a>(batch: &'a RecordBatch, name: &str) -> Option<&'a Float64Array> {
@@ -935,8 +971,17 @@ fn str_col<'a>(batch: &'a RecordBatch, name: &str) -> &'a StringArray {
 /// Kind `k`'s error at row `i` (`parts` of `err_<k>_*`) and its linear part: under
 /// the take-up model the envelope `env_<k>_<env>` where the take-up is
 /// indeterminate (the error is null there), under the envelope model always.
-fn kind_at(batch: &RecordBatch, k: &str, parts: &[&str; 3], env: &str, i: usize, envelope: bool) -> Result<([f64; 3], f64)> {
-    let missing = |c: &str| EngineError::Allocation(format!("the job's output has no column {c}: {k} is no clearance kind of it"));
+fn kind_at(
+    batch: &RecordBatch,
+    k: &str,
+    parts: &[&str; 3],
+    env: &str,
+    i: usize,
+    envelope: bool,
+) -> Result<([f64; 3], f64)> {
+    let missing = |c: &str| {
+        EngineError::Allocation(format!("the job's output has no column {c}: {k} is no clearance kind of it"))
+    };
     let env_name = format!("env_{k}_{env}");
     let bound = f64_col(batch, &env_name).ok_or_else(|| missing(&env_name))?;
     let bound = if bound.is_valid(i) { bound.value(i) } else { 0.0 };
@@ -953,4 +998,46 @@ fn kind_at(batch: &RecordBatch, k: &str, parts: &[&str; 3], env: &str, i: usize,
         e[c] = col.value(i);
     }
     Ok((e, 0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A job read a few samples at a time gives the constraints of the whole job at
+    /// once, pose for pose (a 3-limb grid in two modes' worth of variants, a 6-UPS).
+    #[test]
+    fn chunks_give_the_constraints_of_the_whole_job() {
+        let prs = "[clearance]\ns_radial = 1e-5\nr_radial = 2e-5\nr_axial = 1e-5\n\
+            [mass]\npoints = [ { mass = 30.0, at = [0.0, 0.0, 1.0] } ]\n\
+            [grid]\nz = 2.05\npsi = { start = -0.5, stop = 0.5, n = 7 }\ntheta = { start = -0.5, stop = 0.5, n = 5 }\n\
+            [[sweep]]\nparam = \"mass.platform\"\nvalues = [9.8, 30.0]\n\
+            [allocate]\nkinds = [\"r_radial\", \"s_radial\"]\n";
+        let ups = "[mechanism]\nkind = \"6-UPS\"\n[clearance]\ns_radial = 1e-5\nu_radial = 1e-5\n\
+            [grid]\nx = { start = -0.1, stop = 0.1, n = 5 }\ny = { start = -0.1, stop = 0.1, n = 5 }\nz = 0.7\n\
+            phi = 0.0\npsi = 0.1\ntheta = 0.0\n";
+        for text in [prs, ups] {
+            let job = JobSpec::from_toml_str(text, "job.toml").unwrap();
+            let mut opts = AllocateOptions::new(1e-4);
+            opts.max_dalpha = Some(1e-4);
+            let problem = Problem::new(&job, "job.toml", &opts).unwrap();
+            let solves = problem.solves(1e-4);
+            let go = |chunk| collect(&job, "job.toml", &problem, &solves, 1e-4, &Reporter::default(), chunk).unwrap();
+            let (whole, pieces) = (go(CHUNK), go(4));
+            assert!(whole.len() > 20);
+            let order = |d: &Data| {
+                let mut ids: Vec<usize> = (0..d.len()).collect();
+                ids.sort_by_key(|&p| (d.ids[p].0, d.ids[p].1 == Mode::Dynamic, d.ids[p].2));
+                ids
+            };
+            let (a, b) = (order(&whole), order(&pieces));
+            assert_eq!(a.len(), b.len());
+            for (&p, &q) in a.iter().zip(&b) {
+                assert_eq!(whole.ids[p], pieces.ids[q]);
+                for budget in 0..2 {
+                    assert_eq!(whole.row(p, budget), pieces.row(q, budget));
+                }
+            }
+        }
+    }
 }

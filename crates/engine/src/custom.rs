@@ -74,14 +74,20 @@ fn solve_rows(
 }
 
 /// The poses of a custom job as record batches, one per (variant, mode), in memory.
-pub(crate) fn solve_custom_job(job: &JobSpec, file: &str, columns: ColumnSet) -> Result<Vec<RecordBatch>> {
+/// `range` (default: every sample) limits each variant to those samples.
+pub(crate) fn solve_custom_job(
+    job: &JobSpec,
+    file: &str,
+    columns: ColumnSet,
+    range: Option<std::ops::Range<u64>>,
+) -> Result<Vec<RecordBatch>> {
     let mut out = Vec::new();
     for v in job.variants(file)? {
         let model = model_of(&v.job, file)?;
         let schema = CustomSchema::new(&model, columns, job.analysis.exact);
         let source = SampleSource::new(&v.job);
         for &mode in &v.job.analysis.modes {
-            let (rows, results) = solve_rows(&model, &source, 0..source.len(), mode);
+            let (rows, results) = solve_rows(&model, &source, range.clone().unwrap_or(0..source.len()), mode);
             out.push(crate::solve::with_variant(&schema.batch(mode, &rows, &results), v.index));
         }
     }

@@ -43,7 +43,9 @@ mod solve;
 mod status;
 mod ups;
 
-pub use allocate::{AllocModel, AllocateOptions, Allocation, Binding, Variable, allocate, allocate_budgets, short as short_coordinate};
+pub use allocate::{
+    AllocModel, AllocateOptions, Allocation, Binding, Variable, allocate, allocate_budgets, short as short_coordinate,
+};
 pub use describe::describe;
 pub use error::{EngineError, OutputDirError};
 pub use estimate::{Calibration, Estimate, calibration_dir, estimate, scaled};

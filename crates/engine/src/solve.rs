@@ -137,13 +137,24 @@ fn schemas(set: ColumnSet, exact: bool) -> &'static (PoseSchema, SchemaRef) {
 /// batch each, in the order of a run's units: a `variant` column (UInt64), then
 /// exactly the columns, values and nulls of the run's part files (tested).
 pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<RecordBatch>, EngineError> {
+    solve_range(job, file, opts, None)
+}
+
+/// [`solve`] of the samples `range` of the job's grid or trajectory (all of them for
+/// `None`), each variant and mode: a long job a piece at a time.
+pub(crate) fn solve_range(
+    job: &JobSpec,
+    file: &str,
+    opts: &SolveOptions,
+    range: Option<std::ops::Range<u64>>,
+) -> Result<Vec<RecordBatch>, EngineError> {
     if job.mechanism.kind == clearance_model::MechanismKind::Custom {
         if opts.poses.is_some() {
             return Err(EngineError::Samples(
                 "a custom mechanism takes its poses from its [grid] or [trajectory] (the inputs it names)".into(),
             ));
         }
-        return crate::custom::solve_custom_job(job, file, opts.columns);
+        return crate::custom::solve_custom_job(job, file, opts.columns, range);
     }
     if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
         if opts.poses.is_some() {
@@ -151,7 +162,7 @@ pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<Recor
                 "a 6-UPS job takes its poses (x, y, z, phi, psi, theta) from its [grid] or [trajectory]".into(),
             ));
         }
-        return crate::ups::solve_ups(job, file, opts.columns);
+        return crate::ups::solve_ups(job, file, opts.columns, range);
     }
     let variants = job.variants(file)?;
     if let Some(p) = &opts.poses {
@@ -183,6 +194,8 @@ pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<Recor
         }
     }
     let n = opts.poses.as_ref().map_or(job.sample_count(), |p| p.len() as u64);
+    let range = range.unwrap_or(0..n);
+    let (offset, n) = (range.start, range.end.min(n).saturating_sub(range.start));
     let (schema, out_schema) = schemas(opts.columns, job.analysis.exact);
     let block = block_rows(n as usize);
     let progress = opts.progress.get();
@@ -205,7 +218,7 @@ pub fn solve(job: &JobSpec, file: &str, opts: &SolveOptions) -> Result<Vec<Recor
             progress.stage(&format!("variant {} {}", v.index, mode.name()));
             let mut cols = schema.columns(n as usize);
             let fill = |blocks: &mut Blocks, (b, mut sink): (usize, BlockSink<'_>)| {
-                let first = (b * block) as u64;
+                let first = offset + (b * block) as u64;
                 let (samples, results) =
                     blocks.solve_samples(&model, (first..first + sink.len() as u64).map(sample), mode);
                 for (i, (s, r)) in samples.iter().zip(results.iter()).enumerate() {

@@ -64,13 +64,19 @@ fn solve_rows(model: &UpsModel, samples: &[UpsSample], mode: Mode) -> Vec<UpsRes
 
 /// The poses of a 6-UPS job as record batches, one per (variant, mode), in memory:
 /// a `variant` column, then the columns of a run's part files.
-pub(crate) fn solve_ups(job: &JobSpec, file: &str, columns: ColumnSet) -> Result<Vec<RecordBatch>> {
+/// `range` (default: every sample) limits each variant to those samples.
+pub(crate) fn solve_ups(
+    job: &JobSpec,
+    file: &str,
+    columns: ColumnSet,
+    range: Option<std::ops::Range<u64>>,
+) -> Result<Vec<RecordBatch>> {
     let schema = UpsSchema::new(columns, job.analysis.exact);
     let mut out = Vec::new();
     for v in job.variants(file)? {
         let model = UpsModel::from_job(&v.job);
         let source = SampleSource::new(&v.job);
-        let (rows, samples) = samples(&source, 0..source.len());
+        let (rows, samples) = samples(&source, range.clone().unwrap_or(0..source.len()));
         for &mode in &v.job.analysis.modes {
             let batch = schema.batch(mode, &rows, &solve_rows(&model, &samples, mode));
             out.push(crate::solve::with_variant(&batch, v.index));

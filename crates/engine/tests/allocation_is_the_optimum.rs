@@ -233,8 +233,11 @@ fn impossible_budgets_and_bad_requests_are_refused_with_the_reason() {
     // Job-file mistakes are the job's errors.
     let bad = JobSpec::from_toml_str(&format!("{PAPER}[allocate]\nkinds = [\"u_radial\"]\n"), "job.toml").unwrap_err();
     assert!(bad.to_string().contains("allocate.kinds.0"), "{bad}");
-    let bad = JobSpec::from_toml_str(&format!("{PAPER}[allocate]\nmin = {{ r_radial = 2e-5 }}\nmax = {{ r_radial = 1e-5 }}\n"), "job.toml")
-        .unwrap_err();
+    let bad = JobSpec::from_toml_str(
+        &format!("{PAPER}[allocate]\nmin = {{ r_radial = 2e-5 }}\nmax = {{ r_radial = 1e-5 }}\n"),
+        "job.toml",
+    )
+    .unwrap_err();
     assert!(bad.to_string().contains("allocate.max.r_radial"), "{bad}");
 }
 

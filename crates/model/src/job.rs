@@ -833,7 +833,10 @@ impl JobSpec {
         for (i, k) in a.kinds.iter().enumerate() {
             if !known.contains(k) {
                 let what = if kind == MechanismKind::Custom { "keys of [clearance]" } else { "clearance kinds" };
-                return err(&format!("allocate.kinds.{i}"), format!("{k:?} is not one of the job's {what}: {}", known.join(", ")));
+                return err(
+                    &format!("allocate.kinds.{i}"),
+                    format!("{k:?} is not one of the job's {what}: {}", known.join(", ")),
+                );
             }
             if a.kinds[..i].contains(k) {
                 return err(&format!("allocate.kinds.{i}"), format!("{k:?} is listed twice"));

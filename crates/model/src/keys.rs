@@ -7,18 +7,9 @@ use crate::mechanism::{MECHANISM_KINDS, MechanismKind};
 /// The allowed keys of each table, by dotted path with list indices as `*`.
 fn allowed(path: &str) -> Option<&'static [&'static str]> {
     Some(match path {
-        "" => &[
-            "name",
-            "mechanism",
-            "mass",
-            "load",
-            "clearance",
-            "analysis",
-            "grid",
-            "trajectory",
-            "sweep",
-            "allocate",
-        ],
+        "" => {
+            &["name", "mechanism", "mass", "load", "clearance", "analysis", "grid", "trajectory", "sweep", "allocate"]
+        }
         // Every kind's keys; a key of another kind than the job's is refused after.
         "mechanism" => &[
             "kind",

@@ -31,8 +31,8 @@ mod sweep;
 
 pub use error::JobError;
 pub use job::{
-    AllocateSpec, AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, Mode, RangeSpec, SamplesSpec,
-    SweepSpec, TrajectorySpec,
+    AllocateSpec, AnalysisSpec, ClearanceSpec, GridSpec, Harmonic, InputSpec, JobSpec, LoadSpec, Mode, RangeSpec,
+    SamplesSpec, SweepSpec, TrajectorySpec,
 };
 pub use kinds::{ClearanceKind, KINDS, joint_label, joint_name};
 pub use mechanism::{

@@ -16,8 +16,7 @@ pub const TRADEOFF_SIZE: (u32, u32) = (1000, 700);
 /// left out. `title` names the job and the model.
 pub fn plot_tradeoff(path: &Path, title: &str, budgets_um: &[f64], costs: &[Option<f64>]) -> Result<(), PlotError> {
     crate::register_font()?;
-    let points: Vec<(f64, f64)> =
-        budgets_um.iter().zip(costs).filter_map(|(&b, c)| c.map(|c| (b, c))).collect();
+    let points: Vec<(f64, f64)> = budgets_um.iter().zip(costs).filter_map(|(&b, c)| c.map(|c| (b, c))).collect();
     let x_range = padded(value_range(points.iter().map(|p| p.0), 1.0), 0.05);
     let y_range = padded(value_range(points.iter().map(|p| p.1), 1e-9), 0.08);
     let panel = LinePanel {
