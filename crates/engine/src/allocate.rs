@@ -23,6 +23,7 @@ use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverSt
 use clearance_model::custom::Magnitude;
 use clearance_model::{JobSpec, MechanismKind, Mode};
 use clearance_parquet::ColumnSet;
+use rayon::prelude::*;
 use serde_json::{Value, json};
 
 use crate::error::EngineError;
@@ -487,14 +488,15 @@ impl Problem {
         let mut active: Vec<(usize, usize)> = Vec::new();
         for b in 0..data.budgets {
             for k in 0..n {
-                let mut unit = vec![0.0; n];
-                unit[k] = 1.0;
-                if let Some(p) = argmax(data.len(), |p| data.value(p, b, &unit) - data.value(p, b, &vec![0.0; n])) {
+                let reach = |p: usize| {
+                    let r = data.row(p, b);
+                    (0..3).map(|i| r[4 + i * n + k].powi(2)).sum::<f64>().sqrt() + r[4 + 3 * n + k]
+                };
+                if let Some(p) = argmax(data.len(), reach) {
                     push_unique(&mut active, (p, b));
                 }
             }
-            let ones = vec![1.0; n];
-            for p in top(data.len(), 32, |p| data.value(p, b, &ones) / betas[b]) {
+            for p in top(&ratios(data, b, &vec![1.0; n], betas[b]), 32) {
                 push_unique(&mut active, (p, b));
             }
         }
@@ -511,8 +513,7 @@ impl Problem {
             // Every pose checked at the answer; the most violated join the program.
             let mut violated: Vec<(f64, usize, usize)> = Vec::new();
             for b in 0..data.budgets {
-                for p in 0..data.len() {
-                    let r = data.value(p, b, &x) / betas[b];
+                for (p, r) in ratios(data, b, &x, betas[b]).into_iter().enumerate() {
                     if r > 1.0 + TOL && !active.contains(&(p, b)) {
                         violated.push((r, p, b));
                     }
@@ -683,14 +684,28 @@ fn push_unique(list: &mut Vec<(usize, usize)>, item: (usize, usize)) {
     }
 }
 
-fn argmax(n: usize, f: impl Fn(usize) -> f64) -> Option<usize> {
-    (0..n).map(|p| (f(p), p)).max_by(|a, b| a.0.total_cmp(&b.0)).map(|(_, p)| p)
+fn argmax(n: usize, f: impl Fn(usize) -> f64 + Sync) -> Option<usize> {
+    (0..n).into_par_iter().map(|p| (f(p), p)).max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1))).map(|(_, p)| p)
 }
 
-fn top(n: usize, count: usize, f: impl Fn(usize) -> f64) -> Vec<usize> {
-    let mut all: Vec<(f64, usize)> = (0..n).map(|p| (f(p), p)).collect();
-    all.sort_by(|a, b| b.0.total_cmp(&a.0));
-    all.into_iter().take(count).map(|(_, p)| p).collect()
+/// The indices of the `count` largest of `values`, largest first.
+fn top(values: &[f64], count: usize) -> Vec<usize> {
+    let mut all: Vec<usize> = (0..values.len()).collect();
+    let count = count.min(all.len());
+    if count == 0 {
+        return Vec::new();
+    }
+    let by = |a: &usize, b: &usize| values[*b].total_cmp(&values[*a]).then(a.cmp(b));
+    all.select_nth_unstable_by(count - 1, by);
+    all.truncate(count);
+    all.sort_by(by);
+    all
+}
+
+/// Every pose's bounded error for `budget` at `x`, over the budget's size `beta`:
+/// above 1 is over the budget. On the rayon pool.
+fn ratios(data: &Data, budget: usize, x: &[f64], beta: f64) -> Vec<f64> {
+    (0..data.len()).into_par_iter().map(|p| data.value(p, budget, x) / beta).collect()
 }
 
 fn coords(data: &Data, p: usize) -> Vec<(String, f64)> {
@@ -716,13 +731,21 @@ pub fn short(v: f64) -> String {
 fn polish(data: &Data, betas: &[f64], lo: &[f64], x: Vec<f64>) -> Vec<f64> {
     let at = |s: f64| x.iter().zip(lo).map(|(x, lo)| (x * s).max(*lo)).collect::<Vec<_>>();
     let worst = |x: &[f64]| {
-        (0..data.budgets)
-            .flat_map(|b| (0..data.len()).map(move |p| (p, b)))
-            .map(|(p, b)| data.value(p, b, x) / betas[b])
-            .fold(0.0, f64::max)
+        (0..data.budgets).map(|b| ratios(data, b, x, betas[b]).into_iter().fold(0.0, f64::max)).fold(0.0, f64::max)
     };
-    if worst(&x) <= 1.0 {
+    let over = worst(&x);
+    if over <= 1.0 {
         return x;
+    }
+    // With no kept kinds and no lower bound every error scales with the magnitudes:
+    // 1 / over is the largest scale that fits; otherwise a bisection finds it.
+    if worst(&at(1.0 / over)) <= 1.0 {
+        let (mut good, mut bad) = (1.0 / over, 1.0);
+        for _ in 0..8 {
+            let mid = 0.5 * (good + bad);
+            if worst(&at(mid)) <= 1.0 { good = mid } else { bad = mid }
+        }
+        return at(good);
     }
     let (mut good, mut bad) = (0.0, 1.0);
     for _ in 0..60 {
@@ -926,30 +949,43 @@ fn read_chunk(
         let sample = batches[0].column_by_name("sample").and_then(|c| c.as_any().downcast_ref::<UInt64Array>());
         let statuses: Vec<&StringArray> = batches.iter().map(|b| str_col(b, "status")).collect();
         let coords: Vec<Option<&Float64Array>> = COORDS.iter().map(|c| f64_col(batches[0], c)).collect();
+        // Each kind's columns, found once per batch: (budget, the kept kinds from the
+        // first solve, then each solve's variables with their index).
+        let mut kept = Vec::new();
+        let mut vars = Vec::new();
+        for (parts, env) in [(P_PARTS, "p"), (A_PARTS, "alpha")].into_iter().take(budgets) {
+            let cols: Result<Vec<KindColumns>> =
+                problem.fixed.iter().map(|(k, _)| KindColumns::of(batches[0], k, &parts, env)).collect();
+            kept.push(cols?);
+            let mut mine = Vec::new();
+            for (batch, (_, group)) in batches.iter().zip(solves) {
+                for &k in group {
+                    mine.push((k, KindColumns::of(batch, &problem.vars[k].kind, &parts, env)?));
+                }
+            }
+            vars.push(mine);
+        }
         let mut row = vec![0.0; s];
         for i in 0..rows {
             if !statuses.iter().all(|st| matches!(st.value(i), "ok" | "indeterminate_contact")) {
                 data.skipped += 1;
                 continue;
             }
-            for (parts, env) in [(P_PARTS, "p"), (A_PARTS, "alpha")].into_iter().take(budgets) {
+            for budget in 0..budgets {
                 row.fill(0.0);
-                // The kept kinds, from the first solve.
-                for (k, _) in &problem.fixed {
-                    let (e, lin) = kind_at(batches[0], k, &parts, env, i, envelope)?;
+                for cols in &kept[budget] {
+                    let (e, lin) = cols.at(i, envelope);
                     for c in 0..3 {
                         row[c] += e[c] / scale;
                     }
                     row[3] += lin / scale;
                 }
-                for (batch, (_, vars)) in batches.iter().zip(solves) {
-                    for &k in vars {
-                        let (e, lin) = kind_at(batch, &problem.vars[k].kind, &parts, env, i, envelope)?;
-                        for c in 0..3 {
-                            row[4 + c * n + k] = e[c] / scale;
-                        }
-                        row[4 + 3 * n + k] = lin / scale;
+                for (k, cols) in &vars[budget] {
+                    let (e, lin) = cols.at(i, envelope);
+                    for c in 0..3 {
+                        row[4 + c * n + k] = e[c] / scale;
                     }
+                    row[4 + 3 * n + k] = lin / scale;
                 }
                 data.values.extend_from_slice(&row);
             }
@@ -960,44 +996,50 @@ fn read_chunk(
     Ok(())
 }
 
+/// One kind's error columns (`err_<k>_x|y|z` or `_rx|ry|rz`) and envelope column
+/// (`env_<k>_p` or `_alpha`) in a batch.
+struct KindColumns<'a> {
+    err: [&'a Float64Array; 3],
+    env: &'a Float64Array,
+}
+
+impl<'a> KindColumns<'a> {
+    fn of(batch: &'a RecordBatch, k: &str, parts: &[&str; 3], env: &str) -> Result<Self> {
+        let get = |name: String| {
+            f64_col(batch, &name).ok_or_else(|| {
+                EngineError::Allocation(format!(
+                    "the job's output has no column {name}: {k} is no clearance kind of it"
+                ))
+            })
+        };
+        Ok(Self {
+            err: [
+                get(format!("err_{k}_{}", parts[0]))?,
+                get(format!("err_{k}_{}", parts[1]))?,
+                get(format!("err_{k}_{}", parts[2]))?,
+            ],
+            env: get(format!("env_{k}_{env}"))?,
+        })
+    }
+
+    /// The error at row `i` and its linear part: under the take-up model the
+    /// envelope where the take-up is indeterminate (the error is null there), under
+    /// the envelope model always.
+    fn at(&self, i: usize, envelope: bool) -> ([f64; 3], f64) {
+        let bound = if self.env.is_valid(i) { self.env.value(i) } else { 0.0 };
+        if envelope || self.err.iter().any(|c| !c.is_valid(i)) {
+            return ([0.0; 3], bound);
+        }
+        (self.err.map(|c| c.value(i)), 0.0)
+    }
+}
+
 fn f64_col<'a>(batch: &'a RecordBatch, name: &str) -> Option<&'a Float64Array> {
     batch.column_by_name(name).and_then(|c| c.as_any().downcast_ref::<Float64Array>())
 }
 
 fn str_col<'a>(batch: &'a RecordBatch, name: &str) -> &'a StringArray {
     batch.column_by_name(name).and_then(|c| c.as_any().downcast_ref::<StringArray>()).expect("a solve's label column")
-}
-
-/// Kind `k`'s error at row `i` (`parts` of `err_<k>_*`) and its linear part: under
-/// the take-up model the envelope `env_<k>_<env>` where the take-up is
-/// indeterminate (the error is null there), under the envelope model always.
-fn kind_at(
-    batch: &RecordBatch,
-    k: &str,
-    parts: &[&str; 3],
-    env: &str,
-    i: usize,
-    envelope: bool,
-) -> Result<([f64; 3], f64)> {
-    let missing = |c: &str| {
-        EngineError::Allocation(format!("the job's output has no column {c}: {k} is no clearance kind of it"))
-    };
-    let env_name = format!("env_{k}_{env}");
-    let bound = f64_col(batch, &env_name).ok_or_else(|| missing(&env_name))?;
-    let bound = if bound.is_valid(i) { bound.value(i) } else { 0.0 };
-    if envelope {
-        return Ok(([0.0; 3], bound));
-    }
-    let mut e = [0.0; 3];
-    for (c, part) in parts.iter().enumerate() {
-        let name = format!("err_{k}_{part}");
-        let col = f64_col(batch, &name).ok_or_else(|| missing(&name))?;
-        if !col.is_valid(i) {
-            return Ok(([0.0; 3], bound));
-        }
-        e[c] = col.value(i);
-    }
-    Ok((e, 0.0))
 }
 
 #[cfg(test)]
