@@ -271,6 +271,10 @@ pub fn allocate_budgets(
         .collect())
 }
 
+/// One solve of the job behind the constraints: the `[clearance]` it sets, and the
+/// variables whose unit errors it gives.
+type Solve = (Vec<(String, Magnitude)>, Vec<usize>);
+
 /// The variables, the kinds kept, and what each solve of the job sets.
 struct Problem {
     model: AllocModel,
@@ -296,12 +300,18 @@ struct Data {
     budgets: usize,
     values: Vec<f64>,
     ids: Vec<(u64, Mode, u64)>,
-    coord_names: Vec<&'static str>,
-    coords: Vec<f64>,
+    /// Each variant's samples (by variant index) and the job's inputs (name, place
+    /// among x, y, z, phi, psi, theta): a pose's coordinates, found again when named.
+    sources: Vec<clearance_grid::SampleSource>,
+    inputs: Vec<(String, usize)>,
+    /// Whether the poses' constraints are kept, or only the largest bounded error
+    /// of each budget (a check of the answer).
+    keep: bool,
+    largest: [f64; 2],
     skipped: u64,
 }
 
-const COORDS: [&str; 7] = ["t", "x", "y", "z", "phi", "psi", "theta"];
+const SIX: [&str; 6] = ["x", "y", "z", "phi", "psi", "theta"];
 const P_PARTS: [&str; 3] = ["x", "y", "z"];
 const A_PARTS: [&str; 3] = ["rx", "ry", "rz"];
 
@@ -401,7 +411,7 @@ impl Problem {
     /// The solves of the job that give the unit errors: each sets its variables to
     /// `scale`, the other allocated ones to zero and the kept kinds to the job's
     /// values; the first also gives the kept kinds' errors.
-    fn solves(&self, scale: f64) -> Vec<(Vec<(String, Magnitude)>, Vec<usize>)> {
+    fn solves(&self, scale: f64) -> Vec<Solve> {
         let groups: Vec<Vec<usize>> = if self.per_limb {
             (0..self.vars.len()).map(|k| vec![k]).collect()
         } else {
@@ -431,7 +441,7 @@ impl Problem {
     /// Every pose's constraints, from solves of every variant of the job.
     fn collect(&self, job: &JobSpec, file: &str, scale: f64, progress: &Reporter) -> Result<Data> {
         let solves = self.solves(scale);
-        collect(job, file, self, &solves, scale, progress, CHUNK)
+        collect(job, file, self, &solves, scale, progress, CHUNK, true)
     }
 
     /// Refuses a variable that moves the platform at no pose: with no upper bound,
@@ -450,7 +460,8 @@ impl Problem {
         }
         let largest = reach.iter().copied().fold(0.0, f64::max);
         for (v, &r) in self.vars.iter().zip(&reach) {
-            if !(r > 1e-9 * largest) && v.max.is_none() {
+            // (A NaN reach counts as none.)
+            if r.partial_cmp(&(1e-9 * largest)) != Some(std::cmp::Ordering::Greater) && v.max.is_none() {
                 return Err(EngineError::Allocation(format!(
                     "{} moves the platform at no pose of the job (its error is zero to round-off), so no finite \
                      magnitude is cheapest: give allocate.max.{} or leave it out of allocate.kinds",
@@ -486,7 +497,7 @@ impl Problem {
         let hi: Vec<Option<f64>> = self.vars.iter().map(|v| v.max.map(|m| m / data.scale)).collect();
         // Start: each variable's most sensitive pose, and the worst at x = 1.
         let mut active: Vec<(usize, usize)> = Vec::new();
-        for b in 0..data.budgets {
+        for (b, &beta) in betas.iter().enumerate() {
             for k in 0..n {
                 let reach = |p: usize| {
                     let r = data.row(p, b);
@@ -496,7 +507,7 @@ impl Problem {
                     push_unique(&mut active, (p, b));
                 }
             }
-            for p in top(&ratios(data, b, &vec![1.0; n], betas[b]), 32) {
+            for p in top(&ratios(data, b, &vec![1.0; n], beta), 32) {
                 push_unique(&mut active, (p, b));
             }
         }
@@ -512,8 +523,8 @@ impl Problem {
             }
             // Every pose checked at the answer; the most violated join the program.
             let mut violated: Vec<(f64, usize, usize)> = Vec::new();
-            for b in 0..data.budgets {
-                for (p, r) in ratios(data, b, &x, betas[b]).into_iter().enumerate() {
+            for (b, &beta) in betas.iter().enumerate() {
+                for (p, r) in ratios(data, b, &x, beta).into_iter().enumerate() {
                     if r > 1.0 + TOL && !active.contains(&(p, b)) {
                         violated.push((r, p, b));
                     }
@@ -544,9 +555,9 @@ impl Problem {
     ) -> EngineError {
         let worst = |x: &[f64]| {
             let mut w = (0.0, 0, 0);
-            for b in 0..data.budgets {
+            for (b, &beta) in betas.iter().enumerate() {
                 for p in 0..data.len() {
-                    let r = data.value(p, b, x) / betas[b];
+                    let r = data.value(p, b, x) / beta;
                     if r > w.0 {
                         w = (r, p, b);
                     }
@@ -611,9 +622,17 @@ impl Problem {
             fixed: clearance.clone(),
             keys: self.keys.clone(),
         };
-        let verify =
-            collect(job, file, &check, &[(clearance.clone(), Vec::new())], data.scale, &Reporter::default(), CHUNK)?;
-        let largest = |b: usize| (0..verify.len()).map(|p| verify.value(p, b, &[])).fold(0.0, f64::max) * verify.scale;
+        let verify = collect(
+            job,
+            file,
+            &check,
+            &[(clearance.clone(), Vec::new())],
+            data.scale,
+            &Reporter::default(),
+            CHUNK,
+            false,
+        )?;
+        let largest = |b: usize| verify.largest[b] * verify.scale;
         let largest_dalpha = self.max_dalpha.map(|_| largest(1));
         let betas = self.betas(data, budget);
         let top = solved.duals.iter().map(|d| d.2).fold(0.0, f64::max);
@@ -708,9 +727,14 @@ fn ratios(data: &Data, budget: usize, x: &[f64], beta: f64) -> Vec<f64> {
     (0..data.len()).into_par_iter().map(|p| data.value(p, budget, x) / beta).collect()
 }
 
+/// A pose's time (on a trajectory) and inputs.
 fn coords(data: &Data, p: usize) -> Vec<(String, f64)> {
-    let c = &data.coords[p * COORDS.len()..(p + 1) * COORDS.len()];
-    data.coord_names.iter().zip(c).filter(|(_, v)| v.is_finite()).map(|(k, v)| (k.to_string(), *v)).collect()
+    let (variant, _, sample) = data.ids[p];
+    let (t, six) = data.sources[variant as usize].sample6(sample);
+    t.map(|t| ("t".to_string(), t))
+        .into_iter()
+        .chain(data.inputs.iter().map(|(k, i)| (k.clone(), six[*i][0])))
+        .collect()
 }
 
 fn pose_name(data: &Data, p: usize) -> String {
@@ -862,15 +886,18 @@ fn conic(
 }
 
 /// The constraints of every pose of every variant and mode: the job solved once
-/// per entry of `solves` (its `[clearance]` and the variables it gives), at `scale`.
+/// per entry of `solves` (its `[clearance]` and the variables it gives), at `scale`,
+/// `chunk` samples at a time; `keep`: the constraints, else only the largest errors.
+#[allow(clippy::too_many_arguments)]
 fn collect(
     job: &JobSpec,
     file: &str,
     problem: &Problem,
-    solves: &[(Vec<(String, Magnitude)>, Vec<usize>)],
+    solves: &[Solve],
     scale: f64,
     progress: &Reporter,
     chunk: u64,
+    keep: bool,
 ) -> Result<Data> {
     let n = problem.vars.len();
     let budgets = 1 + problem.max_dalpha.is_some() as usize;
@@ -885,8 +912,10 @@ fn collect(
         budgets,
         values: Vec::new(),
         ids: Vec::new(),
-        coord_names: COORDS.to_vec(),
-        coords: Vec::new(),
+        sources: variants.iter().map(|v| clearance_grid::SampleSource::new(&v.job)).collect(),
+        inputs: input_names(job).into_iter().filter_map(|k| SIX.iter().position(|s| *s == k).map(|i| (k, i))).collect(),
+        keep,
+        largest: [0.0; 2],
         skipped: 0,
     };
     // The group's jobs of each variant, solved a chunk of samples at a time: memory
@@ -921,6 +950,14 @@ fn collect(
     Ok(data)
 }
 
+/// The job's inputs: a custom mechanism's `inputs`, a built-in kind's.
+fn input_names(job: &JobSpec) -> Vec<String> {
+    match (&job.mechanism.inputs, job.mechanism.kind) {
+        (Some(names), MechanismKind::Custom) => names.clone(),
+        (_, kind) => kind.inputs().iter().map(|k| k.to_string()).collect(),
+    }
+}
+
 /// Samples solved at a time by [`collect`].
 const CHUNK: u64 = 1 << 16;
 
@@ -929,7 +966,7 @@ const CHUNK: u64 = 1 << 16;
 fn read_chunk(
     data: &mut Data,
     problem: &Problem,
-    solves: &[(Vec<(String, Magnitude)>, Vec<usize>)],
+    solves: &[Solve],
     solved: &[Vec<RecordBatch>],
     variant: u64,
 ) -> Result<()> {
@@ -948,7 +985,6 @@ fn read_chunk(
         };
         let sample = batches[0].column_by_name("sample").and_then(|c| c.as_any().downcast_ref::<UInt64Array>());
         let statuses: Vec<&StringArray> = batches.iter().map(|b| str_col(b, "status")).collect();
-        let coords: Vec<Option<&Float64Array>> = COORDS.iter().map(|c| f64_col(batches[0], c)).collect();
         // Each kind's columns, found once per batch: (budget, the kept kinds from the
         // first solve, then each solve's variables with their index).
         let mut kept = Vec::new();
@@ -987,10 +1023,16 @@ fn read_chunk(
                     }
                     row[4 + 3 * n + k] = lin / scale;
                 }
-                data.values.extend_from_slice(&row);
+                if data.keep {
+                    data.values.extend_from_slice(&row);
+                } else {
+                    let v = (row[0] * row[0] + row[1] * row[1] + row[2] * row[2]).sqrt() + row[3];
+                    data.largest[budget] = data.largest[budget].max(v);
+                }
             }
-            data.ids.push((variant, mode, sample.map_or(i as u64, |s| s.value(i))));
-            data.coords.extend(coords.iter().map(|c| c.filter(|c| c.is_valid(i)).map_or(f64::NAN, |c| c.value(i))));
+            if data.keep {
+                data.ids.push((variant, mode, sample.map_or(i as u64, |s| s.value(i))));
+            }
         }
     }
     Ok(())
@@ -1064,7 +1106,8 @@ mod tests {
             opts.max_dalpha = Some(1e-4);
             let problem = Problem::new(&job, "job.toml", &opts).unwrap();
             let solves = problem.solves(1e-4);
-            let go = |chunk| collect(&job, "job.toml", &problem, &solves, 1e-4, &Reporter::default(), chunk).unwrap();
+            let go =
+                |chunk| collect(&job, "job.toml", &problem, &solves, 1e-4, &Reporter::default(), chunk, true).unwrap();
             let (whole, pieces) = (go(CHUNK), go(4));
             assert!(whole.len() > 20);
             let order = |d: &Data| {
