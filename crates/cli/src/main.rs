@@ -164,6 +164,16 @@ enum Command {
         /// (--poses is then ignored).
         #[arg(long)]
         job: Option<std::path::PathBuf>,
+        /// The kernel and end-to-end rates at 1, 2, 4 … threads and every core, side by
+        /// side, with each stage's share of the end-to-end run.
+        #[arg(long, conflicts_with_all = ["suite", "threads"])]
+        scaling: bool,
+        /// With --scaling: the thread counts, e.g. 1,2,8,16 (default 1, 2, 4 … every core).
+        #[arg(long, value_delimiter = ',', requires = "scaling", value_parser = clap::value_parser!(u64).range(1..=4096))]
+        thread_counts: Vec<u64>,
+        /// With --scaling: the column set of the end-to-end runs.
+        #[arg(long, default_value = "standard", requires = "scaling", value_parser = parse_columns)]
+        columns: ColumnSet,
     },
 }
 
@@ -399,12 +409,37 @@ fn main() -> ExitCode {
                 eprintln!("{} figures in {}", files.len(), out.display());
             })
         }
-        Command::Bench { poses, json, threads, solver, compression, writer, suite, scale, repeat, job } => {
+        Command::Bench {
+            poses,
+            json,
+            threads,
+            solver,
+            compression,
+            writer,
+            suite,
+            scale,
+            repeat,
+            job,
+            scaling,
+            thread_counts,
+            columns,
+        } => {
             let job = match job.map(|p| JobSpec::from_path(&p)).transpose() {
                 Ok(job) => job,
                 Err(e) => return usage(e),
             };
             let repeat = repeat as usize;
+            if scaling {
+                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+                let threads = if thread_counts.is_empty() {
+                    bench::default_thread_counts(cores)
+                } else {
+                    thread_counts.iter().map(|&t| t as usize).collect()
+                };
+                let o =
+                    bench::ScalingOptions { poses, json, solver, compression, writer, columns, repeat, threads, job };
+                return finish(bench::scaling(&o));
+            }
             init_threads(threads).and_then(|_| {
                 if suite {
                     bench::suite(&bench::SuiteOptions { scale, repeat, solver, compression, writer, json })
@@ -414,6 +449,12 @@ fn main() -> ExitCode {
             })
         }
     };
+    finish(result)
+}
+
+/// The exit code of a command's result, its error printed: 2 for the caller's
+/// mistakes, 1 for the rest.
+fn finish(result: anyhow::Result<()>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e)
