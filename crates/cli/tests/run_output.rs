@@ -294,6 +294,31 @@ fn bench_json_has_the_interface_keys() {
     assert!((111.0..=9.0 * 111.0).contains(&bytes), "{bytes} bytes a pose for 111 columns");
 }
 
+/// `bench --scaling --json`: a row per thread count asked for, in order, with
+/// docs/interface.md's keys, positive rates, end to end over kernel their ratio, and
+/// stage shares between 0 and 2 (busy times that overlap); `--threads` is refused
+/// beside it.
+#[test]
+fn bench_scaling_has_a_row_per_thread_count() {
+    let o = run(&["bench", "--scaling", "--json", "--poses", "2000", "--repeat", "1", "--thread-counts", "1,2"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+    let rows = v["scaling"].as_array().unwrap();
+    assert_eq!(rows.iter().map(|r| r["threads"].as_u64().unwrap()).collect::<Vec<_>>(), [1, 2]);
+    for r in rows {
+        let (k, e) = (r["kernel_poses_per_s"].as_f64().unwrap(), r["end_to_end_poses_per_s"].as_f64().unwrap());
+        assert!(k > 0.0 && e > 0.0, "{r}");
+        assert!((r["end_to_end_over_kernel"].as_f64().unwrap() - e / k).abs() <= 1e-3 * e / k + 1e-4, "{r}");
+        for key in ["share_pose_pass", "share_search", "share_writing", "share_finish"] {
+            let share = r[key].as_f64().unwrap();
+            assert!((0.0..=2.0).contains(&share), "{key} = {share}");
+        }
+    }
+    assert_eq!(v["columns"], "standard");
+    let o = run(&["bench", "--scaling", "--threads", "2"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
 /// The keys of `bench --json` stay those scripts parse (docs/interface.md), whatever
 /// `--writer` measured: no key added, none dropped.
 #[test]
