@@ -50,7 +50,8 @@ fn summary(job: &str, a: &Allocation) -> String {
         s.push_str(&format!("  {k:<20} {}   (weight {w})\n", magnitude_text(&m)));
     }
     for (k, m) in &a.fixed {
-        s.push_str(&format!("  {k:<20} {}   (kept)\n", magnitude_text(m)));
+        let why = if a.idle.contains(k) { "kept: it moves the platform at no pose" } else { "kept" };
+        s.push_str(&format!("  {k:<20} {}   ({why})\n", magnitude_text(m)));
     }
     s.push_str(&format!("cost Σ w/c = {:.6e}; one more µm of budget saves {:.6e}\n", a.cost, a.shadow_price_per_um));
     if let Some(p) = a.shadow_price_alpha_per_urad {

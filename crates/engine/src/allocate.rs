@@ -124,6 +124,9 @@ pub struct Allocation {
     pub variables: Vec<Variable>,
     /// The kinds not allocated, at the job's magnitudes.
     pub fixed: Vec<(String, Magnitude)>,
+    /// Kinds left out of the default choice because they move the platform at no
+    /// pose (kept at the job's magnitudes, among `fixed`).
+    pub idle: Vec<String>,
     /// `Σ w_k / c_k` over the variables.
     pub cost: f64,
     /// Cost saved by one more µm of `max_dp`.
@@ -219,6 +222,7 @@ impl Allocation {
             "per_limb": self.per_limb,
             "magnitudes": map(&self.magnitudes()),
             "fixed": map(&self.fixed),
+            "idle": self.idle,
             "weights": weights,
             "min": min,
             "max": max,
@@ -257,10 +261,17 @@ pub fn allocate_budgets(
             return Err(EngineError::Allocation(format!("a budget must be a positive number, got {b:?}")));
         }
     }
-    let problem = Problem::new(job, file, opts)?;
+    let mut problem = Problem::new(job, file, opts)?;
     // Unit errors at the size of the largest budget: magnitudes near the answer's.
     let scale = budgets.iter().copied().fold(0.0, f64::max);
-    let data = problem.collect(job, file, scale, &opts.progress)?;
+    let mut data = problem.collect(job, file, scale, &opts.progress)?;
+    // Kinds chosen by default that move nothing (a 6-UPS's u_angular) keep their
+    // magnitudes; named in `allocate.kinds`, they are refused below.
+    let idle = problem.idle(&data);
+    if problem.defaulted && !idle.is_empty() && idle.len() < problem.vars.len() {
+        problem = problem.without(&idle);
+        data = problem.collect(job, file, scale, &opts.progress)?;
+    }
     problem.check_influence(&data)?;
     Ok(budgets
         .iter()
@@ -284,6 +295,10 @@ struct Problem {
     fixed: Vec<(String, Magnitude)>,
     /// Every `[clearance]` key of the job, in order, with the job's magnitude.
     keys: Vec<(String, Magnitude)>,
+    /// Whether the kinds are the default (no `allocate.kinds`).
+    defaulted: bool,
+    /// Kinds of the default left at the job's magnitudes: they move nothing.
+    idle: Vec<String>,
 }
 
 /// One pose's constraint for one budget, in units of the solve's scale `S`:
@@ -405,7 +420,16 @@ impl Problem {
             }
         }
         let fixed = keys.iter().filter(|(k, _)| !chosen.contains(k)).cloned().collect();
-        Ok(Self { model: opts.model, max_dalpha: opts.max_dalpha, per_limb: opts.per_limb, vars, fixed, keys })
+        Ok(Self {
+            model: opts.model,
+            max_dalpha: opts.max_dalpha,
+            per_limb: opts.per_limb,
+            vars,
+            fixed,
+            keys,
+            defaulted: spec.kinds.is_empty(),
+            idle: Vec::new(),
+        })
     }
 
     /// The solves of the job that give the unit errors: each sets its variables to
@@ -447,6 +471,28 @@ impl Problem {
     /// Refuses a variable that moves the platform at no pose: with no upper bound,
     /// the cheapest magnitude would be infinite.
     fn check_influence(&self, data: &Data) -> Result<()> {
+        if let Some(&k) = self.idle(data).first() {
+            let v = &self.vars[k];
+            return Err(EngineError::Allocation(format!(
+                "{} moves the platform at no pose of the job (its error is zero to round-off), so no finite \
+                 magnitude is cheapest: give allocate.max.{} or leave it out of allocate.kinds",
+                name(v),
+                v.kind
+            )));
+        }
+        if data.len() == 0 {
+            return Err(EngineError::Allocation(format!(
+                "no pose of the job is ok or indeterminate_contact ({} left out for their status): nothing to \
+                 allocate for",
+                data.skipped
+            )));
+        }
+        Ok(())
+    }
+
+    /// The variables without an upper bound that move the platform at no pose (their
+    /// largest error at unit magnitude is zero to round-off against the others').
+    fn idle(&self, data: &Data) -> Vec<usize> {
         let n = data.n;
         let mut reach = vec![0.0f64; n];
         for p in 0..data.len() {
@@ -459,25 +505,31 @@ impl Problem {
             }
         }
         let largest = reach.iter().copied().fold(0.0, f64::max);
-        for (v, &r) in self.vars.iter().zip(&reach) {
-            // (A NaN reach counts as none.)
-            if r.partial_cmp(&(1e-9 * largest)) != Some(std::cmp::Ordering::Greater) && v.max.is_none() {
-                return Err(EngineError::Allocation(format!(
-                    "{} moves the platform at no pose of the job (its error is zero to round-off), so no finite \
-                     magnitude is cheapest: give allocate.max.{} or leave it out of allocate.kinds",
-                    name(v),
-                    v.kind
-                )));
+        // (A NaN reach counts as none.)
+        let none = |r: f64| r.partial_cmp(&(1e-9 * largest)) != Some(std::cmp::Ordering::Greater);
+        (0..n).filter(|&k| none(reach[k]) && self.vars[k].max.is_none()).collect()
+    }
+
+    /// The problem with the kinds of `idle` variables kept at the job's magnitudes.
+    fn without(&self, idle: &[usize]) -> Self {
+        let kinds: Vec<&str> = idle.iter().map(|&k| self.vars[k].kind.as_str()).collect();
+        let mut out = Self {
+            model: self.model,
+            max_dalpha: self.max_dalpha,
+            per_limb: self.per_limb,
+            vars: self.vars.iter().filter(|v| !kinds.contains(&v.kind.as_str())).cloned().collect(),
+            fixed: Vec::new(),
+            keys: self.keys.clone(),
+            defaulted: self.defaulted,
+            idle: self.idle.clone(),
+        };
+        out.fixed = self.keys.iter().filter(|(k, _)| !out.vars.iter().any(|v| v.kind == *k)).cloned().collect();
+        for k in kinds {
+            if !out.idle.iter().any(|i| i == k) {
+                out.idle.push(k.to_string());
             }
         }
-        if data.len() == 0 {
-            return Err(EngineError::Allocation(format!(
-                "no pose of the job is ok or indeterminate_contact ({} left out for their status): nothing to \
-                 allocate for",
-                data.skipped
-            )));
-        }
-        Ok(())
+        out
     }
 
     /// The budgets of a pose's constraints, on the scale's units.
@@ -621,6 +673,8 @@ impl Problem {
             vars: Vec::new(),
             fixed: clearance.clone(),
             keys: self.keys.clone(),
+            defaulted: false,
+            idle: Vec::new(),
         };
         let verify = collect(
             job,
@@ -658,6 +712,7 @@ impl Problem {
             max_dalpha: self.max_dalpha,
             per_limb: self.per_limb,
             fixed: self.fixed.clone(),
+            idle: self.idle.clone(),
             cost,
             shadow_price_per_um: price(0),
             shadow_price_alpha_per_urad: self.max_dalpha.map(|_| price(1)),

@@ -224,12 +224,19 @@ fn impossible_budgets_and_bad_requests_are_refused_with_the_reason() {
     assert!(why.contains("list of one magnitude per limb"), "{why}");
     let why = refuse("[[sweep]]\nparam = \"clearance.r_radial\"\nvalues = [1e-5, 2e-5]\n", &AllocateOptions::new(1e-4));
     assert!(why.contains("sweep"), "{why}");
-    // A 6-UPS's u_angular moves nothing: no finite magnitude is cheapest.
+    // A 6-UPS's u_angular moves nothing: no finite magnitude is cheapest. Named, it
+    // is refused; chosen by default, it keeps the job's magnitude.
     let ups = "[mechanism]\nkind = \"6-UPS\"\n[clearance]\ns_radial = 1e-5\nu_radial = 1e-5\nu_angular = 1e-5\n\
         [grid]\nx = { start = -0.1, stop = 0.1, n = 3 }\ny = 0.0\nz = 0.7\nphi = 0.0\npsi = 0.0\ntheta = 0.0\n";
-    let j = JobSpec::from_toml_str(ups, "job.toml").unwrap();
+    let named = format!("{ups}[allocate]\nkinds = [\"u_radial\", \"u_angular\"]\n");
+    let j = JobSpec::from_toml_str(&named, "job.toml").unwrap();
     let why = allocate(&j, "job.toml", &AllocateOptions::new(1e-4)).unwrap_err().to_string();
     assert!(why.contains("u_angular") && why.contains("allocate.max.u_angular"), "{why}");
+    let j = JobSpec::from_toml_str(ups, "job.toml").unwrap();
+    let a = allocate(&j, "job.toml", &AllocateOptions::new(1e-4)).unwrap();
+    assert_eq!(a.idle, ["u_angular"]);
+    assert!(a.variables.iter().all(|v| v.kind != "u_angular"));
+    assert!(a.fixed.iter().any(|(k, m)| k == "u_angular" && *m == clearance_model::custom::Magnitude::All(1e-5)));
     // Job-file mistakes are the job's errors.
     let bad = JobSpec::from_toml_str(&format!("{PAPER}[allocate]\nkinds = [\"u_radial\"]\n"), "job.toml").unwrap_err();
     assert!(bad.to_string().contains("allocate.kinds.0"), "{bad}");
