@@ -260,7 +260,22 @@ def test_allocate_equals_the_cli_and_meets_the_budget(tmp_path):
     path = tmp_path / "job.toml"
     path.write_text(clearance._clearance.dict_toml(job))
     cli = subprocess.run(
-        ["cargo", "run", "-q", "-p", "clearance-cli", "--", "allocate", str(path), "--max-dp", "1e-4", "--json", "-q"],
+        [
+            "cargo",
+            "run",
+            "-q",
+            "--manifest-path",
+            str(REPO / "Cargo.toml"),
+            "-p",
+            "clearance-cli",
+            "--",
+            "allocate",
+            str(path),
+            "--max-dp",
+            "1e-4",
+            "--json",
+            "-q",
+        ],
         cwd=tmp_path,
         capture_output=True,
         text=True,
