@@ -531,137 +531,6 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clearance_model::RangeSpec;
-
-    /// Every file of `benches/suite/` is a valid job (so `clearance run` takes it)
-    /// and in the suite, and the suite's texts are those files.
-    #[test]
-    fn the_suite_is_the_files_of_benches_suite() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let mut files: Vec<String> = std::fs::read_dir(root.join("benches/suite"))
-            .unwrap()
-            .map(|e| format!("benches/suite/{}", e.unwrap().file_name().to_string_lossy()))
-            .collect();
-        files.sort();
-        let mut listed: Vec<String> = SUITE.iter().map(|s| s.file.to_string()).collect();
-        listed.sort();
-        listed.dedup();
-        assert_eq!(files, listed);
-        for s in SUITE {
-            assert_eq!(std::fs::read_to_string(root.join(s.file)).unwrap(), s.text, "{}", s.file);
-            let job = JobSpec::from_path(&root.join(s.file)).unwrap();
-            job.variants(s.file).unwrap();
-        }
-    }
-
-    /// The suite runs the jobs the issue names, at their sizes.
-    #[test]
-    fn the_suite_has_every_kind_of_job() {
-        let job = |name: &str| SUITE.iter().find(|s| s.name == name).unwrap().job(1.0).unwrap();
-        assert_eq!(job("grid_2d").sample_count(), 633 * 633);
-        assert_eq!(job("grid_3d").sample_count(), 400_000);
-        assert!(job("sweep_16").variant_count() >= 16);
-        let t = job("trajectory_dynamic");
-        assert!(t.trajectory.is_some() && t.analysis.modes.contains(&Mode::Dynamic));
-        assert_eq!(job("prs_inclined").mechanism.rail_angle_deg(), 30.0);
-        assert_eq!(job("rps_grid").mechanism.kind.name(), "3-RPS");
-        let ups = job("ups_grid");
-        assert_eq!(ups.mechanism.kind.name(), "6-UPS");
-        assert!((100_000..=200_000).contains(&ups.sample_count()), "{}", ups.sample_count());
-        let sets: Vec<ColumnSet> =
-            SUITE.iter().filter(|s| s.file.ends_with("grid_2d.toml")).map(|s| s.columns).collect();
-        assert_eq!(sets, [ColumnSet::Standard, ColumnSet::Minimal, ColumnSet::Full]);
-    }
-
-    /// `--scale` scales the samples, not the variants or modes, and keeps every
-    /// range at two values or more.
-    #[test]
-    fn scaling_keeps_variants_modes_and_ranges() {
-        for s in SUITE {
-            let full = s.job(1.0).unwrap();
-            for scale in [0.1, 0.01, 1e-9] {
-                let job = s.job(scale).unwrap();
-                assert_eq!((job.variant_count(), &job.analysis.modes), (full.variant_count(), &full.analysis.modes));
-                let (n, want) = (job.sample_count() as f64, full.sample_count() as f64 * scale);
-                if scale >= 0.01 {
-                    assert!((n / want - 1.0).abs() < 0.25, "{}: {n} samples at {scale}, about {want} wanted", s.name);
-                } else {
-                    assert!(n >= 2.0, "{}", s.name);
-                }
-            }
-        }
-    }
-
-    /// `clearance bench --job` on a 6-UPS job measures the 6-UPS pose pass (the
-    /// 3-limb kernel cannot pose it: it panicked).
-    #[test]
-    fn the_kernel_of_a_6ups_job_is_its_pose_pass() {
-        let job =
-            JobSpec::from_toml_str(SUITE.iter().find(|s| s.name == "ups_grid").unwrap().text, "ups_grid.toml").unwrap();
-        let small = scaled(job, 1e-3);
-        assert!(small.sample_count() < 1000);
-        for solver in [SolverKind::Fast, SolverKind::General] {
-            let rate = kernel_of(&small, solver).unwrap();
-            assert!(rate.is_finite() && rate > 0.0, "{rate}");
-        }
-    }
-
-    /// A grid over all six inputs (a 6-UPS grid) scales in each of them: `x`, `y`
-    /// and `phi` count as ranges like `z`, `psi` and `theta`, so a quarter of the
-    /// samples is a quarter, not the three 3-PRS ranges' share of it.
-    #[test]
-    fn scaling_a_six_input_grid_scales_every_range() {
-        let text = r#"
-            name = "six_inputs"
-            [mechanism]
-            kind = "6-UPS"
-            [grid]
-            x = { start = -0.1, stop = 0.1, n = 20 }
-            y = { start = -0.1, stop = 0.1, n = 20 }
-            z = { start = 0.6, stop = 0.8, n = 20 }
-            phi = { start = -0.1, stop = 0.1, n = 20 }
-            psi = { start = -0.1, stop = 0.1, n = 20 }
-            theta = { start = -0.1, stop = 0.1, n = 20 }
-        "#;
-        let full = JobSpec::from_toml_str(text, "six_inputs.toml").unwrap();
-        assert_eq!(full.sample_count(), 20u64.pow(6));
-        for scale in [0.5, 0.1, 0.01] {
-            let job = scaled(full.clone(), scale);
-            let (n, want) = (job.sample_count() as f64, full.sample_count() as f64 * scale);
-            assert!((n / want - 1.0).abs() < 0.25, "{n} samples at {scale}, about {want} wanted");
-            let g = job.grid.as_ref().unwrap();
-            for r in [g.x.as_ref().unwrap(), &g.z, g.phi.as_ref().unwrap()] {
-                let RangeSpec::Range { n, .. } = r else { panic!("a range became a value") };
-                assert!(*n < 20, "every range shrinks at {scale}: {n}");
-            }
-        }
-        // x, y, z over a fixed orientation (the suite's ups_grid): only the three ranges scale.
-        let xyz = r#"
-            name = "xyz"
-            [mechanism]
-            kind = "6-UPS"
-            [grid]
-            x = { start = -0.1, stop = 0.1, n = 20 }
-            y = { start = -0.1, stop = 0.1, n = 20 }
-            z = { start = 0.6, stop = 0.8, n = 20 }
-            phi = 0.05
-            psi = 0.1
-            theta = -0.1
-        "#;
-        let full = JobSpec::from_toml_str(xyz, "xyz.toml").unwrap();
-        assert_eq!(full.sample_count(), 8000);
-        let job = scaled(full, 0.25);
-        let n = job.sample_count() as f64;
-        assert!((n / 2000.0 - 1.0).abs() < 0.25, "{n} samples at 0.25, about 2000 wanted");
-        let g = job.grid.as_ref().unwrap();
-        let sizes: Vec<u64> = [g.x.as_ref().unwrap(), g.y.as_ref().unwrap(), &g.z].iter().map(|r| r.len()).collect();
-        assert!(sizes.iter().all(|&n| (12..=13).contains(&n)), "x, y, z shrink alike: {sizes:?}");
-    }
-}
-
 /// What `clearance bench --scaling` measures.
 pub struct ScalingOptions {
     pub poses: u64,
@@ -827,4 +696,135 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
         "(stage shares are busy time over the run's wall time; they overlap, the writer thread works beside the pool)"
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clearance_model::RangeSpec;
+
+    /// Every file of `benches/suite/` is a valid job (so `clearance run` takes it)
+    /// and in the suite, and the suite's texts are those files.
+    #[test]
+    fn the_suite_is_the_files_of_benches_suite() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut files: Vec<String> = std::fs::read_dir(root.join("benches/suite"))
+            .unwrap()
+            .map(|e| format!("benches/suite/{}", e.unwrap().file_name().to_string_lossy()))
+            .collect();
+        files.sort();
+        let mut listed: Vec<String> = SUITE.iter().map(|s| s.file.to_string()).collect();
+        listed.sort();
+        listed.dedup();
+        assert_eq!(files, listed);
+        for s in SUITE {
+            assert_eq!(std::fs::read_to_string(root.join(s.file)).unwrap(), s.text, "{}", s.file);
+            let job = JobSpec::from_path(&root.join(s.file)).unwrap();
+            job.variants(s.file).unwrap();
+        }
+    }
+
+    /// The suite runs the jobs the issue names, at their sizes.
+    #[test]
+    fn the_suite_has_every_kind_of_job() {
+        let job = |name: &str| SUITE.iter().find(|s| s.name == name).unwrap().job(1.0).unwrap();
+        assert_eq!(job("grid_2d").sample_count(), 633 * 633);
+        assert_eq!(job("grid_3d").sample_count(), 400_000);
+        assert!(job("sweep_16").variant_count() >= 16);
+        let t = job("trajectory_dynamic");
+        assert!(t.trajectory.is_some() && t.analysis.modes.contains(&Mode::Dynamic));
+        assert_eq!(job("prs_inclined").mechanism.rail_angle_deg(), 30.0);
+        assert_eq!(job("rps_grid").mechanism.kind.name(), "3-RPS");
+        let ups = job("ups_grid");
+        assert_eq!(ups.mechanism.kind.name(), "6-UPS");
+        assert!((100_000..=200_000).contains(&ups.sample_count()), "{}", ups.sample_count());
+        let sets: Vec<ColumnSet> =
+            SUITE.iter().filter(|s| s.file.ends_with("grid_2d.toml")).map(|s| s.columns).collect();
+        assert_eq!(sets, [ColumnSet::Standard, ColumnSet::Minimal, ColumnSet::Full]);
+    }
+
+    /// `--scale` scales the samples, not the variants or modes, and keeps every
+    /// range at two values or more.
+    #[test]
+    fn scaling_keeps_variants_modes_and_ranges() {
+        for s in SUITE {
+            let full = s.job(1.0).unwrap();
+            for scale in [0.1, 0.01, 1e-9] {
+                let job = s.job(scale).unwrap();
+                assert_eq!((job.variant_count(), &job.analysis.modes), (full.variant_count(), &full.analysis.modes));
+                let (n, want) = (job.sample_count() as f64, full.sample_count() as f64 * scale);
+                if scale >= 0.01 {
+                    assert!((n / want - 1.0).abs() < 0.25, "{}: {n} samples at {scale}, about {want} wanted", s.name);
+                } else {
+                    assert!(n >= 2.0, "{}", s.name);
+                }
+            }
+        }
+    }
+
+    /// `clearance bench --job` on a 6-UPS job measures the 6-UPS pose pass (the
+    /// 3-limb kernel cannot pose it: it panicked).
+    #[test]
+    fn the_kernel_of_a_6ups_job_is_its_pose_pass() {
+        let job =
+            JobSpec::from_toml_str(SUITE.iter().find(|s| s.name == "ups_grid").unwrap().text, "ups_grid.toml").unwrap();
+        let small = scaled(job, 1e-3);
+        assert!(small.sample_count() < 1000);
+        for solver in [SolverKind::Fast, SolverKind::General] {
+            let rate = kernel_of(&small, solver).unwrap();
+            assert!(rate.is_finite() && rate > 0.0, "{rate}");
+        }
+    }
+
+    /// A grid over all six inputs (a 6-UPS grid) scales in each of them: `x`, `y`
+    /// and `phi` count as ranges like `z`, `psi` and `theta`, so a quarter of the
+    /// samples is a quarter, not the three 3-PRS ranges' share of it.
+    #[test]
+    fn scaling_a_six_input_grid_scales_every_range() {
+        let text = r#"
+            name = "six_inputs"
+            [mechanism]
+            kind = "6-UPS"
+            [grid]
+            x = { start = -0.1, stop = 0.1, n = 20 }
+            y = { start = -0.1, stop = 0.1, n = 20 }
+            z = { start = 0.6, stop = 0.8, n = 20 }
+            phi = { start = -0.1, stop = 0.1, n = 20 }
+            psi = { start = -0.1, stop = 0.1, n = 20 }
+            theta = { start = -0.1, stop = 0.1, n = 20 }
+        "#;
+        let full = JobSpec::from_toml_str(text, "six_inputs.toml").unwrap();
+        assert_eq!(full.sample_count(), 20u64.pow(6));
+        for scale in [0.5, 0.1, 0.01] {
+            let job = scaled(full.clone(), scale);
+            let (n, want) = (job.sample_count() as f64, full.sample_count() as f64 * scale);
+            assert!((n / want - 1.0).abs() < 0.25, "{n} samples at {scale}, about {want} wanted");
+            let g = job.grid.as_ref().unwrap();
+            for r in [g.x.as_ref().unwrap(), &g.z, g.phi.as_ref().unwrap()] {
+                let RangeSpec::Range { n, .. } = r else { panic!("a range became a value") };
+                assert!(*n < 20, "every range shrinks at {scale}: {n}");
+            }
+        }
+        // x, y, z over a fixed orientation (the suite's ups_grid): only the three ranges scale.
+        let xyz = r#"
+            name = "xyz"
+            [mechanism]
+            kind = "6-UPS"
+            [grid]
+            x = { start = -0.1, stop = 0.1, n = 20 }
+            y = { start = -0.1, stop = 0.1, n = 20 }
+            z = { start = 0.6, stop = 0.8, n = 20 }
+            phi = 0.05
+            psi = 0.1
+            theta = -0.1
+        "#;
+        let full = JobSpec::from_toml_str(xyz, "xyz.toml").unwrap();
+        assert_eq!(full.sample_count(), 8000);
+        let job = scaled(full, 0.25);
+        let n = job.sample_count() as f64;
+        assert!((n / 2000.0 - 1.0).abs() < 0.25, "{n} samples at 0.25, about 2000 wanted");
+        let g = job.grid.as_ref().unwrap();
+        let sizes: Vec<u64> = [g.x.as_ref().unwrap(), g.y.as_ref().unwrap(), &g.z].iter().map(|r| r.len()).collect();
+        assert!(sizes.iter().all(|&n| (12..=13).contains(&n)), "x, y, z shrink alike: {sizes:?}");
+    }
 }
