@@ -41,6 +41,7 @@ fn run_job(job: &JobSpec, solver: SolverKind, out: &Path) {
         progress: Reporter::default(),
         direct_io: true,
         search: true,
+        poses: true,
     };
     let report = run(job, "bench.toml", &opts).expect("the run succeeds");
     std::hint::black_box(report);

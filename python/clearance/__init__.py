@@ -266,7 +266,8 @@ def run(
     - ``resume``: ``True`` finishes an interrupted run in ``out``, keeping its
       complete part files; ``overwrite``: ``True`` replaces the run in ``out``.
       Each ``True`` or ``False``, not both ``True``.
-    - ``columns``: ``"minimal"``, ``"standard"`` or ``"full"``.
+    - ``columns``: ``"minimal"``, ``"standard"`` or ``"full"``; ``"none"`` writes no
+      pose files, only ``summary.parquet`` and ``discontinuities.parquet``.
     - ``compression``: ``"none"``, ``"lz4"`` or ``"zstd"``.
     - ``chunk_size``: samples per part file, a positive int.
     - ``progress``: as for :func:`solve`.
@@ -288,7 +289,7 @@ def run(
         raise ValueError(
             "resume=True and overwrite=True: pass one (resume finishes the run in out, overwrite replaces it)"
         )
-    columns = _name("columns", columns, ("minimal", "standard", "full"))
+    columns = _name("columns", columns, ("none", "minimal", "standard", "full"))
     compression = _name("compression", compression, ("none", "lz4", "zstd"))
     chunk_size = _int("chunk_size", chunk_size, "a positive int")
     if not 1 <= chunk_size < 2**64:

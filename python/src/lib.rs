@@ -387,9 +387,11 @@ fn run(
     if chunk_size == 0 {
         return Err(PyValueError::new_err("chunk_size must be a positive int, got 0"));
     }
+    // "none": the standard set's quantities for the summary, no pose file.
+    let poses = columns_name != "none";
     let opts = RunOptions {
         out,
-        columns: columns(columns_name)?,
+        columns: if poses { columns(columns_name)? } else { ColumnSet::Standard },
         shard,
         resume,
         overwrite,
@@ -402,6 +404,7 @@ fn run(
         progress: PyProgress::reporter(progress),
         direct_io,
         search: true,
+        poses,
     };
     let r = py.detach(|| on_pool(threads, || clearance_engine::run(&job.spec, &job.file, &opts)))?.map_err(to_py)?;
     Ok((r.computed, r.total, r.seconds, r.complete))

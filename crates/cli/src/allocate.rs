@@ -177,6 +177,7 @@ fn verify(job: &JobSpec, file: &str, a: &Allocation, out: &Path, quiet: bool) ->
         progress: Reporter::default(),
         direct_io: false,
         search: true,
+        poses: true,
     };
     clearance_engine::run(&job, file, &opts)?;
     if !quiet {

@@ -115,6 +115,7 @@ pub fn bench(
         progress: Default::default(),
         direct_io: crate::buffered_io_not_asked(),
         search: true,
+        poses: true,
     };
     let mut e2es = Vec::with_capacity(repeat);
     let mut bytes = 0;
@@ -361,6 +362,7 @@ impl SuiteOptions {
             progress: Default::default(),
             direct_io: crate::buffered_io_not_asked(),
             search: true,
+            poses: true,
         }
     }
 }
@@ -538,11 +540,17 @@ pub struct ScalingOptions {
     pub solver: SolverKind,
     pub compression: Codec,
     pub writer: Writer,
-    pub columns: ColumnSet,
+    /// The end-to-end runs' column set, and whether they write pose files (`none`).
+    pub columns: (ColumnSet, bool),
     pub repeat: usize,
     /// The thread counts (default 1, 2, 4 … and every core).
     pub threads: Vec<usize>,
     pub job: Option<JobSpec>,
+}
+
+/// `--columns`' name: `none` without pose files.
+fn columns_name((set, poses): (ColumnSet, bool)) -> &'static str {
+    if poses { set.name() } else { "none" }
 }
 
 /// 1, 2, 4 … below `cores`, and `cores`.
@@ -579,7 +587,7 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
     let dir = std::env::temp_dir().join(format!("clearance-scaling-{}", std::process::id()));
     let opts = RunOptions {
         out: dir.clone(),
-        columns: o.columns,
+        columns: o.columns.0,
         shard: None,
         resume: false,
         overwrite: false,
@@ -590,6 +598,7 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
         progress: Default::default(),
         direct_io: crate::buffered_io_not_asked(),
         search: true,
+        poses: o.columns.1,
     };
     kernel_rate(&bench_job(10_000), SolverKind::Fast); // warm up
     let mut rows = Vec::new();
@@ -644,7 +653,7 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
         println!(
             "{{\"job\": \"{}\", \"poses\": {n}, \"columns\": \"{}\", \"compression\": \"{}\", \"writer\": \"{}\", \"isa\": \"{}\", \"repeat\": {}, \"scaling\": [{}]}}",
             job.name(),
-            o.columns.name(),
+            columns_name(o.columns),
             o.compression.name(),
             o.writer.name(),
             Isa::best().name(),
@@ -657,7 +666,7 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
         "job: {} ({} poses), end to end with {} columns, {} pages, writer {}, vector instructions {}, best of {}",
         job.name(),
         n,
-        o.columns.name(),
+        columns_name(o.columns),
         o.compression.name(),
         o.writer.name(),
         Isa::best().name(),

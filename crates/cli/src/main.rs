@@ -50,9 +50,10 @@ enum Command {
         /// Replace an earlier run in the output directory.
         #[arg(long)]
         overwrite: bool,
-        /// Column set: minimal, standard or full.
-        #[arg(long, default_value = "standard", value_parser = parse_columns)]
-        columns: ColumnSet,
+        /// Column set: minimal, standard or full; none writes no pose files, only the
+        /// summary and the switches.
+        #[arg(long, default_value = "standard", value_parser = parse_run_columns)]
+        columns: (ColumnSet, bool),
         /// Samples per part file.
         #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u64).range(1..))]
         chunk_size: u64,
@@ -171,9 +172,9 @@ enum Command {
         /// With --scaling: the thread counts, e.g. 1,2,8,16 (default 1, 2, 4 … every core).
         #[arg(long, value_delimiter = ',', requires = "scaling", value_parser = clap::value_parser!(u64).range(1..=4096))]
         thread_counts: Vec<u64>,
-        /// With --scaling: the column set of the end-to-end runs.
-        #[arg(long, default_value = "standard", requires = "scaling", value_parser = parse_columns)]
-        columns: ColumnSet,
+        /// With --scaling: the column set of the end-to-end runs (none: no pose files).
+        #[arg(long, default_value = "standard", requires = "scaling", value_parser = parse_run_columns)]
+        columns: (ColumnSet, bool),
     },
 }
 
@@ -219,6 +220,17 @@ fn parse_scale(s: &str) -> Result<f64, String> {
 
 fn parse_codec(s: &str) -> Result<Codec, String> {
     Codec::parse(s).ok_or_else(|| format!("unknown compression `{s}`; use {}", Codec::NAMES.join(", ")))
+}
+
+/// A run's `--columns`: the set, and whether pose files are written (`none`: the
+/// standard set's quantities for the summary, no pose file).
+fn parse_run_columns(s: &str) -> Result<(ColumnSet, bool), String> {
+    match s {
+        "none" => Ok((ColumnSet::Standard, false)),
+        _ => ColumnSet::parse(s)
+            .map(|set| (set, true))
+            .ok_or_else(|| format!("unknown column set `{s}`; use none, minimal, standard or full")),
+    }
 }
 
 fn parse_columns(s: &str) -> Result<ColumnSet, String> {
@@ -329,6 +341,7 @@ fn main() -> ExitCode {
                 Err(e) => return usage(e),
             };
             let direct_io = buffered_io_not_asked();
+            let (columns, poses) = columns;
             let opts = RunOptions {
                 out,
                 columns,
@@ -342,6 +355,7 @@ fn main() -> ExitCode {
                 progress: Reporter::new(std::sync::Arc::new(progress::Display::new(quiet))),
                 direct_io,
                 search: true,
+                poses,
             };
             let run = |()| clearance_engine::run(&spec, &job.display().to_string(), &opts).map_err(anyhow::Error::from);
             init_threads(threads).and_then(run).map(|r| {
@@ -373,6 +387,7 @@ fn main() -> ExitCode {
                     progress: Reporter::default(),
                     direct_io: buffered_io_not_asked(),
                     search: true,
+                    poses: true,
                 };
                 let timing = (!no_timing).then_some(&opts);
                 init_threads(threads).and_then(|()| check::check(&spec, &job.display().to_string(), timing))

@@ -99,8 +99,8 @@ fn read_stats(path: &Path) -> Result<CustomStats> {
     serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
 }
 
-fn unit_complete(layout: &Layout, u: &Unit) -> bool {
-    part_complete(&layout.part(u.variant, u.mode, u.chunk))
+fn unit_complete(layout: &Layout, u: &Unit, poses: bool) -> bool {
+    (!poses || part_complete(&layout.part(u.variant, u.mode, u.chunk)))
         && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
 }
 
@@ -126,7 +126,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
             let v = u.variant as usize;
             let pose_pass = Instant::now();
             let (rows, results) = solve_rows(&models[v], &sources[v], u.range.clone(), u.mode);
-            let batch = schemas[v].batch(u.mode, &rows, &results);
+            let batch = opts.poses.then(|| schemas[v].batch(u.mode, &rows, &results));
             let mut stats = CustomStats::new(models[v].kinds.len(), models[v].groups.len());
             for r in &results {
                 stats.push(r);
@@ -136,12 +136,14 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
             let writing = Instant::now();
             let (part, stats_path) =
                 (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
-            for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
+            for dir in [part.parent().filter(|_| opts.poses), stats_path.parent()].into_iter().flatten() {
                 std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
             }
             write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
             let meta = part_metadata(&variants[v]);
-            write_parquet(&part, batch.schema(), &[batch], &write_opts, &meta)?;
+            if let Some(batch) = batch {
+                write_parquet(&part, batch.schema(), &[batch], &write_opts, &meta)?;
+            }
             stages.writing += writing.elapsed().as_secs_f64();
             done += u.range.end - u.range.start;
             progress.advance(u.range.end - u.range.start, done);

@@ -63,6 +63,11 @@ pub struct RunOptions {
     /// both ways): the run is then written whole but for its switches, and
     /// `discontinuities.parquet` is empty.
     pub search: bool,
+    /// Whether the poses' rows are written (`poses/` part files). False for
+    /// `--columns none`: every pose is still computed with the standard columns'
+    /// quantities, for `summary.parquet` and the switches of
+    /// `discontinuities.parquet`, but no part file is written.
+    pub poses: bool,
 }
 
 /// What a run did.
@@ -187,8 +192,8 @@ fn read_stats(path: &Path) -> Result<SummaryStats> {
 /// Whether `--resume` can keep a unit: its part is whole and its statistics file
 /// (written before it, and like it synced only at the end) parses. A missing trace
 /// is rebuilt at the end instead.
-fn unit_complete(layout: &Layout, u: &Unit) -> bool {
-    part_complete(&layout.part(u.variant, u.mode, u.chunk))
+fn unit_complete(layout: &Layout, u: &Unit, poses: bool) -> bool {
+    (!poses || part_complete(&layout.part(u.variant, u.mode, u.chunk)))
         && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
 }
 
@@ -1292,7 +1297,7 @@ pub(crate) fn prepare_run(
     job: &JobSpec,
     job_file: &str,
     opts: &RunOptions,
-    complete: fn(&Layout, &Unit) -> bool,
+    complete: fn(&Layout, &Unit, bool) -> bool,
 ) -> Result<Setup> {
     let variants: Vec<Variant> = job.variants(job_file)?;
     let groups = groups(&variants);
@@ -1306,7 +1311,7 @@ pub(crate) fn prepare_run(
     let todo_work: Vec<Work> = mine_work
         .into_iter()
         .filter_map(|mut w| {
-            w.units.retain(|u| !(opts.resume && complete(&layout, u)));
+            w.units.retain(|u| !(opts.resume && complete(&layout, u, opts.poses)));
             (!w.units.is_empty()).then_some(w)
         })
         .collect();
@@ -1319,7 +1324,7 @@ pub(crate) fn prepare_run(
             ("clearance.job".into(), job_toml),
             ("clearance.version".into(), ENGINE_VERSION.into()),
             ("clearance.git_commit".into(), env!("CLEARANCE_GIT_COMMIT").into()),
-            ("clearance.columns".into(), opts.columns.name().into()),
+            ("clearance.columns".into(), if opts.poses { opts.columns.name() } else { "none" }.into()),
         ],
         row_group_rows: opts.chunk_size as usize,
         codec: opts.compression,
@@ -1365,7 +1370,9 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let Setup { variants, groups, layout, all, mine, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
         prepare_run(job, job_file, opts, unit_complete)?;
     let layout = &layout;
-    let schema = PoseSchema::new(opts.columns, job.analysis.exact);
+    // Without pose files (`--columns none`) the pages hold the fewest columns, and
+    // are not written: the statistics come from the poses' results.
+    let schema = PoseSchema::new(if opts.poses { opts.columns } else { ColumnSet::Minimal }, job.analysis.exact);
     // Per group, the job it is solved as.
     let models: Vec<(Model, SampleSource)> = groups
         .iter()
@@ -1373,8 +1380,9 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let job = g.job(&variants);
             let mut model = Model::from_job(&job);
             model.solver = opts.solver;
-            // The envelope and the dominant joint are columns of the standard set.
-            model.envelope = opts.columns >= ColumnSet::Standard;
+            // The envelope and the dominant joint are columns of the standard set,
+            // and statistics of the summary without pose files.
+            model.envelope = opts.columns >= ColumnSet::Standard || !opts.poses;
             (model, SampleSource::new(&job))
         })
         .collect();
@@ -1408,7 +1416,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let mut busy = 0.0;
             for part in rx {
                 let start = Instant::now();
-                for dir in [part.path.parent(), part.stats_path.parent()].into_iter().flatten() {
+                for dir in [part.path.parent().filter(|_| opts.poses), part.stats_path.parent()].into_iter().flatten() {
                     std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
                 }
                 write_bytes(&part.trace_path, &encode_traces(&part.traces), write_opts)?;
@@ -1419,10 +1427,13 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 )?;
                 match part.body {
                     Body::Pages(pages) => {
-                        write_part(&part.path, schema, &pages, write_opts, &part.extra)?;
+                        if opts.poses {
+                            write_part(&part.path, schema, &pages, write_opts, &part.extra)?;
+                        }
                         spare.lock().expect("no panic while held").extend(pages.into_buffers());
                     }
-                    Body::Batch(batch) => write_batch_arrow(&part.path, &batch, write_opts, &part.extra)?,
+                    Body::Batch(batch) if opts.poses => write_batch_arrow(&part.path, &batch, write_opts, &part.extra)?,
+                    Body::Batch(_) => {}
                 }
                 busy += start.elapsed().as_secs_f64();
             }

@@ -90,8 +90,8 @@ fn read_stats(path: &Path) -> Result<UpsStats> {
     serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
 }
 
-fn unit_complete(layout: &Layout, u: &Unit) -> bool {
-    part_complete(&layout.part(u.variant, u.mode, u.chunk))
+fn unit_complete(layout: &Layout, u: &Unit, poses: bool) -> bool {
+    (!poses || part_complete(&layout.part(u.variant, u.mode, u.chunk)))
         && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
 }
 
@@ -135,7 +135,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
                 scaled = solved.iter().map(|r| r.scaled(&[s0, s1, s2])).collect();
                 &scaled
             };
-            let batch = schema.batch(u.mode, &rows, results);
+            let batch = opts.poses.then(|| schema.batch(u.mode, &rows, results));
             let mut stats = UpsStats::default();
             for r in results {
                 stats.push(r);
@@ -145,12 +145,14 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
             let writing = Instant::now();
             let (part, stats_path) =
                 (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
-            for dir in [part.parent(), stats_path.parent()].into_iter().flatten() {
+            for dir in [part.parent().filter(|_| opts.poses), stats_path.parent()].into_iter().flatten() {
                 std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
             }
             write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
             let meta = part_metadata(&variants[u.variant as usize]);
-            write_parquet(&part, batch.schema(), &[batch], &write_opts, &meta)?;
+            if let Some(batch) = batch {
+                write_parquet(&part, batch.schema(), &[batch], &write_opts, &meta)?;
+            }
             stages.writing += writing.elapsed().as_secs_f64();
             done += u.range.end - u.range.start;
             progress.advance(u.range.end - u.range.start, done);

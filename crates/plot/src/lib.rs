@@ -86,6 +86,14 @@ fn register_font() -> Result<(), PlotError> {
 pub fn plot_run(run_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     register_font()?;
     let run = RunDir::open(run_dir)?;
+    if !run_dir.join("poses").is_dir() && run.layout.success().exists() {
+        return Err(PlotError::Unsupported {
+            dir: run_dir.to_path_buf(),
+            why: "the run was written with --columns none: it has no pose files to draw (its summary.parquet and \
+                  discontinuities.parquet hold what it computed)"
+                .into(),
+        });
+    }
     let switches = switches::read_switches(&run.layout.discontinuities())?;
     let mut written = Vec::new();
     for variant in &run.variants {

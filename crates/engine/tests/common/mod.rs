@@ -27,6 +27,7 @@ pub fn options(out: &Path) -> RunOptions {
         progress: Reporter::default(),
         direct_io: false,
         search: true,
+        poses: true,
     }
 }
 
