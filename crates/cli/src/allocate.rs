@@ -45,6 +45,12 @@ fn summary(job: &str, a: &Allocation) -> String {
         a.iterations,
         a.cones
     );
+    if a.described {
+        s.push_str(
+            "per limb, for the job's description as a custom mechanism (`clearance describe`), whose [clearance] \
+             takes one magnitude per limb:\n",
+        );
+    }
     for (k, m) in a.magnitudes() {
         let w = a.variables.iter().find(|v| v.kind == k).map_or(1.0, |v| v.weight);
         s.push_str(&format!("  {k:<20} {}   (weight {w})\n", magnitude_text(&m)));
@@ -159,7 +165,8 @@ pub fn allocate(args: &Args) -> anyhow::Result<()> {
 
 /// A run of the job at the allocated magnitudes into `out`, and its check.
 fn verify(job: &JobSpec, file: &str, a: &Allocation, out: &Path, quiet: bool) -> anyhow::Result<()> {
-    let mut job = job.clone();
+    // Per-limb magnitudes of a built-in kind are its description's.
+    let mut job = if a.described { clearance_engine::describe(job, file)? } else { job.clone() };
     for (k, m) in &a.clearance {
         job.clearance.set(k, m.clone());
     }

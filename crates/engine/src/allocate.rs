@@ -147,6 +147,9 @@ pub struct Allocation {
     pub binding: Vec<Binding>,
     /// The whole `[clearance]` table at the answer, in the job's key order.
     pub clearance: Vec<(String, Magnitude)>,
+    /// Whether the answer is for the job's description (`clearance describe`): per-limb
+    /// magnitudes of a built-in kind, which only a custom mechanism takes.
+    pub described: bool,
 }
 
 impl Allocation {
@@ -237,6 +240,7 @@ impl Allocation {
             "cones": self.cones,
             "binding": binding,
             "clearance": map(&self.clearance),
+            "described": self.described,
         })
     }
 }
@@ -261,7 +265,28 @@ pub fn allocate_budgets(
             return Err(EngineError::Allocation(format!("a budget must be a positive number, got {b:?}")));
         }
     }
+    // Per-limb magnitudes of a built-in kind: allocated on the job's description (a
+    // custom mechanism whose [clearance] takes lists, giving the same errors), each
+    // allocated kind starting from its one magnitude on every limb.
+    let described;
+    let describe = opts.per_limb && job.mechanism.kind != MechanismKind::Custom;
+    let job = if describe {
+        let mut d = crate::describe(job, file)?;
+        let limbs = if job.mechanism.kind == MechanismKind::Ups6 { 6 } else { 3 };
+        let spec = job.allocate.clone().unwrap_or_default();
+        let chosen = if spec.kinds.is_empty() { job.clearance.keys(job.mechanism.kind) } else { spec.kinds };
+        for k in chosen {
+            if let Some(Magnitude::All(v)) = d.clearance.magnitude(&k) {
+                d.clearance.set(&k, Magnitude::PerLimb(vec![v; limbs]));
+            }
+        }
+        described = d;
+        &described
+    } else {
+        job
+    };
     let mut problem = Problem::new(job, file, opts)?;
+    problem.described = describe;
     // Unit errors at the size of the largest budget: magnitudes near the answer's.
     let scale = budgets.iter().copied().fold(0.0, f64::max);
     let mut data = problem.collect(job, file, scale, &opts.progress)?;
@@ -299,6 +324,8 @@ struct Problem {
     defaulted: bool,
     /// Kinds of the default left at the job's magnitudes: they move nothing.
     idle: Vec<String>,
+    /// Whether the job is a built-in kind's description (per-limb magnitudes).
+    described: bool,
 }
 
 /// One pose's constraint for one budget, in units of the solve's scale `S`:
@@ -429,6 +456,7 @@ impl Problem {
             keys,
             defaulted: spec.kinds.is_empty(),
             idle: Vec::new(),
+            described: false,
         })
     }
 
@@ -522,6 +550,7 @@ impl Problem {
             keys: self.keys.clone(),
             defaulted: self.defaulted,
             idle: self.idle.clone(),
+            described: self.described,
         };
         out.fixed = self.keys.iter().filter(|(k, _)| !out.vars.iter().any(|v| v.kind == *k)).cloned().collect();
         for k in kinds {
@@ -675,6 +704,7 @@ impl Problem {
             keys: self.keys.clone(),
             defaulted: false,
             idle: Vec::new(),
+            described: false,
         };
         let verify = collect(
             job,
@@ -725,6 +755,7 @@ impl Problem {
             binding,
             clearance,
             variables: vars,
+            described: self.described,
         })
     }
 

@@ -218,10 +218,6 @@ fn impossible_budgets_and_bad_requests_are_refused_with_the_reason() {
     assert!(why.contains("not allocated") && why.contains("s_radial"), "{why}");
     let why = refuse("[allocate]\nkinds = [\"r_radial\"]\nmin = { r_radial = 1e-3 }\n", &AllocateOptions::new(1e-3));
     assert!(why.contains("lower bounds"), "{why}");
-    let mut per_limb = AllocateOptions::new(1e-4);
-    per_limb.per_limb = true;
-    let why = refuse("", &per_limb);
-    assert!(why.contains("list of one magnitude per limb"), "{why}");
     let why = refuse("[[sweep]]\nparam = \"clearance.r_radial\"\nvalues = [1e-5, 2e-5]\n", &AllocateOptions::new(1e-4));
     assert!(why.contains("sweep"), "{why}");
     // A 6-UPS's u_angular moves nothing: no finite magnitude is cheapest. Named, it
@@ -246,6 +242,36 @@ fn impossible_budgets_and_bad_requests_are_refused_with_the_reason() {
     )
     .unwrap_err();
     assert!(bad.to_string().contains("allocate.max.r_radial"), "{bad}");
+}
+
+#[test]
+fn per_limb_magnitudes_of_a_built_in_kind_are_its_descriptions() {
+    let base = job("[allocate]\nkinds = [\"r_radial\", \"r_axial\"]\n");
+    let budget = 1e-4;
+    let shared = allocate(&base, "job.toml", &AllocateOptions::new(budget)).unwrap();
+    let mut opts = AllocateOptions::new(budget);
+    opts.per_limb = true;
+    let each = allocate(&base, "job.toml", &opts).unwrap();
+    assert!(each.described && !shared.described);
+    assert_eq!(each.variables.len(), 6);
+    assert!(each.cost <= 3.0 * shared.cost * (1.0 + 1e-8), "{} against 3 × {}", each.cost, shared.cost);
+    // The description at the per-limb answer meets the budget in a fresh solve.
+    let mut d = clearance_engine::describe(&base, "job.toml").unwrap();
+    d.allocate = None;
+    for (k, m) in &each.clearance {
+        d.clearance.set(k, m.clone());
+    }
+    let b = &solve(&d, "job.toml", &SolveOptions::default()).unwrap()[0];
+    let all: Vec<Vec<Part>> = each.clearance.iter().map(|(k, _)| parts(b, k, 1.0)).collect();
+    let largest = (0..all[0].len()).map(|p| bounded(all.iter().map(|k| (1.0, k[p]))).0).fold(0.0, f64::max);
+    assert!(largest <= budget * (1.0 + 1e-9) && largest >= budget * (1.0 - 1e-6), "{largest}");
+    // A custom kind given as one number cannot be split per limb.
+    let custom = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../jobs/custom_3rrs_grid.toml"))
+        .unwrap()
+        .replace("n = 61", "n = 5");
+    let j = JobSpec::from_toml_str(&custom, "job.toml").unwrap();
+    let why = allocate(&j, "job.toml", &opts).unwrap_err().to_string();
+    assert!(why.contains("list of one magnitude per limb"), "{why}");
 }
 
 #[test]
