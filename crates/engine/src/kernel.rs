@@ -23,8 +23,16 @@ pub fn bench_job(poses: u64) -> JobSpec {
 /// Kinetostatic pose → reactions → take-up → error, all kinds, no I/O, over the
 /// job's samples (as written, before sweeps) on the current rayon pool. Poses/s.
 pub fn kernel_rate(job: &JobSpec, solver: SolverKind) -> f64 {
+    kernel_rate_with(job, solver, false)
+}
+
+/// [`kernel_rate`], with the worst-case envelope and the dominant joint as well when
+/// `envelope` (what the standard columns and the summary need): the work a run with
+/// those columns does per pose, without its I/O.
+pub fn kernel_rate_with(job: &JobSpec, solver: SolverKind, envelope: bool) -> f64 {
     let mut model = Model::from_job(job);
     model.solver = solver;
+    model.envelope = envelope;
     let source = SampleSource::new(job);
     let n = source.len();
     let start = Instant::now();

@@ -49,7 +49,7 @@ pub use allocate::{
 pub use describe::describe;
 pub use error::{EngineError, OutputDirError};
 pub use estimate::{Calibration, Estimate, calibration_dir, estimate, scaled};
-pub use kernel::{bench_job, kernel_rate};
+pub use kernel::{bench_job, kernel_rate, kernel_rate_with};
 pub use layout::Layout;
 pub use plan::{ColumnSize, Plan, PlannedVariant, Samples, plan};
 pub use progress::{Progress, Reporter};
