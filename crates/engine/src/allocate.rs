@@ -265,19 +265,24 @@ pub fn allocate_budgets(
             return Err(EngineError::Allocation(format!("a budget must be a positive number, got {b:?}")));
         }
     }
-    // Per-limb magnitudes of a built-in kind: allocated on the job's description (a
-    // custom mechanism whose [clearance] takes lists, giving the same errors), each
-    // allocated kind starting from its one magnitude on every limb.
+    // Per-limb magnitudes: a built-in kind is allocated on the job's description (a
+    // custom mechanism whose [clearance] takes lists, giving the same errors); an
+    // allocated kind given as one number starts from it on every limb with the joint.
     let described;
     let describe = opts.per_limb && job.mechanism.kind != MechanismKind::Custom;
-    let job = if describe {
-        let mut d = crate::describe(job, file)?;
-        let limbs = if job.mechanism.kind == MechanismKind::Ups6 { 6 } else { 3 };
+    let job = if opts.per_limb {
+        let mut d = if describe { crate::describe(job, file)? } else { job.clone() };
+        let limbs = clearance_model::custom::expand(d.mechanism.limb.as_deref().unwrap_or_default());
+        let kinds = clearance_model::custom::all_kinds(&limbs);
         let spec = job.allocate.clone().unwrap_or_default();
-        let chosen = if spec.kinds.is_empty() { job.clearance.keys(job.mechanism.kind) } else { spec.kinds };
+        let chosen = if spec.kinds.is_empty() { d.clearance.keys(MechanismKind::Custom) } else { spec.kinds };
         for k in chosen {
-            if let Some(Magnitude::All(v)) = d.clearance.magnitude(&k) {
-                d.clearance.set(&k, Magnitude::PerLimb(vec![v; limbs]));
+            let count = kinds
+                .iter()
+                .find(|c| c.key == k)
+                .map_or(0, |c| clearance_model::custom::limbs_with(&limbs, &c.joint, c.group).len());
+            if let (Some(Magnitude::All(v)), true) = (d.clearance.magnitude(&k), count > 0) {
+                d.clearance.set(&k, Magnitude::PerLimb(vec![v; count]));
             }
         }
         described = d;

@@ -265,13 +265,21 @@ fn per_limb_magnitudes_of_a_built_in_kind_are_its_descriptions() {
     let all: Vec<Vec<Part>> = each.clearance.iter().map(|(k, _)| parts(b, k, 1.0)).collect();
     let largest = (0..all[0].len()).map(|p| bounded(all.iter().map(|k| (1.0, k[p]))).0).fold(0.0, f64::max);
     assert!(largest <= budget * (1.0 + 1e-9) && largest >= budget * (1.0 - 1e-6), "{largest}");
-    // A custom kind given as one number cannot be split per limb.
+    // A custom kind given as one number is split over the limbs that have the joint.
     let custom = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../jobs/custom_3rrs_grid.toml"))
         .unwrap()
-        .replace("n = 61", "n = 5");
+        .replace("n = 61", "n = 5")
+        + "\n[allocate]\nkinds = [\"knee_radial\", \"s_radial\"]\n";
     let j = JobSpec::from_toml_str(&custom, "job.toml").unwrap();
-    let why = allocate(&j, "job.toml", &opts).unwrap_err().to_string();
-    assert!(why.contains("list of one magnitude per limb"), "{why}");
+    let mut opts = AllocateOptions::new(3e-4);
+    opts.per_limb = true;
+    let a = allocate(&j, "job.toml", &opts).unwrap();
+    assert!(!a.described);
+    let limbs: Vec<(String, Option<usize>)> = a.variables.iter().map(|v| (v.kind.clone(), v.limb)).collect();
+    let expected: Vec<(String, Option<usize>)> =
+        ["knee_radial", "s_radial"].iter().flat_map(|k| (0..3).map(move |j| (k.to_string(), Some(j)))).collect();
+    assert_eq!(limbs, expected);
+    assert!(a.largest_dp <= 3e-4 * (1.0 + 1e-9));
 }
 
 #[test]
