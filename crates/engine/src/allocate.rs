@@ -599,13 +599,27 @@ impl Problem {
         }
         const TOL: f64 = 1e-8;
         for round in 1..=200 {
-            let (status, x, z) = conic(self, data, &active, &betas, &lo, &hi);
+            // Solved, then solved again in units of the first answer: the magnitudes
+            // (and their costs) may span orders of magnitude that one scale of the
+            // variables would leave to the solver's tolerance.
+            let (mut status, mut x, mut z) = conic(self, data, &active, &betas, &lo, &hi, &vec![1.0; n]);
+            if matches!(status, SolverStatus::Solved | SolverStatus::AlmostSolved)
+                && x.iter().all(|v| v.is_finite() && *v > 0.0)
+            {
+                (status, x, z) = conic(self, data, &active, &betas, &lo, &hi, &x);
+            }
             match status {
                 SolverStatus::Solved | SolverStatus::AlmostSolved => {}
                 SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
                     return Err(self.infeasible(data, budget, &betas, &lo, &active));
                 }
                 other => return Err(EngineError::Solver(format!("{other:?} after {round} active-set rounds"))),
+            }
+            if !x.iter().all(|v| v.is_finite() && *v > 0.0) {
+                return Err(EngineError::Solver(format!(
+                    "a magnitude came out as {x:?} (in units of the budget): the weights may span too many orders \
+                     of magnitude"
+                )));
             }
             // Every pose checked at the answer; the most violated join the program.
             let mut violated: Vec<(f64, usize, usize)> = Vec::new();
@@ -880,12 +894,17 @@ fn conic(
     betas: &[f64],
     lo: &[f64],
     hi: &[Option<f64>],
+    unit: &[f64],
 ) -> (SolverStatus, Vec<f64>, Vec<f64>) {
     let n = data.n;
+    // Costs relative to the largest weight; the duals are scaled back at the end.
+    let top = problem.vars.iter().map(|v| v.weight).fold(0.0, f64::max);
     let (mut rows, mut cols, mut vals, mut b) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut cones = Vec::new();
     let mut row = 0usize;
+    // Column k of the magnitudes is y_k, x_k = unit_k·y_k.
     let mut put = |r: usize, c: usize, v: f64, rows: &mut Vec<usize>| {
+        let v = if c < n { v * unit[c] } else { v };
         if v != 0.0 {
             rows.push(r);
             cols.push(c);
@@ -926,12 +945,14 @@ fn conic(
     if nonneg > 0 {
         cones.push(SupportedConeT::NonnegativeConeT(nonneg));
     }
-    // Cost: (t + x, 2, t − x) in the second-order cone, i.e. t·x ≥ 1.
+    // Cost: (t + y, 2√a, t − y) in the second-order cone, i.e. t ≥ a / y with
+    // a = w / (top·unit): Σ t = Σ w / x / top.
     for k in 0..n {
-        put(row, k, -1.0, &mut rows);
+        let a = problem.vars[k].weight / (top * unit[k]);
+        put(row, k, -1.0 / unit[k], &mut rows);
         put(row, n + k, -1.0, &mut rows);
-        b.extend([0.0, 2.0, 0.0]);
-        put(row + 2, k, 1.0, &mut rows);
+        b.extend([0.0, 2.0 * a.sqrt(), 0.0]);
+        put(row + 2, k, 1.0 / unit[k], &mut rows);
         put(row + 2, n + k, -1.0, &mut rows);
         row += 3;
         cones.push(SupportedConeT::SecondOrderConeT(3));
@@ -957,7 +978,7 @@ fn conic(
     }
     let a = CscMatrix::new_from_triplets(row, 2 * n, rows, cols, vals);
     let p = CscMatrix::zeros((2 * n, 2 * n));
-    let q: Vec<f64> = (0..2 * n).map(|i| if i < n { 0.0 } else { problem.vars[i - n].weight }).collect();
+    let q: Vec<f64> = (0..2 * n).map(|i| if i < n { 0.0 } else { 1.0 }).collect();
     let settings = DefaultSettingsBuilder::default()
         .verbose(false)
         .tol_gap_abs(1e-10)
@@ -972,8 +993,8 @@ fn conic(
     };
     solver.solve();
     let s = &solver.solution;
-    let z = budget_rows.iter().map(|&r| s.z[r]).collect();
-    (s.status, s.x[..n].to_vec(), z)
+    let z = budget_rows.iter().map(|&r| s.z[r] * top).collect();
+    (s.status, s.x[..n].iter().zip(unit).map(|(y, u)| y * u).collect(), z)
 }
 
 /// The constraints of every pose of every variant and mode: the job solved once

@@ -303,3 +303,22 @@ fn per_limb_magnitudes_of_a_custom_mechanism_meet_the_budget_and_cost_no_more() 
         assert!(a.largest_dp <= budget * (1.0 + 1e-9) && a.largest_dp >= budget * (1.0 - 1e-6), "{}", a.largest_dp);
     }
 }
+
+/// Weights twelve orders of magnitude apart: every magnitude positive (the first
+/// version returned a negative one, inside the solver's tolerance), the budget met
+/// and binding, the cost the weights' sum at the answer.
+#[test]
+fn weights_far_apart_still_give_a_feasible_optimum() {
+    let base = job("[allocate]\nkinds = [\"s_radial\", \"r_radial\", \"r_axial\"]\n\
+        weights = { s_radial = 1e-6, r_radial = 1e6, r_axial = 1.0 }\n");
+    let budget = 1e-4;
+    let a = allocate(&base, "job.toml", &AllocateOptions::new(budget)).unwrap();
+    assert!(a.variables.iter().all(|v| v.magnitude > 0.0 && v.magnitude.is_finite()), "{:?}", a.variables);
+    let cost: f64 = a.variables.iter().map(|v| v.weight / v.magnitude).sum();
+    assert!((cost - a.cost).abs() <= 1e-12 * cost);
+    let largest = largest_dp(&base, &a.clearance);
+    assert!(largest <= budget * (1.0 + 1e-9) && largest >= budget * (1.0 - 1e-6), "{largest}");
+    // The expensive kind takes most of the budget.
+    let r = a.variables.iter().find(|v| v.kind == "r_radial").unwrap().magnitude;
+    assert!(a.variables.iter().all(|v| v.magnitude <= r));
+}
