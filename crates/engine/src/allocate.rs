@@ -947,12 +947,12 @@ fn conic(
     }
     // Cost: (t + y, 2√a, t − y) in the second-order cone, i.e. t ≥ a / y with
     // a = w / (top·unit): Σ t = Σ w / x / top.
-    for k in 0..n {
-        let a = problem.vars[k].weight / (top * unit[k]);
-        put(row, k, -1.0 / unit[k], &mut rows);
+    for (k, &u) in unit.iter().enumerate() {
+        let a = problem.vars[k].weight / (top * u);
+        put(row, k, -1.0 / u, &mut rows);
         put(row, n + k, -1.0, &mut rows);
         b.extend([0.0, 2.0 * a.sqrt(), 0.0]);
-        put(row + 2, k, 1.0 / unit[k], &mut rows);
+        put(row + 2, k, 1.0 / u, &mut rows);
         put(row + 2, n + k, -1.0, &mut rows);
         row += 3;
         cones.push(SupportedConeT::SecondOrderConeT(3));
