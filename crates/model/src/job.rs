@@ -105,17 +105,9 @@ impl<'de> Deserialize<'de> for ClearanceSpec {
                 let mut out = ClearanceSpec::default();
                 while let Some(key) = map.next_key::<String>()? {
                     let value: Magnitude = map.next_value()?;
-                    if let Magnitude::All(v) = value {
-                        match key.as_str() {
-                            "s_radial" => out.s_radial = v,
-                            "r_radial" => out.r_radial = v,
-                            "r_axial" => out.r_axial = v,
-                            "r_angular" => out.r_angular = v,
-                            "u_radial" => out.u_radial = v,
-                            "u_angular" => out.u_angular = v,
-                            _ => {}
-                        }
-                    }
+                    // A built-in kind's number into its field (not yet marked custom,
+                    // `set` adds nothing to `given`: every key is pushed here).
+                    out.set(&key, value.clone());
                     out.given.push((key, value));
                 }
                 Ok(out)
