@@ -11,6 +11,7 @@
 //! risen to twice the minimum, located between samples). Groups that cannot move the
 //! platform are never searched.
 
+use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -18,12 +19,13 @@ use arrow::record_batch::RecordBatch;
 use clearance_discontinuity::brent_root;
 use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
 use clearance_grid::SampleSource;
+use clearance_kinematics::custom::Configuration;
 use clearance_model::{JobError, JobSpec, Mode, Variant};
 use clearance_parquet::{
     ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
     custom_discontinuity_batch, custom_summary_batch, write_bytes, write_parquet,
 };
-use clearance_solver::custom::{CustomModel, CustomResult, solve_custom};
+use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve_custom_near};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
@@ -50,12 +52,40 @@ fn inputs_of(model: &CustomModel, source: &SampleSource, i: u64) -> (Option<f64>
     (t, model.geom.inputs.iter().map(|&k| s[k]).collect())
 }
 
-fn solve_inputs(model: &CustomModel, inputs: &[[f64; 3]], mode: Mode) -> CustomResult {
-    let x: Vec<f64> = inputs.iter().map(|v| v[0]).collect();
-    let v: Vec<f64> = inputs.iter().map(|v| v[1]).collect();
-    let a: Vec<f64> = inputs.iter().map(|v| v[2]).collect();
-    solve_custom(model, &x, Some((&v, &a)), mode)
+/// Solves one pose from its inputs' values, rates and accelerations, its configuration
+/// continued from `near` where that is close (see [`solve_custom_near`]).
+fn solve_inputs(
+    model: &CustomModel,
+    inputs: &[[f64; 3]],
+    mode: Mode,
+    near: Option<&Configuration>,
+) -> (CustomResult, Option<Configuration>) {
+    let [x, v, a] = split(inputs);
+    solve_custom_near(model, &x, Some((&v, &a)), mode, near)
 }
+
+/// The inputs' values, rates and accelerations, each in canonical order.
+fn split(inputs: &[[f64; 3]]) -> [Vec<f64>; 3] {
+    std::array::from_fn(|k| inputs.iter().map(|v| v[k]).collect())
+}
+
+/// Group `g`'s deciding load at one pose, as [`group_load`] reads it of a full solve.
+fn load_of(
+    model: &CustomModel,
+    inputs: &[[f64; 3]],
+    mode: Mode,
+    near: Option<&Configuration>,
+    g: usize,
+) -> (Option<[f64; 3]>, Option<Configuration>) {
+    let [x, v, a] = split(inputs);
+    group_load_near(model, &x, Some((&v, &a)), mode, near, g)
+}
+
+/// Samples are solved in runs of this many, aligned on multiples of it: each continued
+/// from the one before it in its run (neighbours on a grid line or a trajectory), the
+/// first of a run from home. A sample's result depends only on its run, whatever the
+/// chunks, shards or threads.
+const RUN: u64 = 64;
 
 /// Solves samples `range` of one mode on the current rayon pool.
 fn solve_rows(
@@ -64,13 +94,26 @@ fn solve_rows(
     range: std::ops::Range<u64>,
     mode: Mode,
 ) -> (Vec<CustomRow>, Vec<CustomResult>) {
-    range
+    let first = range.start - range.start % RUN;
+    let runs: Vec<Vec<(CustomRow, CustomResult)>> = (first..range.end)
+        .step_by(RUN as usize)
+        .collect::<Vec<u64>>()
         .into_par_iter()
-        .map(|i| {
-            let (t, inputs) = inputs_of(model, source, i);
-            (CustomRow { sample: i, t }, solve_inputs(model, &inputs, mode))
+        .map(|start| {
+            let mut near = None;
+            let mut out = Vec::with_capacity(RUN as usize);
+            for i in start..(start + RUN).min(range.end) {
+                let (t, inputs) = inputs_of(model, source, i);
+                let (r, reached) = solve_inputs(model, &inputs, mode, near.as_ref());
+                near = reached;
+                if i >= range.start {
+                    out.push((CustomRow { sample: i, t }, r));
+                }
+            }
+            out
         })
-        .unzip()
+        .collect();
+    runs.into_iter().flatten().unzip()
 }
 
 /// The poses of a custom job as record batches, one per (variant, mode), in memory.
@@ -120,6 +163,10 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
     let mut stages = StageTimes::default();
+    // What the search reads of each sample, kept from the pose pass where every unit of
+    // a (variant, mode) is computed here and the table fits (else the search solves them).
+    let mut tables: HashMap<(u64, Mode), Vec<Option<Sampled>>> = HashMap::new();
+    let mut kept = 0u64;
     for w in &todo_work {
         for u in &w.units {
             progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
@@ -130,6 +177,16 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
             let mut stats = CustomStats::new(models[v].kinds.len(), models[v].groups.len());
             for r in &results {
                 stats.push(r);
+            }
+            let bytes = sources[v].len().saturating_mul(table_entry(&models[v]));
+            if opts.search && !tables.contains_key(&(u.variant, u.mode)) && kept.saturating_add(bytes) <= SHARED_BYTES {
+                kept += bytes;
+                tables.insert((u.variant, u.mode), (0..sources[v].len()).map(|_| None).collect());
+            }
+            if let Some(table) = tables.get_mut(&(u.variant, u.mode)) {
+                for (i, r) in u.range.clone().zip(&results) {
+                    table[i as usize] = Some(Sampled::of(&models[v], r));
+                }
             }
             stats.flush();
             stages.pose_pass += pose_pass.elapsed().as_secs_f64();
@@ -157,7 +214,11 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
     if complete {
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        finalize(layout, job, &variants, &models, &sources, &all, &durable, opts.search, &mut stages)?;
+        let tables: HashMap<(u64, Mode), Vec<Sampled>> = tables
+            .into_iter()
+            .filter_map(|(key, t)| t.into_iter().collect::<Option<Vec<Sampled>>>().map(|t| (key, t)))
+            .collect();
+        finalize(layout, job, &variants, &models, &sources, &all, &durable, opts.search, tables, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
@@ -174,6 +235,7 @@ fn finalize(
     all: &[Unit],
     write_opts: &WriteOptions,
     search_on: bool,
+    mut tables: HashMap<(u64, Mode), Vec<Sampled>>,
     stages: &mut StageTimes,
 ) -> Result<()> {
     let mut summary = Vec::new();
@@ -187,7 +249,11 @@ fn finalize(
                 stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
             }
             let searching = Instant::now();
-            let found = if search_on { search(&variant.job, model, &sources[v], mode) } else { Vec::new() };
+            let found = if search_on {
+                search(&variant.job, model, &sources[v], mode, tables.remove(&(variant.index, mode)))
+            } else {
+                Vec::new()
+            };
             stages.search += searching.elapsed().as_secs_f64();
             let mut counts = vec![0u64; model.kinds.len()];
             for s in &found {
@@ -240,6 +306,11 @@ impl Sampled {
     }
 }
 
+/// The bytes of one sample's [`Sampled`], about.
+fn table_entry(model: &CustomModel) -> u64 {
+    (model.groups.len() * 32 + model.kinds.len() * 56 + 64) as u64
+}
+
 /// The most memory the table of every sample's loads and errors may take; beyond, each
 /// path solves its samples again.
 const SHARED_BYTES: u64 = 1 << 29;
@@ -247,7 +318,14 @@ const SHARED_BYTES: u64 = 1 << 29;
 /// The switches of one (variant, mode): every path, in order, on the rayon pool. Every
 /// sample lies on a line of each input that varies: its loads are solved once for all
 /// of them where the table fits in memory.
-fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode) -> Vec<CustomSwitch> {
+/// `table`: the samples' loads and errors where the pose pass kept them.
+fn search(
+    job: &JobSpec,
+    model: &CustomModel,
+    source: &SampleSource,
+    mode: Mode,
+    table: Option<Vec<Sampled>>,
+) -> Vec<CustomSwitch> {
     let groups: Vec<usize> = (0..model.groups.len()).filter(|&g| model.groups[g].magnitude > 0.0).collect();
     if groups.is_empty() {
         return Vec::new();
@@ -257,23 +335,22 @@ fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode)
     let trajectory = job.trajectory.as_ref().map(|t| t.inputs6());
     let paths = ups_paths(job, source);
     let n = source.len();
-    let entry = (model.groups.len() * 32 + model.kinds.len() * 56 + 64) as u64;
-    let shared: Option<Vec<Sampled>> = (n.saturating_mul(entry) <= SHARED_BYTES).then(|| {
-        (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let (_, inputs) = inputs_of(model, source, i);
-                Sampled::of(model, &solve_inputs(model, &inputs, mode))
-            })
-            .collect()
+    let shared: Option<Vec<Sampled>> = table.or_else(|| {
+        (n.saturating_mul(table_entry(model)) <= SHARED_BYTES)
+            .then(|| solve_rows(model, source, 0..n, mode).1.iter().map(|r| Sampled::of(model, r)).collect())
     });
     let found: Vec<Vec<CustomSwitch>> = paths
         .par_iter()
         .map(|path| {
+            // Each point the search solves continues from the one solved before it on
+            // this path (the path's own order: the same whatever the threads).
+            let near: std::cell::RefCell<Option<Configuration>> = std::cell::RefCell::new(None);
             let solve_at = |p: f64| {
                 let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
                 let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
-                (t, s, solve_inputs(model, &inputs, mode))
+                let (r, reached) = solve_inputs(model, &inputs, mode, near.borrow().as_ref());
+                *near.borrow_mut() = reached;
+                (t, s, r)
             };
             let own: Vec<Sampled>;
             let samples: Vec<&Sampled> = match &shared {
@@ -288,7 +365,13 @@ fn search(job: &JobSpec, model: &CustomModel, source: &SampleSource, mode: Mode)
                 let def = &model.groups[g];
                 let loads: Vec<Option<[f64; 3]>> = samples.iter().map(|r| r.loads[g]).collect();
                 let errors: Vec<Option<[f64; 6]>> = samples.iter().map(|r| r.errors[def.kind]).collect();
-                let at = |p: f64| group_load(&solve_at(p).2, g);
+                let at = |p: f64| {
+                    let (_, s) = path.sample_at(source, trajectory.as_ref(), p);
+                    let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
+                    let (load, reached) = load_of(model, &inputs, mode, near.borrow().as_ref(), g);
+                    *near.borrow_mut() = reached;
+                    load
+                };
                 if model.scalar(g) {
                     scalar_switches(path, &loads, &errors, floor, def.limb, &at, &solve_at, &mut out, def.kind, g);
                 } else {

@@ -13,7 +13,7 @@
 //! `ξ̇_k = [V_(k−1), ξ_k]` (the Lie bracket with the twist of the body before) the
 //! accelerations.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3, Vector6};
+use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use clearance_model::custom::{BodySpec, JointType, Limb};
 
@@ -338,47 +338,216 @@ pub enum Unsolved {
     OutOfRange([f64; 6]),
 }
 
+/// One joint crossed at its state: its columns' screws at the pose (at most three),
+/// its current centre and axes.
+struct Crossed {
+    columns: [Vector6<f64>; 3],
+    n: usize,
+    centre: V3,
+    axis: V3,
+    axis2: V3,
+}
+
+/// Crosses joint `j` at state `s`: `g`, the displacement of the body before it, becomes
+/// that of the body after it.
+fn cross(j: &JointGeom, s: &JointState, g: &mut Rigid) -> Crossed {
+    let mut c = Crossed {
+        columns: [Vector6::zeros(); 3],
+        n: 0,
+        centre: g.apply(&j.centre),
+        axis: V3::zeros(),
+        axis2: V3::zeros(),
+    };
+    match (j.joint, s) {
+        (JointType::R, JointState::Scalar(v)) => {
+            c.axis = g.r * j.axis;
+            c.columns[0] = g.screw(&rotation_screw(&j.axis, &j.centre));
+            c.n = 1;
+            *g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis * *v))));
+        }
+        (JointType::P, JointState::Scalar(v)) => {
+            c.axis = g.r * j.axis;
+            c.columns[0] = g.screw(&translation_screw(&j.axis));
+            c.n = 1;
+            *g = g.then(&Rigid { r: Matrix3::identity(), t: j.axis * *v });
+            // The bearing's centre travels with the sliding part.
+            c.centre = g.apply(&j.centre);
+        }
+        (JointType::U, JointState::Pair(a, b)) => {
+            c.axis = g.r * j.axis;
+            c.columns[0] = g.screw(&rotation_screw(&j.axis, &j.centre));
+            *g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis * *a))));
+            c.axis2 = g.r * j.axis2;
+            c.columns[1] = g.screw(&rotation_screw(&j.axis2, &j.centre));
+            c.n = 2;
+            *g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis2 * *b))));
+        }
+        (JointType::S, JointState::Ball(r)) => {
+            for k in 0..3 {
+                c.columns[k] = g.screw(&rotation_screw(&V3::ith(k, 1.0), &j.centre));
+            }
+            c.n = 3;
+            *g = g.then(&Rigid::about(&j.centre, *r));
+        }
+        _ => unreachable!("a joint's state matches its type"),
+    }
+    c
+}
+
 /// The displacement of each body of a limb and the columns' screws at `states`.
 fn chain(limb: &LimbGeom, states: &[JointState]) -> (Vec<Rigid>, Vec<PosedJoint>) {
     let mut g = Rigid::IDENTITY;
     let mut bodies = Vec::with_capacity(limb.joints.len());
     let mut joints = Vec::with_capacity(limb.joints.len());
     for (j, s) in limb.joints.iter().zip(states) {
-        let mut pj = PosedJoint { centre: g.apply(&j.centre), ..Default::default() };
-        match (j.joint, s) {
-            (JointType::R, JointState::Scalar(v)) => {
-                pj.axis = g.r * j.axis;
-                pj.columns.push(g.screw(&rotation_screw(&j.axis, &j.centre)));
-                g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis * *v))));
-            }
-            (JointType::P, JointState::Scalar(v)) => {
-                pj.axis = g.r * j.axis;
-                pj.columns.push(g.screw(&translation_screw(&j.axis)));
-                g = g.then(&Rigid { r: Matrix3::identity(), t: j.axis * *v });
-                // The bearing's centre travels with the sliding part.
-                pj.centre = g.apply(&j.centre);
-            }
-            (JointType::U, JointState::Pair(a, b)) => {
-                pj.axis = g.r * j.axis;
-                pj.columns.push(g.screw(&rotation_screw(&j.axis, &j.centre)));
-                g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis * *a))));
-                pj.axis2 = g.r * j.axis2;
-                pj.columns.push(g.screw(&rotation_screw(&j.axis2, &j.centre)));
-                g = g.then(&Rigid::about(&j.centre, exp_so3(&(j.axis2 * *b))));
-                pj.normal = pj.axis.cross(&pj.axis2);
-            }
-            (JointType::S, JointState::Ball(r)) => {
-                for k in 0..3 {
-                    pj.columns.push(g.screw(&rotation_screw(&V3::ith(k, 1.0), &j.centre)));
-                }
-                g = g.then(&Rigid::about(&j.centre, *r));
-            }
-            _ => unreachable!("a joint's state matches its type"),
-        }
-        joints.push(pj);
+        let c = cross(j, s, &mut g);
+        let normal = if j.joint == JointType::U { c.axis.cross(&c.axis2) } else { V3::zeros() };
+        joints.push(PosedJoint {
+            centre: c.centre,
+            axis: c.axis,
+            axis2: c.axis2,
+            normal,
+            columns: c.columns[..c.n].to_vec(),
+            before: Vec::new(),
+        });
         bodies.push(g);
     }
     (bodies, joints)
+}
+
+/// The displacement of a limb's last body and its columns (in `columns`, at most six:
+/// a limb of more freedoms is idle and refused), without allocating. `None` past six.
+fn closure(limb: &LimbGeom, states: &[JointState], columns: &mut [Vector6<f64>; 6]) -> Option<(Rigid, usize)> {
+    let mut g = Rigid::IDENTITY;
+    let mut n = 0;
+    for (j, s) in limb.joints.iter().zip(states) {
+        let c = cross(j, s, &mut g);
+        if n + c.n > 6 {
+            return None;
+        }
+        columns[n..n + c.n].copy_from_slice(&c.columns[..c.n]);
+        n += c.n;
+    }
+    Some((g, n))
+}
+
+/// The closure's Newton matrix `[J_1 … J_L | −V_par]` (limb l's rows hold its columns
+/// `J_l` and minus the parasitic coordinates' screws), factored limb by limb: with
+/// `J_l = Q_l·[R_l; 0]`, the last `6 − n_l` rows of `Q_lᵀ` eliminate the limb's own
+/// variables, and stacked over the limbs they leave a `k × k` system for the `k`
+/// parasitic coordinates (`Σ(6 − n_l) = k` when the counts of §12.3 hold). Each solve
+/// then costs a few 6 × 6 products instead of a dense `6L × 6L` factorisation.
+struct Factored {
+    k: usize,
+    limbs: Vec<LimbFactor>,
+    /// The parasitic coordinates' system, padded to 6 × 6 with the identity.
+    reduced: Option<nalgebra::LU<f64, nalgebra::U6, nalgebra::U6>>,
+}
+
+impl Factored {
+    /// `None` where a limb's columns are dependent or the counts do not square the system.
+    fn new(k: usize, parasitic: &[Vector6<f64>], columns: &[[Vector6<f64>; 6]], dofs: &[usize]) -> Option<Self> {
+        let mut v = Matrix6::zeros();
+        for (c, s) in parasitic.iter().enumerate() {
+            v.set_column(c, &(-s));
+        }
+        let mut limbs = Vec::with_capacity(columns.len());
+        let mut reduced = Matrix6::identity();
+        let mut row = 0;
+        for (cols, &n) in columns.iter().zip(dofs) {
+            let mut a = Matrix6::zeros();
+            for (c, s) in cols[..n].iter().enumerate() {
+                a.set_column(c, s);
+            }
+            let qt = householder(&mut a, n)?;
+            let qv = qt * v;
+            if row + 6 - n > k {
+                return None;
+            }
+            for r in n..6 {
+                for c in 0..k {
+                    reduced[(row, c)] = qv[(r, c)];
+                }
+                row += 1;
+            }
+            limbs.push((n, qt, a, qv));
+        }
+        if row != k {
+            return None;
+        }
+        let reduced = (k > 0).then(|| reduced.lu());
+        Some(Self { k, limbs, reduced })
+    }
+
+    /// Solves `J_l·θ_l − V_par·x_par = b_l` for every limb l: `out` gets `x_par` then each
+    /// limb's `θ_l`, in order. `false` where the system is singular.
+    fn solve(&self, b: impl Fn(usize) -> Vector6<f64>, out: &mut [f64]) -> bool {
+        let c: Vec<Vector6<f64>> = self.limbs.iter().enumerate().map(|(l, (_, qt, _, _))| qt * b(l)).collect();
+        let mut x = Vector6::zeros();
+        if let Some(lu) = &self.reduced {
+            let mut y = Vector6::zeros();
+            let mut row = 0;
+            for ((n, ..), cl) in self.limbs.iter().zip(&c) {
+                for r in *n..6 {
+                    y[row] = cl[r];
+                    row += 1;
+                }
+            }
+            match lu.solve(&y) {
+                Some(s) => x = s,
+                None => return false,
+            }
+        }
+        out[..self.k].copy_from_slice(&x.as_slice()[..self.k]);
+        let mut at = self.k;
+        for ((n, _, r, qv), cl) in self.limbs.iter().zip(&c) {
+            let t = cl - qv * x;
+            for i in (0..*n).rev() {
+                let mut s = t[i];
+                for j in i + 1..*n {
+                    s -= r[(i, j)] * out[at + j];
+                }
+                out[at + i] = s / r[(i, i)];
+            }
+            at += n;
+        }
+        out.iter().all(|v| v.is_finite())
+    }
+}
+
+/// Per limb: `n_l`, `Q_lᵀ`, `R_l` (upper triangle), `Q_lᵀ·(−V_par)`.
+type LimbFactor = (usize, Matrix6<f64>, Matrix6<f64>, Matrix6<f64>);
+
+/// Householder QR of the first `n` columns of `a`: `a` becomes `R` (upper triangle),
+/// and the result is `Qᵀ` (6 × 6, orthogonal; its last `6 − n` rows span the
+/// complement of the columns). `None` where a column is dependent on those before it
+/// (exactly, or not finite).
+pub fn householder(a: &mut Matrix6<f64>, n: usize) -> Option<Matrix6<f64>> {
+    let mut qt = Matrix6::identity();
+    for j in 0..n {
+        let norm = (j..6).map(|i| a[(i, j)] * a[(i, j)]).sum::<f64>().sqrt();
+        if !(norm > 0.0 && norm.is_finite()) {
+            return None;
+        }
+        let alpha = if a[(j, j)] > 0.0 { -norm } else { norm };
+        let mut v = Vector6::zeros();
+        for i in j..6 {
+            v[i] = a[(i, j)];
+        }
+        v[j] -= alpha;
+        let vv = v.norm_squared();
+        let reflect = |m: &mut Matrix6<f64>, cols: std::ops::Range<usize>| {
+            for c in cols {
+                let f = 2.0 * (j..6).map(|i| v[i] * m[(i, c)]).sum::<f64>() / vv;
+                for i in j..6 {
+                    m[(i, c)] -= f * v[i];
+                }
+            }
+        };
+        reflect(a, j..n);
+        reflect(&mut qt, 0..6);
+    }
+    Some(qt)
 }
 
 /// The spatial twists of the platform per unit rate of each coordinate at `c`.
@@ -453,29 +622,43 @@ const MAX_STEP_CHANGE: f64 = 0.25;
 /// Continuation steps at most (halvings included).
 const MAX_STEPS: usize = 200;
 
+/// The factored Newton matrix at `coords` with the limbs' columns.
+fn factor(geom: &CustomGeometry, coords: &[f64; 6], columns: &[[Vector6<f64>; 6]], dofs: &[usize]) -> Option<Factored> {
+    let screws = coordinate_screws(coords);
+    let mut parasitic = [Vector6::zeros(); 6];
+    for (i, &c) in geom.parasitic.iter().enumerate() {
+        parasitic[i] = screws[c];
+    }
+    Factored::new(geom.parasitic.len(), &parasitic[..geom.parasitic.len()], columns, dofs)
+}
+
 /// Solves the closure at `coords` (the inputs set, the parasitic ones a first guess)
 /// by Newton from `states`; returns the increments' largest scaled size.
 fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointState>]) -> Option<f64> {
     let scale = geom.length;
     let mut moved = 0.0f64;
+    let home = placement(&geom.home).inverse();
+    let nl = geom.limbs.len();
+    let mut columns = vec![[Vector6::zeros(); 6]; nl];
+    let mut dofs = vec![0; nl];
+    let mut r = vec![Vector6::zeros(); nl];
+    let mut dx = vec![0.0; geom.parasitic.len() + geom.limbs.iter().map(LimbGeom::dof).sum::<usize>()];
     for _ in 0..NEWTON_STEPS {
-        let d = placement(coords).then(&placement(&geom.home).inverse());
-        let mut r = DVector::zeros(6 * geom.limbs.len());
-        let mut joints = Vec::with_capacity(geom.limbs.len());
+        let d = placement(coords).then(&home);
+        let mut size = 0.0f64;
         for (l, limb) in geom.limbs.iter().enumerate() {
-            let (bodies, pj) = chain(limb, &states[l]);
-            let e = residual(bodies.last().expect("a limb has joints"), &d);
-            r.fixed_rows_mut::<6>(6 * l).copy_from(&e);
-            joints.push(pj);
+            let (g, n) = closure(limb, &states[l], &mut columns[l])?;
+            dofs[l] = n;
+            r[l] = residual(&g, &d);
+            for (i, v) in r[l].iter().enumerate() {
+                size = size.max(if i < 3 { v.abs() } else { v.abs() / scale });
+            }
         }
-        let size =
-            r.iter().enumerate().map(|(i, v)| if i % 6 < 3 { v.abs() } else { v.abs() / scale }).fold(0.0, f64::max);
         if size < 1e-14 {
             return Some(moved);
         }
-        let m = jacobian(geom, coords, &joints);
-        let dx = m.lu().solve(&(-r))?;
-        if !dx.iter().all(|v| v.is_finite()) {
+        let f = factor(geom, coords, &columns, &dofs)?;
+        if !f.solve(|l| -r[l], &mut dx) {
             return None;
         }
         let mut i = 0;
@@ -489,10 +672,10 @@ fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointS
             for (j, s) in limb.joints.iter().zip(st.iter_mut()) {
                 let n = j.dof();
                 let sc = if j.joint == JointType::P { scale } else { 1.0 };
-                for v in &dx.as_slice()[i..i + n] {
+                for v in &dx[i..i + n] {
                     moved = moved.max(v.abs() / sc);
                 }
-                s.step(&dx.as_slice()[i..i + n]);
+                s.step(&dx[i..i + n]);
                 i += n;
             }
         }
@@ -515,15 +698,55 @@ pub fn determined_at_home(geom: &CustomGeometry) -> bool {
     lo > 1e-10 * hi
 }
 
+/// A solved configuration: the coordinates `x, y, z, φ, ψ, θ` and every joint's state.
+pub type Configuration = ([f64; 6], Vec<Vec<JointState>>);
+
 /// The configuration at the inputs `target` (values of the inputs, in canonical
 /// order) on the branch of home: continuation from home along the straight segment
 /// of the inputs, each step solved by Newton and halved where Newton fails or the
 /// configuration moves too far in one step. The same inputs give the same bits,
 /// whatever pose came before.
-pub fn solve_configuration(
+pub fn solve_configuration(geom: &CustomGeometry, target: &[f64]) -> Result<Configuration, Unsolved> {
+    solve_configuration_near(geom, target, None)
+}
+
+/// [`solve_configuration`], continued from a configuration `near` on the branch of home
+/// where one Newton solve from it converges within one continuation step (docs/model.md
+/// §12.2 allows a neighbouring pose); from home otherwise. The result is the same
+/// configuration to round-off.
+pub fn solve_configuration_near(
     geom: &CustomGeometry,
     target: &[f64],
-) -> Result<([f64; 6], Vec<Vec<JointState>>), Unsolved> {
+    near: Option<&Configuration>,
+) -> Result<Configuration, Unsolved> {
+    let reached = near.and_then(|(coords, states)| {
+        let mut c = *coords;
+        for (i, &k) in geom.inputs.iter().enumerate() {
+            c[k] = target[i];
+        }
+        let mut st = states.clone();
+        match newton(geom, &mut c, &mut st) {
+            Some(moved) if moved <= MAX_STEP_CHANGE => Some((c, st)),
+            _ => None,
+        }
+    });
+    let (coords, states) = match reached {
+        Some(found) => found,
+        None => continue_from_home(geom, target)?,
+    };
+    for (limb, st) in geom.limbs.iter().zip(&states) {
+        for (j, s) in limb.joints.iter().zip(st) {
+            if let (Some((lo, hi)), JointState::Scalar(v)) = (j.range, s)
+                && !(lo..=hi).contains(v)
+            {
+                return Err(Unsolved::OutOfRange(coords));
+            }
+        }
+    }
+    Ok((coords, states))
+}
+
+fn continue_from_home(geom: &CustomGeometry, target: &[f64]) -> Result<Configuration, Unsolved> {
     let mut coords = geom.home;
     let mut states: Vec<Vec<JointState>> =
         geom.limbs.iter().map(|l| l.joints.iter().map(JointState::home).collect()).collect();
@@ -551,15 +774,6 @@ pub fn solve_configuration(
             _ => h /= 2.0,
         }
     }
-    for (limb, st) in geom.limbs.iter().zip(&states) {
-        for (j, s) in limb.joints.iter().zip(st) {
-            if let (Some((lo, hi)), JointState::Scalar(v)) = (j.range, s)
-                && !(lo..=hi).contains(v)
-            {
-                return Err(Unsolved::OutOfRange(coords));
-            }
-        }
-    }
     Ok((coords, states))
 }
 
@@ -570,7 +784,17 @@ pub fn custom_posture(
     target: &[f64],
     rates: Option<(&[f64], &[f64])>,
 ) -> Result<CustomPosture, Unsolved> {
-    let (coords, states) = solve_configuration(geom, target)?;
+    custom_posture_near(geom, target, rates, None)
+}
+
+/// [`custom_posture`] continued from `near` (see [`solve_configuration_near`]).
+pub fn custom_posture_near(
+    geom: &CustomGeometry,
+    target: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    near: Option<&Configuration>,
+) -> Result<CustomPosture, Unsolved> {
+    let (coords, states) = solve_configuration_near(geom, target, near)?;
     Ok(posture_at(geom, coords, states, rates))
 }
 
@@ -594,16 +818,31 @@ pub fn posture_at(
     let mut rates_of_columns: Vec<Vec<f64>> = geom.limbs.iter().map(|l| vec![0.0; l.dof()]).collect();
     let mut accels_of_columns = rates_of_columns.clone();
     if let Some((vel, acc)) = rates {
-        let m = jacobian(geom, &coords, &joints);
-        let lu = m.lu();
+        let mut columns = vec![[Vector6::zeros(); 6]; geom.limbs.len()];
+        let mut dofs = vec![0; geom.limbs.len()];
+        for (l, pj) in joints.iter().enumerate() {
+            for (c, s) in pj.iter().flat_map(|j| &j.columns).take(6).enumerate() {
+                columns[l][c] = *s;
+                dofs[l] = c + 1;
+            }
+        }
+        let factored = factor(geom, &coords, &columns, &dofs);
+        let total = n_par + dofs.iter().sum::<usize>();
+        // A singular closure has no rates: zero, as before.
+        let solve = |b: &dyn Fn(usize) -> Vector6<f64>| {
+            let mut x = vec![0.0; total];
+            if !factored.as_ref().is_some_and(|f| f.solve(b, &mut x)) {
+                x.iter_mut().for_each(|v| *v = 0.0);
+            }
+            x
+        };
         let screws = coordinate_screws(&coords);
         let mut cd = [0.0; 6];
         for (i, &k) in geom.inputs.iter().enumerate() {
             cd[k] = vel[i];
         }
         let input_twist: Vector6<f64> = geom.inputs.iter().map(|&k| screws[k] * cd[k]).sum();
-        let rhs = DVector::from_fn(6 * geom.limbs.len(), |r, _| input_twist[r % 6]);
-        let x = lu.solve(&rhs).unwrap_or_else(|| DVector::zeros(rhs.len()));
+        let x = solve(&|_| input_twist);
         for (i, &k) in geom.parasitic.iter().enumerate() {
             cd[k] = x[i];
         }
@@ -622,12 +861,9 @@ pub fn posture_at(
         }
         let known: Vector6<f64> =
             geom.inputs.iter().map(|&k| screws[k] * cdd[k]).sum::<Vector6<f64>>() + coordinate_drift(&coords, &cd);
-        let mut rhs = DVector::zeros(6 * geom.limbs.len());
-        for (l, pj) in joints.iter_mut().enumerate() {
-            let (_, drift) = column_drift(pj, &rates_of_columns[l]);
-            rhs.fixed_rows_mut::<6>(6 * l).copy_from(&(known - drift));
-        }
-        let y = lu.solve(&rhs).unwrap_or_else(|| DVector::zeros(rhs.len()));
+        let drifts: Vec<Vector6<f64>> =
+            joints.iter_mut().enumerate().map(|(l, pj)| column_drift(pj, &rates_of_columns[l]).1).collect();
+        let y = solve(&|l| known - drifts[l]);
         for (i, &k) in geom.parasitic.iter().enumerate() {
             cdd[k] = y[i];
         }

@@ -20,7 +20,8 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
 
 use clearance_kinematics::custom::{
-    CustomGeometry, CustomPosture, JointState, Rigid, Unsolved, custom_posture, exp_so3, placement,
+    Configuration, CustomGeometry, CustomPosture, JointState, PosedJoint, Rigid, Unsolved, custom_posture,
+    custom_posture_near, exp_so3, householder, placement,
 };
 use clearance_model::custom::{Group, JointType};
 use clearance_model::{JobError, JobSpec, Mode};
@@ -250,26 +251,22 @@ impl Basis {
                 .flat_map(|(_, pj)| pj.columns.iter().copied())
                 .collect();
             let n = cols.len();
-            if n > 6 {
+            if n > 6 || at + 6 - n > 6 {
                 return None;
             }
+            // Householder QR of the swapped columns: the last 6 − n rows of Qᵀ are an
+            // orthonormal basis of the wrenches that do no work on them.
             let mut m = Matrix6::zeros();
             for (k, c) in cols.iter().enumerate() {
                 m.set_column(k, &swap(c));
             }
-            let svd = m.svd(true, false);
-            let u = svd.u?;
-            let mut order: Vec<usize> = (0..6).collect();
-            order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
-            let s1 = svd.singular_values[order[0]];
-            if n > 0 && svd.singular_values[order[n - 1]] <= 1e-12 * s1.max(1.0) {
+            let qt = householder(&mut m, n)?;
+            let largest = (0..n).map(|k| m[(k, k)].abs()).fold(1.0, f64::max);
+            if (0..n).any(|k| m[(k, k)].abs() <= 1e-12 * largest) {
                 return None; // the limb's own freedoms are dependent: a limb singularity
             }
-            if at + 6 - n > 6 {
-                return None;
-            }
-            for (k, &c) in order[n..].iter().enumerate() {
-                g.set_column(at + k, &u.column(c));
+            for k in 0..6 - n {
+                g.set_column(at + k, &qt.row(n + k).transpose());
             }
             blocks.push((at, 6 - n));
             at += 6 - n;
@@ -367,6 +364,19 @@ fn at_p(t: &V6, p: &V3) -> [f64; 6] {
 /// Solves one pose: `inputs` in canonical order, `rates = (velocities, accelerations)`
 /// of the inputs (dynamics).
 pub fn solve_custom(model: &CustomModel, inputs: &[f64], rates: Option<(&[f64], &[f64])>, mode: Mode) -> CustomResult {
+    solve_custom_near(model, inputs, rates, mode, None).0
+}
+
+/// [`solve_custom`] with the configuration continued from `near`, a solved pose close by
+/// (to round-off the same result, see [`custom_posture_near`]); also returns the pose's
+/// configuration, where it has one, for the next.
+pub fn solve_custom_near(
+    model: &CustomModel,
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    near: Option<&Configuration>,
+) -> (CustomResult, Option<Configuration>) {
     let mut out = CustomResult {
         coords: [f64::NAN; 6],
         cond: f64::NAN,
@@ -379,21 +389,58 @@ pub fn solve_custom(model: &CustomModel, inputs: &[f64], rates: Option<(&[f64], 
         out.coords[k] = inputs[i];
     }
     let rates = if mode == Mode::Dynamic { rates } else { None };
-    let posture = match custom_posture(&model.geom, inputs, rates) {
+    let posture = match custom_posture_near(&model.geom, inputs, rates, near) {
         Ok(p) => p,
         Err(Unsolved::Unreachable) => {
             out.status = Status::Unreachable;
-            return out;
+            return (out, None);
         }
         Err(Unsolved::OutOfRange(coords)) => {
             out.coords = coords;
             out.status = Status::Unreachable;
-            return out;
+            return (out, None);
         }
     };
+    let configuration = Some((posture.coords, posture.states.clone()));
+    (solve_posture(model, &posture, out), configuration)
+}
+
+/// Group `group`'s deciding load at a pose where the pose has loads and the group can
+/// move P, else `None` (what the switch search reads): the value [`solve_custom_near`]
+/// gives, bit for bit, without the other groups' take-up, the errors or the envelope.
+/// Also returns the pose's configuration, where it has one.
+pub fn group_load_near(
+    model: &CustomModel,
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    near: Option<&Configuration>,
+    group: usize,
+) -> (Option<[f64; 3]>, Option<Configuration>) {
+    let rates = if mode == Mode::Dynamic { rates } else { None };
+    let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else { return (None, None) };
+    let configuration = Some((posture.coords, posture.states.clone()));
+    let basis = match Basis::new(&posture, &model.geom) {
+        Some(b) if !b.cond.is_nan() && b.cond <= model.singular_cond => b,
+        _ => return (None, configuration),
+    };
+    let Some(gi) = basis.g.try_inverse() else { return (None, configuration) };
+    let mut out = CustomResult::default();
+    reactions(model, &posture, &basis, &gi, &mut out);
+    let g = &model.groups[group];
+    let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
+    let pj = &posture.joints[g.limb][g.joint];
+    let (f, m) = out.reactions[g.limb][g.joint];
+    let (load, ..) = deciding_load(joint, g.group, &pj.axis, &pj.normal, &f, &m);
+    let (.., unit_p, _) = unit_reach(&basis, &gi, g, pj, &posture.platform.t, joint);
+    ((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]), configuration)
+}
+
+/// The reactions, take-up and errors at a solved posture.
+fn solve_posture(model: &CustomModel, posture: &CustomPosture, mut out: CustomResult) -> CustomResult {
     out.coords = posture.coords;
     out.q = posture.actuators(&model.geom);
-    let Some(basis) = Basis::new(&posture, &model.geom) else {
+    let Some(basis) = Basis::new(posture, &model.geom) else {
         out.status = Status::NearSingular;
         out.cond = f64::INFINITY;
         return out;
@@ -407,11 +454,11 @@ pub fn solve_custom(model: &CustomModel, inputs: &[f64], rates: Option<(&[f64], 
         out.status = Status::NearSingular;
         return out;
     };
-    reactions(model, &posture, &basis, &gi, &mut out);
-    take_up(model, &posture, &basis, &gi, &mut out);
+    reactions(model, posture, &basis, &gi, &mut out);
+    take_up(model, posture, &basis, &gi, &mut out);
     out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
     if model.exact && out.status == Status::Ok {
-        out.exact = exact_error(model, &posture, &basis, &gi, &out);
+        out.exact = exact_error(model, posture, &basis, &gi, &out);
     }
     out
 }
@@ -564,6 +611,84 @@ fn response(basis: &Basis, gi: &Matrix6<f64>, l: usize, zeta: &V6, pos: &V3) -> 
     at_p(&swap(&y), pos)
 }
 
+/// A group's deciding load from its joint's reaction `(f, m)`, the direction its
+/// distal body is pushed (unit for a scalar load, the load's opposite for a vector),
+/// and whether the take-up is a rotation.
+fn deciding_load(joint: JointType, group: Group, a: &V3, normal: &V3, f: &V3, m: &V3) -> (V3, V3, bool) {
+    match (joint, group) {
+        (JointType::R | JointType::P, Group::Radial) => {
+            let fp = f - a * f.dot(a);
+            (fp, -fp, false)
+        }
+        (JointType::R, Group::Axial) => {
+            let s = f.dot(a);
+            (V3::new(s, 0.0, 0.0), -a * s.signum(), false)
+        }
+        (JointType::R, Group::Angular) => {
+            let mp = m - a * m.dot(a);
+            (mp, -mp, true)
+        }
+        (JointType::P, Group::Angular) => (*m, -m, true),
+        (JointType::U | JointType::S, Group::Radial) => (*f, -f, false),
+        (JointType::U, Group::Angular) => {
+            let mu = m.dot(normal);
+            (V3::new(mu, 0.0, 0.0), -normal * mu.signum(), true)
+        }
+        (JointType::R, Group::Backlash) => {
+            let tau = m.dot(a);
+            (V3::new(tau, 0.0, 0.0), -a * tau.signum(), true)
+        }
+        (JointType::P, Group::Backlash) => {
+            let tau = f.dot(a);
+            (V3::new(tau, 0.0, 0.0), -a * tau.signum(), false)
+        }
+        _ => (V3::zeros(), V3::zeros(), false),
+    }
+}
+
+/// The largest singular value of a 3 × 3 matrix: the square root of the largest
+/// eigenvalue of `MᵀM` (well conditioned: to round-off of `‖M‖`), in closed form.
+fn largest_singular_value(m: &Matrix3<f64>) -> f64 {
+    let a = m.transpose() * m;
+    // The trigonometric solution of the symmetric 3 × 3 eigenproblem (Smith, 1961).
+    let off = a[(0, 1)].powi(2) + a[(0, 2)].powi(2) + a[(1, 2)].powi(2);
+    let q = a.trace() / 3.0;
+    let d = [a[(0, 0)] - q, a[(1, 1)] - q, a[(2, 2)] - q];
+    let p2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + 2.0 * off;
+    let largest = if p2 <= 0.0 {
+        q
+    } else {
+        let p = (p2 / 6.0).sqrt();
+        let b = (a - Matrix3::identity() * q) / p;
+        let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
+        q + 2.0 * p * (r.acos() / 3.0).cos()
+    };
+    largest.max(0.0).sqrt()
+}
+
+/// The unit responses at P of a group's admissible set, the set's shape, and the
+/// largest `|Δp|` and `|Δα|` a unit take-up in it can cause.
+fn unit_reach(
+    basis: &Basis,
+    gi: &Matrix6<f64>,
+    g: &GroupDef,
+    pj: &PosedJoint,
+    pos: &V3,
+    joint: JointType,
+) -> (Vec<[f64; 6]>, Shape, f64, f64) {
+    let (set, shape) = unit_set(joint, g.group, &pj.centre, &pj.axis, &pj.normal);
+    let responses: Vec<[f64; 6]> = set.iter().map(|z| response(basis, gi, g.limb, z, pos)).collect();
+    let block = |rows: std::ops::Range<usize>| -> f64 {
+        let m = SMatrix::<f64, 3, 3>::from_fn(|r, c| responses.get(c).map_or(0.0, |x| x[rows.start + r]));
+        match shape {
+            Shape::Segment => m.column(0).norm(),
+            _ => largest_singular_value(&m),
+        }
+    };
+    let (unit_p, unit_a) = (block(0..3), block(3..6));
+    (responses, shape, unit_p, unit_a)
+}
+
 fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f64>, out: &mut CustomResult) {
     let pos = p.platform.t;
     let nk = model.kinds.len();
@@ -577,36 +702,7 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         let (f, m) = out.reactions[g.limb][g.joint];
         let a = pj.axis;
         let mut t = GroupTake::default();
-        // The deciding load, and the direction the distal body is pushed (unit).
-        let (load, dir, rotation): (V3, V3, bool) = match (joint.joint, g.group) {
-            (JointType::R | JointType::P, Group::Radial) => {
-                let fp = f - a * f.dot(&a);
-                (fp, -fp, false)
-            }
-            (JointType::R, Group::Axial) => {
-                let s = f.dot(&a);
-                (V3::new(s, 0.0, 0.0), -a * s.signum(), false)
-            }
-            (JointType::R, Group::Angular) => {
-                let mp = m - a * m.dot(&a);
-                (mp, -mp, true)
-            }
-            (JointType::P, Group::Angular) => (m, -m, true),
-            (JointType::U | JointType::S, Group::Radial) => (f, -f, false),
-            (JointType::U, Group::Angular) => {
-                let mu = m.dot(&pj.normal);
-                (V3::new(mu, 0.0, 0.0), -pj.normal * mu.signum(), true)
-            }
-            (JointType::R, Group::Backlash) => {
-                let tau = m.dot(&a);
-                (V3::new(tau, 0.0, 0.0), -a * tau.signum(), true)
-            }
-            (JointType::P, Group::Backlash) => {
-                let tau = f.dot(&a);
-                (V3::new(tau, 0.0, 0.0), -a * tau.signum(), false)
-            }
-            _ => (V3::zeros(), V3::zeros(), false),
-        };
+        let (load, dir, rotation) = deciding_load(joint.joint, g.group, &a, &pj.normal, &f, &m);
         let scalar = g.scalar(joint.joint);
         t.load = [load.x, load.y, load.z];
         t.margin = if scalar { load.x.abs() } else { load.norm() };
@@ -625,16 +721,7 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         let disp = unit * g.magnitude;
         t.twist = if rotation { six(disp, pj.centre.cross(&disp)) } else { six(V3::zeros(), disp) };
         // The admissible set's unit responses: the envelope, and whether it moves P.
-        let (set, shape) = unit_set(joint.joint, g.group, &pj.centre, &a, &pj.normal);
-        let responses: Vec<[f64; 6]> = set.iter().map(|z| response(basis, gi, g.limb, z, &pos)).collect();
-        let block = |rows: std::ops::Range<usize>| -> f64 {
-            let m = SMatrix::<f64, 3, 3>::from_fn(|r, c| responses.get(c).map_or(0.0, |x| x[rows.start + r]));
-            match shape {
-                Shape::Segment => m.column(0).norm(),
-                _ => m.singular_values().max(),
-            }
-        };
-        let (unit_p, unit_a) = (block(0..3), block(3..6));
+        let (responses, shape, unit_p, unit_a) = unit_reach(basis, gi, g, pj, &pos, joint.joint);
         t.mobile = unit_p >= IMMOBILE;
         for c in 0..6 {
             let reach = match shape {
