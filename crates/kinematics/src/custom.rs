@@ -525,27 +525,27 @@ type LimbFactor = (usize, Matrix6<f64>, Matrix6<f64>, Matrix6<f64>);
 pub fn householder(a: &mut Matrix6<f64>, n: usize) -> Option<Matrix6<f64>> {
     let mut qt = Matrix6::identity();
     for j in 0..n {
-        let norm = (j..6).map(|i| a[(i, j)] * a[(i, j)]).sum::<f64>().sqrt();
+        // Column-major storage: column c is `[6c, 6c + 6)`.
+        let col = &a.as_slice()[6 * j + j..6 * j + 6];
+        let norm = col.iter().map(|x| x * x).sum::<f64>().sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             return None;
         }
-        let alpha = if a[(j, j)] > 0.0 { -norm } else { norm };
-        let mut v = Vector6::zeros();
-        for i in j..6 {
-            v[i] = a[(i, j)];
-        }
-        v[j] -= alpha;
-        let vv = v.norm_squared();
-        let reflect = |m: &mut Matrix6<f64>, cols: std::ops::Range<usize>| {
+        let alpha = if col[0] > 0.0 { -norm } else { norm };
+        let mut v = [0.0; 6];
+        v[..6 - j].copy_from_slice(col);
+        v[0] -= alpha;
+        let v = &v[..6 - j];
+        let vv: f64 = v.iter().map(|x| x * x).sum();
+        let reflect = |m: &mut [f64], cols: std::ops::Range<usize>| {
             for c in cols {
-                let f = 2.0 * (j..6).map(|i| v[i] * m[(i, c)]).sum::<f64>() / vv;
-                for i in j..6 {
-                    m[(i, c)] -= f * v[i];
-                }
+                let x = &mut m[6 * c + j..6 * c + 6];
+                let f = 2.0 * v.iter().zip(x.iter()).map(|(p, q)| p * q).sum::<f64>() / vv;
+                x.iter_mut().zip(v).for_each(|(q, p)| *q -= f * p);
             }
         };
-        reflect(a, j..n);
-        reflect(&mut qt, 0..6);
+        reflect(a.as_mut_slice(), j..n);
+        reflect(qt.as_mut_slice(), 0..6);
     }
     Some(qt)
 }
