@@ -43,7 +43,8 @@ def solve(
 
     ``z``, ``psi``, ``theta``: all three or none, arrays of one length (a number is
     broadcast), finite (a NaN or infinity raises ``ValueError`` naming the argument
-    and index). ``columns``: minimal, standard or full; ``solver``: fast or general;
+    and index). ``columns``: minimal, standard or full; ``solver``: fast or general
+    (general for the 3-limb kinds only: a 6-UPS or custom job raises ``ValueError``);
     ``threads``: None (all cores) or an int from 1 to 4096; ``progress``: a bool, None
     or a callable(done, total).
     """

@@ -149,7 +149,9 @@ fn to_py(e: EngineError) -> PyErr {
     match e {
         EngineError::Job(_) => JobError::new_err(with_causes(&e)),
         EngineError::OutputDir(e) => PyValueError::new_err(out_dir_message(&e)),
-        EngineError::Samples(_) | EngineError::Allocation(_) => PyValueError::new_err(with_causes(&e)),
+        EngineError::Samples(_) | EngineError::Allocation(_) | EngineError::Unsupported(_) => {
+            PyValueError::new_err(with_causes(&e))
+        }
         EngineError::MissingStats { path, source } => {
             PyOSError::new_err(format!("missing {}: finish the run with resume=True: {source}", path.display()))
         }

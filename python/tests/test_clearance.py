@@ -118,6 +118,16 @@ def test_custom_columns_come_from_the_description():
     assert set(t.column("status").to_pylist()) <= {"ok", "indeterminate_contact"}
 
 
+def test_the_general_solver_is_refused_for_a_custom_mechanism(tmp_path):
+    # It assembles the 3-limb kinds' systems: refused, not ignored, and nothing written.
+    with pytest.raises(ValueError, match="3-limb kinds"):
+        clearance.solve(CUSTOM, solver="general")
+    out = tmp_path / "run"
+    with pytest.raises(ValueError, match="a custom job"):
+        clearance.run(CUSTOM, out, solver="general")
+    assert not out.exists() or not any(out.iterdir())
+
+
 def test_explicit_poses_equal_the_grid():
     job = {
         "clearance": {"r_radial": 1e-4, "r_axial": 1e-4},

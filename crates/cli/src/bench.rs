@@ -365,6 +365,22 @@ impl SuiteOptions {
             poses: true,
         }
     }
+
+    /// [`run_options`](Self::run_options) for `job`: a 6-UPS or custom job has one
+    /// solver, its own (`--solver general` is for the 3-limb kinds).
+    fn run_options_for(
+        &self,
+        job: &JobSpec,
+        out: &std::path::Path,
+        columns: ColumnSet,
+        shard: Option<(u64, u64)>,
+    ) -> RunOptions {
+        let mut opts = self.run_options(out, columns, shard);
+        if matches!(job.mechanism.kind, MechanismKind::Ups6 | MechanismKind::Custom) {
+            opts.solver = SolverKind::Fast;
+        }
+        opts
+    }
 }
 
 /// `clearance bench --suite`: every job of [`SUITE`] end to end through the
@@ -377,7 +393,7 @@ pub fn suite(o: &SuiteOptions) -> Result<()> {
     let mut measured = Vec::with_capacity(SUITE.len());
     for s in SUITE {
         let job = s.job(o.scale)?;
-        let opts = o.run_options(&dir.0, s.columns, None);
+        let opts = o.run_options_for(&job, &dir.0, s.columns, None);
         let rows = job.sample_count() * job.variant_count() * job.analysis.modes.len() as u64;
         let mut rates = Vec::with_capacity(o.repeat);
         let (mut best, mut bytes, mut without_search) = (RunReport::default(), 0, f64::INFINITY);

@@ -126,3 +126,25 @@ fn a_described_builtin_runs_and_describes_to_itself() {
     assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
     assert!(out.join("_SUCCESS").exists() && out.join("discontinuities.parquet").exists());
 }
+
+/// `--solver general` assembles the 3-limb kinds' systems: a custom or 6-UPS job, which
+/// has its own only, refuses it (exit 2, the kinds named, nothing written) rather than
+/// running with another solver; the fast solver runs it.
+#[test]
+fn the_general_solver_is_refused_where_it_cannot_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let custom = dir.path().join("custom.toml");
+    std::fs::write(&custom, rrs(&format!("{CRANK}\n{KNEE}\n{S}"), ZPT, "knee_radial = 1e-4")).unwrap();
+    let ups = dir.path().join("ups.toml");
+    std::fs::write(&ups, "[mechanism]\nkind = \"6-UPS\"\n[clearance]\nu_radial = 1e-4\n[grid]\nx = 0.0\ny = 0.0\nz = 0.7\nphi = 0.0\npsi = 0.0\ntheta = { start = -0.1, stop = 0.1, n = 3 }\n").unwrap();
+    for (job, kind) in [(&custom, "custom"), (&ups, "6-UPS")] {
+        let out = dir.path().join(format!("{kind}_out"));
+        let o = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "--solver", "general"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{kind}: {err}");
+        assert!(err.contains("3-limb kinds") && err.contains(&format!("a {kind} job")), "{kind}: {err}");
+        assert!(!out.exists(), "{kind}: {} was written", out.display());
+        let o = run(&["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "--solver", "fast", "-q"]);
+        assert!(o.status.success(), "{kind}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+}

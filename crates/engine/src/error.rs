@@ -34,6 +34,9 @@ pub enum EngineError {
     /// allocate (the message says which and why).
     #[error("{0}")]
     Allocation(String),
+    /// An option that the job's mechanism cannot honour (the message says which and why).
+    #[error("{0}")]
+    Unsupported(String),
     /// The conic solver of `allocate` stopped without an answer.
     #[error("the conic solver stopped without an answer: {0}")]
     Solver(String),
@@ -64,7 +67,11 @@ impl EngineError {
     pub fn is_usage(&self) -> bool {
         matches!(
             self,
-            EngineError::Job(_) | EngineError::OutputDir(_) | EngineError::Samples(_) | EngineError::Allocation(_)
+            EngineError::Job(_)
+                | EngineError::OutputDir(_)
+                | EngineError::Samples(_)
+                | EngineError::Allocation(_)
+                | EngineError::Unsupported(_)
         )
     }
 

@@ -1358,9 +1358,39 @@ pub(crate) fn part_metadata(variant: &Variant) -> Vec<(String, String)> {
     ]
 }
 
+/// The general solver assembles the 3-limb kinds' 24 × 24 and 12 × 12 systems; a
+/// 6-UPS or a custom mechanism has its own systems only, so it is refused there
+/// rather than ignored.
+pub(crate) fn check_solver(job: &JobSpec, solver: SolverKind) -> Result<()> {
+    use clearance_model::MechanismKind;
+    match (job.mechanism.kind, solver) {
+        (MechanismKind::Ups6 | MechanismKind::Custom, SolverKind::General) => Err(EngineError::Unsupported(format!(
+            "the general solver (the assembled 24 × 24 and 12 × 12 systems) is for the 3-limb kinds; a {} job is solved by its own systems: use the fast solver",
+            job.mechanism.kind.name()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Writes one part file of `batch` with the encoder `writer` names (the same table).
+pub(crate) fn write_part_batch(
+    writer: Writer,
+    path: &std::path::Path,
+    batch: &RecordBatch,
+    opts: &WriteOptions,
+    meta: &[(String, String)],
+) -> Result<()> {
+    match writer {
+        Writer::Engine => write_parquet(path, batch.schema(), std::slice::from_ref(batch), opts, meta)?,
+        Writer::Arrow => write_batch_arrow(path, batch, opts, meta)?,
+    }
+    Ok(())
+}
+
 /// Runs `job` (read from `job_file`, named in messages) into `opts.out`, computing
 /// the units of `opts.shard` on the current rayon pool.
 pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
+    check_solver(job, opts.solver)?;
     if job.mechanism.kind == clearance_model::MechanismKind::Custom {
         return crate::custom::run_custom(job, job_file, opts);
     }

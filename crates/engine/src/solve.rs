@@ -148,6 +148,7 @@ pub(crate) fn solve_range(
     opts: &SolveOptions,
     range: Option<std::ops::Range<u64>>,
 ) -> Result<Vec<RecordBatch>, EngineError> {
+    crate::run::check_solver(job, opts.solver)?;
     if job.mechanism.kind == clearance_model::MechanismKind::Custom {
         if opts.poses.is_some() {
             return Err(EngineError::Samples(

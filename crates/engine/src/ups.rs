@@ -151,7 +151,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
             write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
             let meta = part_metadata(&variants[u.variant as usize]);
             if let Some(batch) = batch {
-                write_parquet(&part, batch.schema(), &[batch], &write_opts, &meta)?;
+                crate::run::write_part_batch(opts.writer, &part, &batch, &write_opts, &meta)?;
             }
             stages.writing += writing.elapsed().as_secs_f64();
             done += u.range.end - u.range.start;

@@ -52,6 +52,23 @@ psi = 0.1
 theta = { offset = 0.0, harmonics = [ { amplitude = 0.3, period = 2.0, phase = 0.0 } ] }
 "#;
 
+/// A 6-UPS grid, in parts of 50 samples.
+const UPS: &str = r#"
+name = "writers_ups"
+[mechanism]
+kind = "6-UPS"
+[clearance]
+s_radial = 1e-4
+u_radial = 1e-4
+[grid]
+x = { start = -0.15, stop = 0.15, n = 9 }
+y = { start = -0.15, stop = 0.15, n = 9 }
+z = 0.7
+phi = 0.05
+psi = 0.1
+theta = -0.1
+"#;
+
 fn run_with(job: &JobSpec, out: &Path, columns: ColumnSet, chunk_size: u64, codec: Codec, writer: Writer) {
     let opts = RunOptions { columns, chunk_size, compression: codec, writer, direct_io: true, ..common::options(out) };
     run(job, "t.toml", &opts).unwrap();
@@ -128,4 +145,17 @@ fn a_trajectory_in_both_modes_past_the_stroke() {
     let (rows, not_ok) = check(TRAJECTORY, ColumnSet::Standard, 4096, Codec::Lz4);
     assert_eq!(rows, 2 * 5001);
     assert!(not_ok > 100 && not_ok < rows / 2, "{not_ok} of {rows} rows not ok");
+}
+
+/// A 6-UPS's and a custom mechanism's parts are built as record batches: `--writer`
+/// chooses their encoder too, and both write the same table.
+#[test]
+fn a_6ups_grid_and_a_custom_mechanism() {
+    let (rows, _) = check(UPS, ColumnSet::Full, 50, Codec::Zstd);
+    assert_eq!(rows, 81);
+    let custom = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../jobs/custom_3rrs_grid.toml"))
+        .unwrap()
+        .replace("n = 61", "n = 11");
+    let (rows, _) = check(&custom, ColumnSet::Standard, 40, Codec::Lz4);
+    assert_eq!(rows, 121);
 }
