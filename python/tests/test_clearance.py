@@ -118,14 +118,11 @@ def test_custom_columns_come_from_the_description():
     assert set(t.column("status").to_pylist()) <= {"ok", "indeterminate_contact"}
 
 
-def test_the_general_solver_is_refused_for_a_custom_mechanism(tmp_path):
-    # It assembles the 3-limb kinds' systems: refused, not ignored, and nothing written.
-    with pytest.raises(ValueError, match="3-limb kinds"):
+def test_the_general_solver_is_refused_for_a_custom_mechanism():
+    # It assembles the 3-limb kinds' systems: refused, not ignored.
+    with pytest.raises(ValueError, match="3-limb kinds.*a custom job"):
         clearance.solve(CUSTOM, solver="general")
-    out = tmp_path / "run"
-    with pytest.raises(ValueError, match="a custom job"):
-        clearance.run(CUSTOM, out, solver="general")
-    assert not out.exists() or not any(out.iterdir())
+    assert clearance.solve(CUSTOM, solver="fast").num_rows > 0
 
 
 def test_explicit_poses_equal_the_grid():
