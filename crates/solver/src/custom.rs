@@ -420,13 +420,8 @@ pub fn group_load_near(
     let rates = if mode == Mode::Dynamic { rates } else { None };
     let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else { return (None, None) };
     let configuration = Some((posture.coords, posture.states.clone()));
-    let basis = match Basis::new(&posture, &model.geom) {
-        Some(b) if !b.cond.is_nan() && b.cond <= model.singular_cond => b,
-        _ => return (None, configuration),
-    };
-    let Some(gi) = basis.g.try_inverse() else { return (None, configuration) };
     let mut out = CustomResult::default();
-    reactions(model, &posture, &basis, &gi, &mut out);
+    let Some((basis, gi)) = statics(model, &posture, &mut out) else { return (None, configuration) };
     let g = &model.groups[group];
     let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
     let pj = &posture.joints[g.limb][g.joint];
@@ -440,27 +435,31 @@ pub fn group_load_near(
 fn solve_posture(model: &CustomModel, posture: &CustomPosture, mut out: CustomResult) -> CustomResult {
     out.coords = posture.coords;
     out.q = posture.actuators(&model.geom);
-    let Some(basis) = Basis::new(posture, &model.geom) else {
-        out.status = Status::NearSingular;
-        out.cond = f64::INFINITY;
-        return out;
-    };
-    out.cond = basis.cond;
-    if basis.cond.is_nan() || basis.cond > model.singular_cond {
-        out.status = Status::NearSingular;
-        return out;
-    }
-    let Some(gi) = basis.g.try_inverse() else {
-        out.status = Status::NearSingular;
-        return out;
-    };
-    reactions(model, posture, &basis, &gi, &mut out);
+    let Some((basis, gi)) = statics(model, posture, &mut out) else { return out };
     take_up(model, posture, &basis, &gi, &mut out);
     out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
     if model.exact && out.status == Status::Ok {
         out.exact = exact_error(model, posture, &basis, &gi, &out);
     }
     out
+}
+
+/// The wrench basis, `G⁻¹` and the reactions (into `out`, with `cond`) at a posture;
+/// `None` where the pose is near-singular (`out.status` says so).
+fn statics(model: &CustomModel, posture: &CustomPosture, out: &mut CustomResult) -> Option<(Basis, Matrix6<f64>)> {
+    let Some(basis) = Basis::new(posture, &model.geom) else {
+        out.status = Status::NearSingular;
+        out.cond = f64::INFINITY;
+        return None;
+    };
+    out.cond = basis.cond;
+    let gi = (!basis.cond.is_nan() && basis.cond <= model.singular_cond).then(|| basis.g.try_inverse()).flatten();
+    let Some(gi) = gi else {
+        out.status = Status::NearSingular;
+        return None;
+    };
+    reactions(model, posture, &basis, &gi, out);
+    Some((basis, gi))
 }
 
 /// The wrench `[m(a_G − g); G × m(a_G − g) + Iα + ω × Iω]` at the origin of a body
