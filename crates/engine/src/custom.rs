@@ -25,7 +25,7 @@ use clearance_parquet::{
     ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
     custom_discontinuity_batch, custom_summary_batch, write_bytes, write_parquet,
 };
-use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve_custom_near};
+use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve_members_near};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
@@ -55,13 +55,13 @@ fn inputs_of(model: &CustomModel, source: &SampleSource, i: u64) -> (Option<f64>
 /// Solves one pose from its inputs' values, rates and accelerations, its configuration
 /// continued from `near` where that is close (see [`solve_custom_near`]).
 fn solve_inputs(
-    model: &CustomModel,
+    models: &[&CustomModel],
     inputs: &[[f64; 3]],
     mode: Mode,
     near: Option<&Configuration>,
-) -> (CustomResult, Option<Configuration>) {
+) -> (Vec<CustomResult>, Option<Configuration>) {
     let [x, v, a] = split(inputs);
-    solve_custom_near(model, &x, Some((&v, &a)), mode, near)
+    solve_members_near(models, &x, Some((&v, &a)), mode, near)
 }
 
 /// The inputs' values, rates and accelerations, each in canonical order.
@@ -94,8 +94,21 @@ fn solve_rows(
     range: std::ops::Range<u64>,
     mode: Mode,
 ) -> (Vec<CustomRow>, Vec<CustomResult>) {
+    let (rows, mut results) = solve_members(&[model], source, range, mode);
+    (rows, results.pop().expect("one model"))
+}
+
+/// [`solve_rows`] for the members of a clearance sweep (models equal but for their
+/// clearances): each pose's kinematics and reactions once, each member's take-up.
+/// Returns the rows and, per member, its results.
+fn solve_members(
+    models: &[&CustomModel],
+    source: &SampleSource,
+    range: std::ops::Range<u64>,
+    mode: Mode,
+) -> (Vec<CustomRow>, Vec<Vec<CustomResult>>) {
     let first = range.start - range.start % RUN;
-    let runs: Vec<Vec<(CustomRow, CustomResult)>> = (first..range.end)
+    let runs: Vec<Vec<(CustomRow, Vec<CustomResult>)>> = (first..range.end)
         .step_by(RUN as usize)
         .collect::<Vec<u64>>()
         .into_par_iter()
@@ -103,8 +116,8 @@ fn solve_rows(
             let mut near = None;
             let mut out = Vec::with_capacity(RUN as usize);
             for i in start..(start + RUN).min(range.end) {
-                let (t, inputs) = inputs_of(model, source, i);
-                let (r, reached) = solve_inputs(model, &inputs, mode, near.as_ref());
+                let (t, inputs) = inputs_of(models[0], source, i);
+                let (r, reached) = solve_inputs(models, &inputs, mode, near.as_ref());
                 near = reached;
                 if i >= range.start {
                     out.push((CustomRow { sample: i, t }, r));
@@ -113,7 +126,15 @@ fn solve_rows(
             out
         })
         .collect();
-    runs.into_iter().flatten().unzip()
+    let mut rows = Vec::with_capacity((range.end - range.start) as usize);
+    let mut results: Vec<Vec<CustomResult>> = models.iter().map(|_| Vec::with_capacity(rows.capacity())).collect();
+    for (row, all) in runs.into_iter().flatten() {
+        rows.push(row);
+        for (to, r) in results.iter_mut().zip(all) {
+            to.push(r);
+        }
+    }
+    (rows, results)
 }
 
 /// The poses of a custom job as record batches, one per (variant, mode), in memory.
@@ -168,11 +189,17 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
     let mut tables: HashMap<(u64, Mode), Vec<Option<Sampled>>> = HashMap::new();
     let mut kept = 0u64;
     for w in &todo_work {
-        for u in &w.units {
-            progress.stage(&format!("variant {} {}", u.variant, u.mode.name()));
+        // The units of a work are the members of one clearance sweep (or one variant)
+        // for one (mode, part): their poses' kinematics and reactions are shared.
+        let first = &w.units[0];
+        progress.stage(&format!("variant {} {}", first.variant, first.mode.name()));
+        let pose_pass = Instant::now();
+        let members: Vec<&CustomModel> = w.units.iter().map(|u| &models[u.variant as usize]).collect();
+        let (rows, shared) = solve_members(&members, &sources[first.variant as usize], first.range.clone(), first.mode);
+        stages.pose_pass += pose_pass.elapsed().as_secs_f64();
+        for (u, results) in w.units.iter().zip(shared) {
             let v = u.variant as usize;
             let pose_pass = Instant::now();
-            let (rows, results) = solve_rows(&models[v], &sources[v], u.range.clone(), u.mode);
             let batch = opts.poses.then(|| schemas[v].batch(u.mode, &rows, &results));
             let mut stats = CustomStats::new(models[v].kinds.len(), models[v].groups.len());
             for r in &results {
@@ -348,9 +375,9 @@ fn search(
             let solve_at = |p: f64| {
                 let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
                 let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
-                let (r, reached) = solve_inputs(model, &inputs, mode, near.borrow().as_ref());
+                let (mut r, reached) = solve_inputs(&[model], &inputs, mode, near.borrow().as_ref());
                 *near.borrow_mut() = reached;
-                (t, s, r)
+                (t, s, r.pop().expect("one model"))
             };
             let own: Vec<Sampled>;
             let samples: Vec<&Sampled> = match &shared {

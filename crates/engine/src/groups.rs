@@ -9,7 +9,10 @@
 //! with one non-zero magnitude per kind, and derives each member by scaling
 //! ([`Group::scales`], `PoseResult::scaled`): the same numbers as solving it alone, to
 //! round-off. The exact error (§7) is not linear in the magnitudes: a job with
-//! `analysis.exact` solves every variant alone.
+//! `analysis.exact` solves every variant alone. A custom mechanism's members (its
+//! magnitudes are per joint group, per limb) share each pose's kinematics and
+//! reactions, and each takes up its own clearances: the same bits as alone, exact
+//! error included; `clearance`/`scales` are not used for them.
 
 use std::collections::HashMap;
 
@@ -106,13 +109,21 @@ pub(crate) fn groups(variants: &[Variant]) -> Vec<Group> {
     let mut own_of: Vec<Vec<[f64; 4]>> = Vec::new();
     for v in variants {
         let own = magnitudes(&v.job.clearance);
-        // A custom mechanism's variants are solved alone (its magnitudes are per joint group).
+        // A custom mechanism's members share the kinematics and the reactions and each
+        // takes its own clearances up (its magnitudes are per joint group, and its
+        // exact error too is its own): they need the same clearance keys, so that they
+        // have the same columns.
         let custom = v.job.mechanism.kind == clearance_model::MechanismKind::Custom;
-        let g = if !v.job.analysis.exact && !custom {
+        let g = if !v.job.analysis.exact || custom {
             let mut key = v.job.clone();
             key.clearance = ClearanceSpec { ups: key.clearance.ups, ..ClearanceSpec::default() };
+            let mut key = key.to_toml_string();
+            if custom {
+                let names: Vec<&str> = v.job.clearance.given.iter().map(|(k, _)| k.as_str()).collect();
+                key.push_str(&format!("\n# clearance keys {names:?}"));
+            }
             let next = out.len();
-            *by_key.entry(key.to_toml_string()).or_insert(next)
+            *by_key.entry(key).or_insert(next)
         } else {
             out.len()
         };

@@ -4,8 +4,9 @@
 //! number to round-off (1e-12 of the largest magnitude of its column). Checked on a
 //! 3-PRS grid sweeping masses crossed with clearances (a kind that is zero in some
 //! variants, the symmetry plane where `r_axial` is indeterminate), on a 3-RPS
-//! trajectory in both modes with unreachable poses, on a 6-UPS grid, with both
-//! writers, in shards and resumed.
+//! trajectory in both modes with unreachable poses, on a 6-UPS grid, on a custom
+//! mechanism with exact errors (its members share each pose's kinematics and reactions
+//! and take up their own clearances), with both writers, in shards and resumed.
 
 mod common;
 
@@ -98,6 +99,47 @@ values = [0.0, 1e-4]
 [[sweep]]
 param = "clearance.u_angular"
 values = [0.0, 1e-3]
+"#;
+
+/// A custom 3-RRS (its magnitudes per joint group, one a per-limb list) sweeping a
+/// clearance (one value zero) crossed with the platform's mass, with exact errors, in
+/// both modes along a trajectory: its members share each pose's kinematics and
+/// reactions and take up their own clearances.
+const CUSTOM: &str = r#"
+name = "groups_custom"
+[mechanism]
+kind = "custom"
+inputs = ["z", "psi", "theta"]
+home = [0.0, 0.0, 0.6, 0.0, 0.0, 0.0]
+[[mechanism.limb]]
+repeat = 3
+joints = [
+  { type = "R", name = "crank", at = [0.25, 0.0, 0.0], axis = [0.0, 1.0, 0.0], actuated = true, range = [-1.5, 1.5] },
+  { type = "R", name = "knee", at = [0.45, 0.0, 0.0], axis = [0.0, 1.0, 0.0] },
+  { type = "S", at = [0.15, 0.0, 0.6] },
+]
+bodies = [{ mass = 1.2 }, { mass = 2.0 }]
+[mass]
+platform = 5.0
+[clearance]
+knee_radial = 5e-5
+knee_axial = 5e-5
+crank_backlash = [2e-4, 1e-4, 2e-4]
+s_radial = 2e-5
+[analysis]
+modes = ["kinetostatic", "dynamic"]
+exact = true
+[trajectory]
+time = { start = 0.0, stop = 3.0, n = 301 }
+z = { offset = 0.6, harmonics = [ { amplitude = 0.03, period = 1.5, phase = 0.0 } ] }
+psi = { offset = 0.0, harmonics = [ { amplitude = 0.25, period = 1.7, phase = 0.4 } ] }
+theta = { offset = 0.0, harmonics = [ { amplitude = 0.3, period = 2.3, phase = 0.0 } ] }
+[[sweep]]
+param = "clearance.knee_axial"
+values = [0.0, 5e-5, 2e-4]
+[[sweep]]
+param = "mass.platform"
+values = [5.0, 20.0]
 "#;
 
 fn options(out: &Path, chunk_size: u64, writer: Writer, shard: Option<(u64, u64)>, resume: bool) -> RunOptions {
@@ -242,4 +284,11 @@ fn shards_and_resume_give_the_single_run() {
     for file in ["discontinuities.parquet", "summary.parquet"] {
         assert_eq!(read(&single.join(file)), read(&sharded.join(file)), "{file}");
     }
+}
+
+#[test]
+fn a_custom_mechanism_sweeping_a_clearance_equals_each_variant_alone() {
+    let (statuses, switches) = check(CUSTOM, 128, Writer::Engine);
+    assert!(statuses.iter().any(|x| x == "ok"), "no ok row");
+    assert!(switches > 10, "{switches} switches");
 }

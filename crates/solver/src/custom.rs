@@ -377,6 +377,22 @@ pub fn solve_custom_near(
     mode: Mode,
     near: Option<&Configuration>,
 ) -> (CustomResult, Option<Configuration>) {
+    let (mut all, configuration) = solve_members_near(&[model], inputs, rates, mode, near);
+    (all.pop().expect("one model, one result"), configuration)
+}
+
+/// [`solve_custom_near`] for the members of a clearance sweep: models equal but for
+/// their clearances (with the same kinds). The kinematics and the reactions are solved
+/// once; each member takes up its own clearances. Each result is, bit for bit, the
+/// member's solved alone.
+pub fn solve_members_near(
+    models: &[&CustomModel],
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    near: Option<&Configuration>,
+) -> (Vec<CustomResult>, Option<Configuration>) {
+    let model = models[0];
     let mut out = CustomResult {
         coords: [f64::NAN; 6],
         cond: f64::NAN,
@@ -391,18 +407,16 @@ pub fn solve_custom_near(
     let rates = if mode == Mode::Dynamic { rates } else { None };
     let posture = match custom_posture_near(&model.geom, inputs, rates, near) {
         Ok(p) => p,
-        Err(Unsolved::Unreachable) => {
+        Err(unsolved) => {
+            if let Unsolved::OutOfRange(coords) = unsolved {
+                out.coords = coords;
+            }
             out.status = Status::Unreachable;
-            return (out, None);
-        }
-        Err(Unsolved::OutOfRange(coords)) => {
-            out.coords = coords;
-            out.status = Status::Unreachable;
-            return (out, None);
+            return (vec![out; models.len()], None);
         }
     };
     let configuration = Some((posture.coords, posture.states.clone()));
-    (solve_posture(model, &posture, out), configuration)
+    (solve_posture(models, &posture, out), configuration)
 }
 
 /// Group `group`'s deciding load at a pose where the pose has loads and the group can
@@ -431,17 +445,24 @@ pub fn group_load_near(
     ((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]), configuration)
 }
 
-/// The reactions, take-up and errors at a solved posture.
-fn solve_posture(model: &CustomModel, posture: &CustomPosture, mut out: CustomResult) -> CustomResult {
+/// The reactions (once: the models differ only in their clearances), then each
+/// model's take-up and errors, at a solved posture.
+fn solve_posture(models: &[&CustomModel], posture: &CustomPosture, mut out: CustomResult) -> Vec<CustomResult> {
     out.coords = posture.coords;
-    out.q = posture.actuators(&model.geom);
-    let Some((basis, gi)) = statics(model, posture, &mut out) else { return out };
-    take_up(model, posture, &basis, &gi, &mut out);
-    out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
-    if model.exact && out.status == Status::Ok {
-        out.exact = exact_error(model, posture, &basis, &gi, &out);
+    out.q = posture.actuators(&models[0].geom);
+    let statics = statics(models[0], posture, &mut out);
+    let mut all = vec![out; models.len()];
+    if let Some((basis, gi)) = statics {
+        for (model, out) in models.iter().zip(&mut all) {
+            take_up(model, posture, &basis, &gi, out);
+            out.status =
+                if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
+            if model.exact && out.status == Status::Ok {
+                out.exact = exact_error(model, posture, &basis, &gi, out);
+            }
+        }
     }
-    out
+    all
 }
 
 /// The wrench basis, `G⁻¹` and the reactions (into `out`, with `cond`) at a posture;
