@@ -29,6 +29,7 @@ use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve
 use rayon::prelude::*;
 
 use crate::error::EngineError;
+use crate::groups::Group;
 use crate::layout::Layout;
 use crate::run::{
     RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
@@ -173,7 +174,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
     // Every variant's description is checked before anything is written.
     let variants = job.variants(job_file)?;
     let models: Vec<CustomModel> = variants.iter().map(|v| model_of(&v.job, job_file)).collect::<Result<_, _>>()?;
-    let Setup { variants, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
+    let Setup { variants, groups, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
         prepare_run(job, job_file, opts, unit_complete)?;
     let layout = &layout;
     let sources: Vec<SampleSource> = variants.iter().map(|v| SampleSource::new(&v.job)).collect();
@@ -245,7 +246,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
             .into_iter()
             .filter_map(|(key, t)| t.into_iter().collect::<Option<Vec<Sampled>>>().map(|t| (key, t)))
             .collect();
-        finalize(layout, job, &variants, &models, &sources, &all, &durable, opts.search, tables, &mut stages)?;
+        finalize(layout, job, &variants, &groups, &models, &sources, &all, &durable, opts.search, tables, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
@@ -257,6 +258,7 @@ fn finalize(
     layout: &Layout,
     job: &JobSpec,
     variants: &[Variant],
+    groups: &[Group],
     models: &[CustomModel],
     sources: &[SampleSource],
     all: &[Unit],
@@ -265,28 +267,38 @@ fn finalize(
     mut tables: HashMap<(u64, Mode), Vec<Sampled>>,
     stages: &mut StageTimes,
 ) -> Result<()> {
+    // The switches of each (variant, mode), searched group by group.
+    let mut found: HashMap<(u64, Mode), Vec<CustomSwitch>> = HashMap::new();
+    if search_on {
+        for group in groups {
+            let first = group.first() as usize;
+            let members: Vec<&CustomModel> = group.members.iter().map(|&v| &models[v as usize]).collect();
+            for &mode in &job.analysis.modes {
+                let searching = Instant::now();
+                let kept = group.members.iter().map(|&v| tables.remove(&(v, mode))).collect();
+                let per_member = search(&variants[first].job, &members, &sources[first], mode, kept);
+                stages.search += searching.elapsed().as_secs_f64();
+                for (&v, switches) in group.members.iter().zip(per_member) {
+                    found.insert((v, mode), switches);
+                }
+            }
+        }
+    }
     let mut summary = Vec::new();
     let mut switches = Vec::new();
     for variant in variants {
-        let v = variant.index as usize;
-        let model = &models[v];
+        let model = &models[variant.index as usize];
         for &mode in &job.analysis.modes {
             let mut stats = CustomStats::new(model.kinds.len(), model.groups.len());
             for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
                 stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
             }
-            let searching = Instant::now();
-            let found = if search_on {
-                search(&variant.job, model, &sources[v], mode, tables.remove(&(variant.index, mode)))
-            } else {
-                Vec::new()
-            };
-            stages.search += searching.elapsed().as_secs_f64();
+            let own = found.remove(&(variant.index, mode)).unwrap_or_default();
             let mut counts = vec![0u64; model.kinds.len()];
-            for s in &found {
+            for s in &own {
                 counts[s.kind] += 1;
             }
-            switches.extend(found.into_iter().map(|s| CustomSwitch { variant: variant.index, mode, ..s }));
+            switches.extend(own.into_iter().map(|s| CustomSwitch { variant: variant.index, mode, ..s }));
             summary.push(CustomSummaryRow {
                 variant: variant.index,
                 mode: mode.name(),
@@ -342,31 +354,40 @@ fn table_entry(model: &CustomModel) -> u64 {
 /// path solves its samples again.
 const SHARED_BYTES: u64 = 1 << 29;
 
-/// The switches of one (variant, mode): every path, in order, on the rayon pool. Every
-/// sample lies on a line of each input that varies: its loads are solved once for all
-/// of them where the table fits in memory.
-/// `table`: the samples' loads and errors where the pose pass kept them.
+/// The switches of one (group of variants, mode), per member: every path, in order, on
+/// the rayon pool. The members of a custom clearance sweep have the same loads (they
+/// differ only in their clearances), so the paths are searched once, for every joint
+/// group that has play in some member, and each member keeps the switches of its own
+/// groups with play, their jumps read from its own errors. Every sample lies on a line
+/// of each input that varies: its loads are solved once for all of them where the
+/// tables fit in memory (`tables`: the members' tables where the pose pass kept them).
 fn search(
     job: &JobSpec,
-    model: &CustomModel,
+    models: &[&CustomModel],
     source: &SampleSource,
     mode: Mode,
-    table: Option<Vec<Sampled>>,
-) -> Vec<CustomSwitch> {
-    let groups: Vec<usize> = (0..model.groups.len()).filter(|&g| model.groups[g].magnitude > 0.0).collect();
+    tables: Vec<Option<Vec<Sampled>>>,
+) -> Vec<Vec<CustomSwitch>> {
+    let model = models[0];
+    let groups: Vec<usize> =
+        (0..model.groups.len()).filter(|&g| models.iter().any(|m| m.groups[g].magnitude > 0.0)).collect();
     if groups.is_empty() {
-        return Vec::new();
+        return vec![Vec::new(); models.len()];
     }
     let threshold = job.analysis.discontinuity_load_fraction * model.weight;
     let floor = model.floor;
     let trajectory = job.trajectory.as_ref().map(|t| t.inputs6());
     let paths = ups_paths(job, source);
     let n = source.len();
-    let shared: Option<Vec<Sampled>> = table.or_else(|| {
-        (n.saturating_mul(table_entry(model)) <= SHARED_BYTES)
-            .then(|| solve_rows(model, source, 0..n, mode).1.iter().map(|r| Sampled::of(model, r)).collect())
-    });
-    let found: Vec<Vec<CustomSwitch>> = paths
+    let bytes = n.saturating_mul(table_entry(model)).saturating_mul(models.len() as u64);
+    let shared: Option<Vec<Vec<Sampled>>> = match tables.into_iter().collect::<Option<Vec<_>>>() {
+        Some(kept) => Some(kept),
+        None => (bytes <= SHARED_BYTES).then(|| {
+            let (_, results) = solve_members(models, source, 0..n, mode);
+            results.iter().zip(models).map(|(rs, m)| rs.iter().map(|r| Sampled::of(m, r)).collect()).collect()
+        }),
+    };
+    let found: Vec<Vec<Vec<CustomSwitch>>> = paths
         .par_iter()
         .map(|path| {
             // Each point the search solves continues from the one solved before it on
@@ -375,23 +396,28 @@ fn search(
             let solve_at = |p: f64| {
                 let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
                 let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
-                let (mut r, reached) = solve_inputs(&[model], &inputs, mode, near.borrow().as_ref());
+                let (r, reached) = solve_inputs(models, &inputs, mode, near.borrow().as_ref());
                 *near.borrow_mut() = reached;
-                (t, s, r.pop().expect("one model"))
+                (t, s, r)
             };
-            let own: Vec<Sampled>;
-            let samples: Vec<&Sampled> = match &shared {
-                Some(all) => (0..path.len).map(|k| &all[path.index(k) as usize]).collect(),
+            // Per member, its samples along the path.
+            let own: Vec<Vec<Sampled>>;
+            let samples: Vec<Vec<&Sampled>> = match &shared {
+                Some(all) => all.iter().map(|t| (0..path.len).map(|k| &t[path.index(k) as usize]).collect()).collect(),
                 None => {
-                    own = (0..path.len).map(|k| Sampled::of(model, &solve_at(k as f64).2)).collect();
-                    own.iter().collect()
+                    let solved: Vec<Vec<CustomResult>> = (0..path.len).map(|k| solve_at(k as f64).2).collect();
+                    own = models
+                        .iter()
+                        .enumerate()
+                        .map(|(m, model)| solved.iter().map(|r| Sampled::of(model, &r[m])).collect())
+                        .collect();
+                    own.iter().map(|v| v.iter().collect()).collect()
                 }
             };
-            let mut out = Vec::new();
+            let mut out: Vec<Vec<CustomSwitch>> = vec![Vec::new(); models.len()];
             for &g in &groups {
                 let def = &model.groups[g];
-                let loads: Vec<Option<[f64; 3]>> = samples.iter().map(|r| r.loads[g]).collect();
-                let errors: Vec<Option<[f64; 6]>> = samples.iter().map(|r| r.errors[def.kind]).collect();
+                let loads: Vec<Option<[f64; 3]>> = samples[0].iter().map(|r| r.loads[g]).collect();
                 let at = |p: f64| {
                     let (_, s) = path.sample_at(source, trajectory.as_ref(), p);
                     let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
@@ -399,37 +425,72 @@ fn search(
                     *near.borrow_mut() = reached;
                     load
                 };
-                if model.scalar(g) {
-                    scalar_switches(path, &loads, &errors, floor, def.limb, &at, &solve_at, &mut out, def.kind, g);
+                let found = if model.scalar(g) {
+                    scalar_switches(path, &loads, floor, def.limb, &at, &solve_at, def.kind, g)
                 } else {
-                    let rule = VectorRule { threshold, floor };
-                    vector_switches(path, &loads, &errors, &rule, def.kind, def.limb, &at, &solve_at, &mut out);
+                    vector_switches(path, &loads, &VectorRule { threshold, floor }, def.kind, def.limb, &at, &solve_at)
+                };
+                // Each member's jump: its kind's error after minus before, from its own
+                // samples, or solved (once for all members) between them.
+                for (switch, before, after) in found {
+                    let read = |r: ReadAt| -> Vec<Option<[f64; 6]>> {
+                        match r {
+                            ReadAt::Sample(k) => samples.iter().map(|s| s[k].errors[def.kind]).collect(),
+                            ReadAt::At(p) => solve_at(p).2.iter().map(|r| kind_error(r, def.kind)).collect(),
+                        }
+                    };
+                    let (b, a) = (read(before), read(after));
+                    for (m, member) in models.iter().enumerate() {
+                        if member.groups[g].magnitude <= 0.0 {
+                            continue;
+                        }
+                        let jump = match (b[m], a[m]) {
+                            (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
+                            _ => [f64::NAN; 6],
+                        };
+                        out[m].push(CustomSwitch { jump, ..switch.clone() });
+                    }
                 }
             }
             out
         })
         .collect();
-    found.into_iter().flatten().collect()
+    let mut per_member: Vec<Vec<CustomSwitch>> = vec![Vec::new(); models.len()];
+    for path in found {
+        for (to, switches) in per_member.iter_mut().zip(path) {
+            to.extend(switches);
+        }
+    }
+    per_member
 }
 
-type SolveAt<'a> = dyn Fn(f64) -> (Option<f64>, [[f64; 3]; 6], CustomResult) + 'a;
+/// Where a switch's jump is read on one side of it.
+#[derive(Clone, Copy, Debug)]
+enum ReadAt {
+    /// A sample of the path (its place along the path).
+    Sample(usize),
+    /// A point between samples (the path parameter, in sample steps).
+    At(f64),
+}
+
+type SolveAt<'a> = dyn Fn(f64) -> (Option<f64>, [[f64; 3]; 6], Vec<CustomResult>) + 'a;
 
 /// A scalar load switches where its sign changes between consecutive determinate
-/// samples; the root is located by Brent's method to [`LOCATE_TOL`] in the path.
+/// samples; the root is located by Brent's method to [`LOCATE_TOL`] in the path. The
+/// jump is read at the two samples.
 #[allow(clippy::too_many_arguments)]
 fn scalar_switches(
     path: &UpsPath,
     loads: &[Option<[f64; 3]>],
-    errors: &[Option<[f64; 6]>],
     floor: f64,
     limb: usize,
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
     solve_at: &SolveAt,
-    out: &mut Vec<CustomSwitch>,
     kind: usize,
     group: usize,
-) {
+) -> Vec<(CustomSwitch, ReadAt, ReadAt)> {
     let value = |l: &Option<[f64; 3]>| l.map(|v| v[0]).filter(|v| v.abs() > floor);
+    let mut out = Vec::new();
     for k in 0..loads.len().saturating_sub(1) {
         let (Some(a), Some(b)) = (value(&loads[k]), value(&loads[k + 1])) else { continue };
         if a.signum() == b.signum() {
@@ -438,16 +499,13 @@ fn scalar_switches(
         let x = brent_root(k as f64, (k + 1) as f64, a, b, LOCATE_TOL, |p| at(p).map_or(0.0, |v| v[0]));
         let (t, s, r) = solve_at(x);
         // |load| of the pose just solved (a scalar load sits in its first component).
-        let margin = group_load(&r, group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
-        let jump = match (errors[k], errors[k + 1]) {
-            (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
-            _ => [f64::NAN; 6],
-        };
-        out.push(switch(path, limb, kind, t, &s, &r, margin, jump));
+        let margin = group_load(&r[0], group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
+        out.push((switch(path, limb, kind, t, &s, &r[0], margin), ReadAt::Sample(k), ReadAt::Sample(k + 1)));
     }
+    out
 }
 
-#[allow(clippy::too_many_arguments)]
+/// A switch at a solved point, its jump not yet read.
 fn switch(
     path: &UpsPath,
     limb: usize,
@@ -456,7 +514,6 @@ fn switch(
     s: &[[f64; 3]; 6],
     r: &CustomResult,
     margin: f64,
-    jump: [f64; 6],
 ) -> CustomSwitch {
     // Parasitic coordinates from the solve there; inputs as the path gives them.
     let coords: [f64; 6] = std::array::from_fn(|k| if r.coords[k].is_finite() { r.coords[k] } else { s[k][0] });
@@ -469,38 +526,34 @@ fn switch(
         t,
         coords,
         margin,
-        jump,
+        jump: [f64::NAN; 6],
     }
 }
 
 /// The vector rule of docs/model.md §8 on one group's loads along one path; the jump
 /// is the kind's error between the two points where the directions were read.
-#[allow(clippy::too_many_arguments)]
 fn vector_switches(
     path: &UpsPath,
     loads: &[Option<[f64; 3]>],
-    errors: &[Option<[f64; 6]>],
     rule: &VectorRule,
     kind: usize,
     limb: usize,
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
     solve_at: &SolveAt,
-    out: &mut Vec<CustomSwitch>,
-) {
+) -> Vec<(CustomSwitch, ReadAt, ReadAt)> {
     let mags: Vec<SampledLoad> = loads
         .iter()
         .map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v)).filter(|(m, _)| *m > rule.floor))
         .collect();
-    for found in vector_load::switches(&mags, rule, at) {
-        let error = |r: &Reading| match r.sample {
-            Some(k) => errors[k],
-            None => kind_error(&solve_at(r.at).2, kind),
-        };
-        let jump = match (error(&found.before), error(&found.after)) {
-            (Some(b), Some(a)) => std::array::from_fn(|i| a[i] - b[i]),
-            _ => [f64::NAN; 6],
-        };
-        let (t, s, r) = solve_at(found.at);
-        out.push(switch(path, limb, kind, t, &s, &r, found.margin, jump));
-    }
+    let place = |r: &Reading| match r.sample {
+        Some(k) => ReadAt::Sample(k),
+        None => ReadAt::At(r.at),
+    };
+    vector_load::switches(&mags, rule, at)
+        .into_iter()
+        .map(|found| {
+            let (t, s, r) = solve_at(found.at);
+            (switch(path, limb, kind, t, &s, &r[0], found.margin), place(&found.before), place(&found.after))
+        })
+        .collect()
 }
