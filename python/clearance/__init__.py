@@ -158,31 +158,39 @@ def _floats(name: str, values: Any) -> np.ndarray:
     return a
 
 
-def _poses(z: Any, psi: Any, theta: Any) -> dict:
-    """The native module's ``z``, ``psi`` and ``theta`` (float64 bytes), or nothing
-    for the job's own samples."""
-    given = {k: v for k, v in (("z", z), ("psi", psi), ("theta", theta)) if v is not None}
+COORDS = ("x", "y", "z", "phi", "psi", "theta")
+
+
+def _poses(**coords: Any) -> dict:
+    """The native module's coordinates (float64 bytes) of the poses given, or nothing
+    for the job's own samples. Which coordinates a job takes (``z``, ``psi`` and
+    ``theta`` for the 3-limb kinds, its inputs for a custom mechanism) is checked by
+    the engine, which knows the job."""
+    given = {k: v for k, v in coords.items() if v is not None}
     if not given:
         return {}
-    missing = [k for k in ("z", "psi", "theta") if k not in given]
-    if missing:
-        raise ValueError(
-            f"{' and '.join(missing)} missing: give all of z, psi and theta (a number is broadcast), "
-            "or none of them for the job's own poses"
-        )
     arrays = {k: _floats(k, v) for k, v in given.items()}
     lengths = {k: a.size for k, a in arrays.items() if a.ndim == 1}
     if len(set(lengths.values())) > 1:
+        names = [k for k in COORDS if k in given]
         got = ", ".join(f"{k} has {n}" for k, n in lengths.items())
-        raise ValueError(f"z, psi and theta must have the same length: {got}")
+        raise ValueError(f"{_listed(names)} must have the same length: {got}")
     n = next(iter(lengths.values()), 1)
     return {k: (np.full(n, a) if a.ndim == 0 else a).tobytes() for k, a in arrays.items()}
+
+
+def _listed(names: list) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
 def solve(
     job: Job,
     *,
+    x: Any = None,
+    y: Any = None,
     z: Any = None,
+    phi: Any = None,
     psi: Any = None,
     theta: Any = None,
     columns: str = "standard",
@@ -205,12 +213,15 @@ def solve(
       a file), TOML text, or a dict of the job's keys whose values are numbers,
       strings, bools, lists and dicts (NumPy scalars and arrays count as numbers
       and lists). A job that is not valid raises :class:`JobError`.
-    - ``z``, ``psi``, ``theta``: poses (m, rad, rad) in place of the job's grid or
-      trajectory: all three, each a real number or a 1-d array of them, the
-      arrays of equal length, a number broadcast to that length. Every value must
-      be finite: a NaN or an infinity raises ``ValueError`` naming the argument and
-      the first such index. Such poses have no velocities, so the job's modes
-      must be kinetostatic only.
+    - ``x``, ``y``, ``z``, ``phi``, ``psi``, ``theta``: poses (m, rad) in place of
+      the job's grid or trajectory: the coordinates the job takes, all of them
+      (``z``, ``psi`` and ``theta`` for the 3-limb kinds; a custom mechanism's
+      ``inputs``; a 6-UPS takes none), each a real number or a 1-d array of them,
+      the arrays of equal length, a number broadcast to that length. Every value
+      must be finite: a NaN or an infinity raises ``ValueError`` naming the
+      argument and the first such index; a coordinate missing or one the job does
+      not take raises ``ValueError`` naming it. Such poses have no velocities, so
+      the job's modes must be kinetostatic only.
     - ``columns``: ``"minimal"``, ``"standard"`` or ``"full"``.
     - ``solver``: ``"fast"`` or ``"general"``.
     - ``threads``: ``None`` (all cores) or an int from 1 to 4096: the threads that
@@ -219,7 +230,7 @@ def solve(
       is called with ``(done, total)`` poses, ``None`` or ``False`` shows nothing.
     """
     kind, value = _job(job)
-    poses = _poses(z, psi, theta)
+    poses = _poses(x=x, y=y, z=z, phi=phi, psi=psi, theta=theta)
     columns = _name("columns", columns, ("minimal", "standard", "full"))
     solver = _name("solver", solver, ("fast", "general"))
     threads = _threads(threads)

@@ -31,7 +31,10 @@ class RunReport(TypedDict):
 def solve(
     job: Job,
     *,
+    x: Optional[Floats] = None,
+    y: Optional[Floats] = None,
     z: Optional[Floats] = None,
+    phi: Optional[Floats] = None,
     psi: Optional[Floats] = None,
     theta: Optional[Floats] = None,
     columns: str = "standard",
@@ -41,9 +44,10 @@ def solve(
 ) -> pa.Table:
     """Computes ``job`` in memory: a ``variant`` column, then the columns of a run's poses.
 
-    ``z``, ``psi``, ``theta``: all three or none, arrays of one length (a number is
-    broadcast), finite (a NaN or infinity raises ``ValueError`` naming the argument
-    and index). ``columns``: minimal, standard or full; ``solver``: fast or general
+    ``x``, ``y``, ``z``, ``phi``, ``psi``, ``theta``: poses in place of the job's, the
+    coordinates it takes (``z``, ``psi``, ``theta`` for the 3-limb kinds, a custom
+    mechanism's inputs) or none, arrays of one length (a number is broadcast), finite
+    (a NaN or infinity raises ``ValueError`` naming the argument and index). ``columns``: minimal, standard or full; ``solver``: fast or general
     (general for the 3-limb kinds only: a 6-UPS or custom job raises ``ValueError``);
     ``threads``: None (all cores) or an int from 1 to 4096; ``progress``: a bool, None
     or a callable(done, total).

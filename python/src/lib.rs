@@ -324,7 +324,7 @@ fn pyarrow_schema<'py>(py: Python<'py>, schema: &SchemaRef) -> PyResult<Bound<'p
 }
 
 #[pyfunction]
-#[pyo3(signature = (kind, value, columns_name, solver_name, z=None, psi=None, theta=None, threads=None, progress=None))]
+#[pyo3(signature = (kind, value, columns_name, solver_name, x=None, y=None, z=None, phi=None, psi=None, theta=None, threads=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn solve<'py>(
     py: Python<'py>,
@@ -332,21 +332,21 @@ fn solve<'py>(
     value: &str,
     columns_name: &str,
     solver_name: &str,
+    x: Option<&[u8]>,
+    y: Option<&[u8]>,
     z: Option<&[u8]>,
+    phi: Option<&[u8]>,
     psi: Option<&[u8]>,
     theta: Option<&[u8]>,
     threads: Option<usize>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
     let job = cached_job(kind, value)?;
-    let floats = |b: Option<&[u8]>| -> Vec<f64> {
-        b.unwrap_or_default().chunks_exact(8).map(|c| f64::from_ne_bytes(c.try_into().expect("8 bytes"))).collect()
+    let floats = |b: &[u8]| -> Vec<f64> {
+        b.chunks_exact(8).map(|c| f64::from_ne_bytes(c.try_into().expect("8 bytes"))).collect()
     };
-    let poses = (z.is_some() || psi.is_some() || theta.is_some()).then(|| Poses {
-        z: floats(z),
-        psi: floats(psi),
-        theta: floats(theta),
-    });
+    let coords = [x, y, z, phi, psi, theta].map(|b| b.map(floats));
+    let poses = coords.iter().any(Option::is_some).then_some(Poses { coords });
     let opts = SolveOptions {
         columns: columns(columns_name)?,
         solver: solver(solver_name)?,

@@ -77,7 +77,8 @@ SOLVE_CASES = [
     ("threads-str", TypeError, "threads", dict(threads="2")),
     ("threads-bool", TypeError, "threads", dict(threads=True)),
     ("progress", TypeError, "progress", dict(progress="yes")),
-    ("unknown-keyword", TypeError, "x", dict(x=[0.0], **POSES)),
+    ("unknown-keyword", TypeError, "alpha", dict(alpha=[0.0], **POSES)),
+    ("x-for-a-3-limb-job", ValueError, "x", dict(x=[0.0, 0.0, 0.0], **POSES)),
 ]
 
 

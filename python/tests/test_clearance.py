@@ -125,6 +125,38 @@ def test_the_general_solver_is_refused_for_a_custom_mechanism():
     assert clearance.solve(CUSTOM, solver="fast").num_rows > 0
 
 
+# A 6-PUS-like custom mechanism whose inputs are all six coordinates, on a small grid.
+SIX = (pathlib.Path(__file__).resolve().parents[2] / "jobs" / "custom_6pus_grid.toml").read_text()
+
+
+def test_a_custom_mechanisms_explicit_poses_equal_its_grid():
+    # The 3-RRS wrist takes z, psi and theta; its grid's rows, given as poses.
+    job = CUSTOM.replace('modes = ["kinetostatic", "dynamic"]', 'modes = ["kinetostatic"]')
+    grid = clearance.solve(job)
+    poses = clearance.solve(
+        job, z=grid.column("z").to_numpy(), psi=grid.column("psi").to_numpy(), theta=grid.column("theta").to_numpy()
+    )
+    assert poses.num_rows == grid.num_rows
+    for name in ["status", "x", "phi", "q1", "err_x", "err_knee_axial_rz", "margin_crank2_backlash"]:
+        assert poses.column(name).equals(grid.column(name)), name
+    # All six inputs of a hexapod: given as a number each, broadcast.
+    row = clearance.solve(SIX, x=0.01, y=-0.02, z=0.6, phi=0.05, psi=0.02, theta=-0.03)
+    assert row.num_rows == 1 and row.column("status").to_pylist() == ["ok"]
+
+
+@pytest.mark.parametrize(
+    "kwargs, named",
+    [
+        (dict(z=0.6, psi=0.0), "theta missing"),
+        (dict(x=0.0, z=0.6, psi=0.0, theta=0.0), "x is not one of this custom mechanism's inputs"),
+    ],
+)
+def test_a_custom_mechanism_refuses_poses_it_does_not_take(kwargs, named):
+    job = CUSTOM.replace('modes = ["kinetostatic", "dynamic"]', 'modes = ["kinetostatic"]')
+    with pytest.raises(ValueError, match=named):
+        clearance.solve(job, **kwargs)
+
+
 def test_explicit_poses_equal_the_grid():
     job = {
         "clearance": {"r_radial": 1e-4, "r_axial": 1e-4},

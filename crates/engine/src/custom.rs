@@ -35,6 +35,7 @@ use crate::run::{
     RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
     sync_units, write_marker,
 };
+use crate::solve::Poses;
 use crate::ups::{UpsPath, ups_paths};
 
 /// The location tolerance of a scalar load's root, in the path parameter (sample steps).
@@ -47,8 +48,31 @@ pub(crate) fn model_of(job: &JobSpec, file: &str) -> Result<CustomModel, JobErro
     CustomModel::from_job(job, file)
 }
 
+/// Where a custom job's samples come from: its grid or trajectory, or poses given.
+#[derive(Clone, Copy)]
+enum Samples<'a> {
+    Job(&'a SampleSource),
+    Given(&'a Poses),
+}
+
+impl Samples<'_> {
+    fn len(&self) -> u64 {
+        match self {
+            Samples::Job(s) => s.len(),
+            Samples::Given(p) => p.len() as u64,
+        }
+    }
+
+    fn sample6(&self, i: u64) -> (Option<f64>, [[f64; 3]; 6]) {
+        match self {
+            Samples::Job(s) => s.sample6(i),
+            Samples::Given(p) => p.sample6(i),
+        }
+    }
+}
+
 /// The inputs of sample `i` (values, rates, accelerations) and its time.
-fn inputs_of(model: &CustomModel, source: &SampleSource, i: u64) -> (Option<f64>, Vec<[f64; 3]>) {
+fn inputs_of(model: &CustomModel, source: Samples, i: u64) -> (Option<f64>, Vec<[f64; 3]>) {
     let (t, s) = source.sample6(i);
     (t, model.geom.inputs.iter().map(|&k| s[k]).collect())
 }
@@ -91,7 +115,7 @@ const RUN: u64 = 64;
 /// Solves samples `range` of one mode on the current rayon pool.
 fn solve_rows(
     model: &CustomModel,
-    source: &SampleSource,
+    source: Samples,
     range: std::ops::Range<u64>,
     mode: Mode,
 ) -> (Vec<CustomRow>, Vec<CustomResult>) {
@@ -104,7 +128,7 @@ fn solve_rows(
 /// Returns the rows and, per member, its results.
 fn solve_members(
     models: &[&CustomModel],
-    source: &SampleSource,
+    source: Samples,
     range: std::ops::Range<u64>,
     mode: Mode,
 ) -> (Vec<CustomRow>, Vec<Vec<CustomResult>>) {
@@ -138,21 +162,27 @@ fn solve_members(
     (rows, results)
 }
 
-/// The poses of a custom job as record batches, one per (variant, mode), in memory.
-/// `range` (default: every sample) limits each variant to those samples.
+/// The poses of a custom job as record batches, one per (variant, mode), in memory:
+/// its grid's or trajectory's, or `poses` (checked: its inputs' values). `range`
+/// (default: every sample) limits each variant to those samples.
 pub(crate) fn solve_custom_job(
     job: &JobSpec,
     file: &str,
     columns: ColumnSet,
     range: Option<std::ops::Range<u64>>,
+    poses: Option<&Poses>,
 ) -> Result<Vec<RecordBatch>> {
     let mut out = Vec::new();
     for v in job.variants(file)? {
         let model = model_of(&v.job, file)?;
         let schema = CustomSchema::new(&model, columns, job.analysis.exact);
-        let source = SampleSource::new(&v.job);
+        let own = SampleSource::new(&v.job);
+        let source = match poses {
+            Some(p) => Samples::Given(p),
+            None => Samples::Job(&own),
+        };
         for &mode in &v.job.analysis.modes {
-            let (rows, results) = solve_rows(&model, &source, range.clone().unwrap_or(0..source.len()), mode);
+            let (rows, results) = solve_rows(&model, source, range.clone().unwrap_or(0..source.len()), mode);
             out.push(crate::solve::with_variant(&schema.batch(mode, &rows, &results), v.index));
         }
     }
@@ -196,7 +226,8 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
         progress.stage(&format!("variant {} {}", first.variant, first.mode.name()));
         let pose_pass = Instant::now();
         let members: Vec<&CustomModel> = w.units.iter().map(|u| &models[u.variant as usize]).collect();
-        let (rows, shared) = solve_members(&members, &sources[first.variant as usize], first.range.clone(), first.mode);
+        let (rows, shared) =
+            solve_members(&members, Samples::Job(&sources[first.variant as usize]), first.range.clone(), first.mode);
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
         for (u, results) in w.units.iter().zip(shared) {
             let v = u.variant as usize;
@@ -383,7 +414,7 @@ fn search(
     let shared: Option<Vec<Vec<Sampled>>> = match tables.into_iter().collect::<Option<Vec<_>>>() {
         Some(kept) => Some(kept),
         None => (bytes <= SHARED_BYTES).then(|| {
-            let (_, results) = solve_members(models, source, 0..n, mode);
+            let (_, results) = solve_members(models, Samples::Job(source), 0..n, mode);
             results.iter().zip(models).map(|(rs, m)| rs.iter().map(|r| Sampled::of(m, r)).collect()).collect()
         }),
     };

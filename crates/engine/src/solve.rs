@@ -14,24 +14,35 @@ use clearance_solver::{Blocks, Model, SolverKind};
 use crate::error::EngineError;
 use crate::progress::Reporter;
 
-/// Poses given in place of the job's grid or trajectory: sample `i` is
-/// `(z[i], psi[i], theta[i])` (m, rad, rad), with no time and no rates, so only
-/// kinetostatics can solve them. [`solve`] refuses arrays of different lengths and
-/// values that are not finite.
+/// Poses given in place of the job's grid or trajectory, as values of the platform's
+/// coordinates `x, y, z, φ, ψ, θ` (m, rad), each given or not: a 3-limb job takes
+/// `z, ψ, θ` ([`Poses::new`]), a custom mechanism exactly its inputs. Sample `i` has no
+/// time and no rates, so only kinetostatics can solve them. [`solve`] refuses arrays of
+/// different lengths, values that are not finite and coordinates the job does not take.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Poses {
-    pub z: Vec<f64>,
-    pub psi: Vec<f64>,
-    pub theta: Vec<f64>,
+    pub coords: [Option<Vec<f64>>; 6],
 }
 
+/// The coordinates' names, as a job and the Python package write them.
+pub(crate) const COORDS: [&str; 6] = ["x", "y", "z", "phi", "psi", "theta"];
+
 impl Poses {
+    /// `z`, `psi` and `theta`, the inputs of the 3-limb kinds.
+    pub fn new(z: Vec<f64>, psi: Vec<f64>, theta: Vec<f64>) -> Self {
+        Self { coords: [None, None, Some(z), None, Some(psi), Some(theta)] }
+    }
+
     pub fn len(&self) -> usize {
-        self.z.len()
+        self.coords.iter().flatten().map(Vec::len).next().unwrap_or(0)
     }
 
     pub fn is_empty(&self) -> bool {
-        self.z.is_empty()
+        self.len() == 0
+    }
+
+    fn value(&self, k: usize, i: usize) -> f64 {
+        self.coords[k].as_ref().map_or(0.0, |v| v[i])
     }
 
     fn sample(&self, i: u64) -> Sample {
@@ -39,9 +50,91 @@ impl Poses {
         Sample {
             index: i,
             t: None,
-            z: [self.z[k], 0.0, 0.0],
-            psi: [self.psi[k], 0.0, 0.0],
-            theta: [self.theta[k], 0.0, 0.0],
+            z: [self.value(2, k), 0.0, 0.0],
+            psi: [self.value(4, k), 0.0, 0.0],
+            theta: [self.value(5, k), 0.0, 0.0],
+        }
+    }
+
+    /// Sample `i` as every coordinate's value, rate and acceleration (zero where not given).
+    pub(crate) fn sample6(&self, i: u64) -> (Option<f64>, [[f64; 3]; 6]) {
+        (None, std::array::from_fn(|k| [self.value(k, i as usize), 0.0, 0.0]))
+    }
+
+    /// Refuses poses that `job` cannot take: coordinates it does not take or that are
+    /// missing, arrays of different lengths, values that are not finite, a job with
+    /// dynamics.
+    fn check(&self, job: &JobSpec, file: &str) -> Result<(), EngineError> {
+        use clearance_model::MechanismKind;
+        let given: Vec<usize> = (0..6).filter(|&k| self.coords[k].is_some()).collect();
+        let names = |ks: &[usize]| list(&ks.iter().map(|&k| COORDS[k]).collect::<Vec<_>>());
+        let (wanted, whose): (Vec<usize>, String) = match job.mechanism.kind {
+            MechanismKind::Custom => {
+                let d = job.description(file).ok_or_else(|| EngineError::Samples("not a custom job".into()))??;
+                (d.inputs.clone(), "this custom mechanism's inputs".into())
+            }
+            MechanismKind::Ups6 => {
+                return Err(EngineError::Samples(
+                    "a 6-UPS job takes its poses (x, y, z, phi, psi, theta) from its [grid] or [trajectory]".into(),
+                ));
+            }
+            _ => (vec![2, 4, 5], "the poses of a 3-limb kind".into()),
+        };
+        if let Some(&k) = given.iter().find(|k| !wanted.contains(k)) {
+            return Err(EngineError::Samples(format!(
+                "{} is not one of {whose} ({}): give those, or none of them for the job's own poses",
+                COORDS[k],
+                names(&wanted)
+            )));
+        }
+        let missing: Vec<usize> = wanted.iter().copied().filter(|k| !given.contains(k)).collect();
+        if !missing.is_empty() {
+            return Err(EngineError::Samples(format!(
+                "{} missing: give all of {} (a number is broadcast), or none of them for the job's own poses",
+                missing.iter().map(|&k| COORDS[k]).collect::<Vec<_>>().join(" and "),
+                names(&wanted)
+            )));
+        }
+        let lengths: Vec<usize> = given.iter().map(|&k| self.coords[k].as_ref().map_or(0, Vec::len)).collect();
+        if lengths.iter().any(|&n| n != lengths[0]) {
+            return Err(EngineError::Samples(format!(
+                "{} must have the same length, got {}",
+                names(&given),
+                list(&lengths.iter().map(usize::to_string).collect::<Vec<_>>())
+            )));
+        }
+        // A NaN or infinite input is the caller's mistake, refused before anything
+        // is computed, as the job's own inputs are: solved, it would come back as
+        // rows of a status that blames the mechanism.
+        for &k in &given {
+            let values = self.coords[k].as_ref().expect("given");
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return Err(EngineError::Samples(format!(
+                    "{}[{i}] is {}: a pose's {} must be finite numbers",
+                    COORDS[k],
+                    values[i],
+                    names(&given)
+                )));
+            }
+        }
+        if job.analysis.modes.contains(&Mode::Dynamic) {
+            return Err(EngineError::Samples(format!(
+                "poses given as {} have no velocities: set `analysis.modes = [\"kinetostatic\"]` \
+                 or solve the job's trajectory",
+                given.iter().map(|&k| COORDS[k]).collect::<Vec<_>>().join(", ")
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// `a`, `a and b`, `a, b and c`.
+fn list<S: AsRef<str>>(items: &[S]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.as_ref().to_string(),
+        [rest @ .., last] => {
+            format!("{} and {}", rest.iter().map(|s| s.as_ref()).collect::<Vec<_>>().join(", "), last.as_ref())
         }
     }
 }
@@ -149,51 +242,16 @@ pub(crate) fn solve_range(
     range: Option<std::ops::Range<u64>>,
 ) -> Result<Vec<RecordBatch>, EngineError> {
     crate::run::check_solver(job, opts.solver)?;
+    if let Some(p) = &opts.poses {
+        p.check(job, file)?;
+    }
     if job.mechanism.kind == clearance_model::MechanismKind::Custom {
-        if opts.poses.is_some() {
-            return Err(EngineError::Samples(
-                "a custom mechanism takes its poses from its [grid] or [trajectory] (the inputs it names)".into(),
-            ));
-        }
-        return crate::custom::solve_custom_job(job, file, opts.columns, range);
+        return crate::custom::solve_custom_job(job, file, opts.columns, range, opts.poses.as_ref());
     }
     if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
-        if opts.poses.is_some() {
-            return Err(EngineError::Samples(
-                "a 6-UPS job takes its poses (x, y, z, phi, psi, theta) from its [grid] or [trajectory]".into(),
-            ));
-        }
         return crate::ups::solve_ups(job, file, opts.columns, range);
     }
     let variants = job.variants(file)?;
-    if let Some(p) = &opts.poses {
-        if p.psi.len() != p.len() || p.theta.len() != p.len() {
-            return Err(EngineError::Samples(format!(
-                "z, psi and theta must have the same length, got {}, {} and {}",
-                p.z.len(),
-                p.psi.len(),
-                p.theta.len()
-            )));
-        }
-        // A NaN or infinite input is the caller's mistake, refused before anything
-        // is computed, as the job's own inputs are: solved, it would come back as
-        // rows of a status that blames the mechanism.
-        for (name, values) in [("z", &p.z), ("psi", &p.psi), ("theta", &p.theta)] {
-            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                return Err(EngineError::Samples(format!(
-                    "{name}[{i}] is {}: a pose's z, psi and theta must be finite numbers",
-                    values[i]
-                )));
-            }
-        }
-        if job.analysis.modes.contains(&Mode::Dynamic) {
-            return Err(EngineError::Samples(
-                "poses given as z, psi, theta have no velocities: set `analysis.modes = [\"kinetostatic\"]` \
-                 or solve the job's trajectory"
-                    .into(),
-            ));
-        }
-    }
     let n = opts.poses.as_ref().map_or(job.sample_count(), |p| p.len() as u64);
     let range = range.unwrap_or(0..n);
     let (offset, n) = (range.start, range.end.min(n).saturating_sub(range.start));

@@ -10,7 +10,7 @@ fn job() -> JobSpec {
 }
 
 fn solved(z: &[f64], psi: &[f64], theta: &[f64]) -> Result<usize, EngineError> {
-    let poses = Poses { z: z.to_vec(), psi: psi.to_vec(), theta: theta.to_vec() };
+    let poses = Poses::new(z.to_vec(), psi.to_vec(), theta.to_vec());
     let opts = SolveOptions { poses: Some(poses), ..SolveOptions::default() };
     Ok(solve(&job(), "t.toml", &opts)?.iter().map(|b| b.num_rows()).sum())
 }
