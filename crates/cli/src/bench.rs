@@ -59,7 +59,7 @@ fn best(rates: &[f64]) -> (f64, String) {
 /// ([`clearance_engine::solve`], the pose pass of `clearance run` without the parts,
 /// the search or the summary).
 fn kernel_of(job: &JobSpec, solver: SolverKind) -> Result<f64> {
-    if !matches!(job.mechanism.kind, MechanismKind::Ups6 | MechanismKind::Custom) {
+    if job.mechanism.kind.has_general_solver() {
         return Ok(kernel_rate(job, solver));
     }
     // A 6-UPS or custom job has one solver, its own (the general one is refused there):
@@ -378,7 +378,7 @@ impl SuiteOptions {
         shard: Option<(u64, u64)>,
     ) -> RunOptions {
         let mut opts = self.run_options(out, columns, shard);
-        if matches!(job.mechanism.kind, MechanismKind::Ups6 | MechanismKind::Custom) {
+        if !job.mechanism.kind.has_general_solver() {
             opts.solver = SolverKind::Fast;
         }
         opts

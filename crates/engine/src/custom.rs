@@ -424,9 +424,14 @@ fn search(
             // Each point the search solves continues from the one solved before it on
             // this path (the path's own order: the same whatever the threads).
             let near: std::cell::RefCell<Option<Configuration>> = std::cell::RefCell::new(None);
-            let solve_at = |p: f64| {
+            // The path's point `p`, and its inputs' values, rates and accelerations.
+            let point = |p: f64| {
                 let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
                 let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
+                (t, s, inputs)
+            };
+            let solve_at = |p: f64| {
+                let (t, s, inputs) = point(p);
                 let (r, reached) = solve_inputs(models, &inputs, mode, near.borrow().as_ref());
                 *near.borrow_mut() = reached;
                 (t, s, r)
@@ -450,8 +455,7 @@ fn search(
                 let def = &model.groups[g];
                 let loads: Vec<Option<[f64; 3]>> = samples[0].iter().map(|r| r.loads[g]).collect();
                 let at = |p: f64| {
-                    let (_, s) = path.sample_at(source, trajectory.as_ref(), p);
-                    let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
+                    let (.., inputs) = point(p);
                     let (load, reached) = load_of(model, &inputs, mode, near.borrow().as_ref(), g);
                     *near.borrow_mut() = reached;
                     load

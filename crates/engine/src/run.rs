@@ -1362,14 +1362,13 @@ pub(crate) fn part_metadata(variant: &Variant) -> Vec<(String, String)> {
 /// 6-UPS or a custom mechanism has its own systems only, so it is refused there
 /// rather than ignored.
 pub(crate) fn check_solver(job: &JobSpec, solver: SolverKind) -> Result<()> {
-    use clearance_model::MechanismKind;
-    match (job.mechanism.kind, solver) {
-        (MechanismKind::Ups6 | MechanismKind::Custom, SolverKind::General) => Err(EngineError::Unsupported(format!(
+    if solver == SolverKind::General && !job.mechanism.kind.has_general_solver() {
+        return Err(EngineError::Unsupported(format!(
             "the general solver (the assembled 24 × 24 and 12 × 12 systems) is for the 3-limb kinds; a {} job is solved by its own systems: use the fast solver",
             job.mechanism.kind.name()
-        ))),
-        _ => Ok(()),
+        )));
     }
+    Ok(())
 }
 
 /// Writes one part file of `batch` with the encoder `writer` names (the same table).

@@ -48,6 +48,12 @@ impl MechanismKind {
         MECHANISM_KINDS.into_iter().find(|k| k.name() == name)
     }
 
+    /// Whether the kind has the general solver (the assembled 24 × 24 and 12 × 12
+    /// systems of the 3-limb kinds); a 6-UPS or custom mechanism has its own only.
+    pub fn has_general_solver(self) -> bool {
+        matches!(self, Self::Prs3 | Self::Rps3)
+    }
+
     /// Number of limbs of a built-in kind (a custom mechanism's are its description's: 0 here).
     pub fn limbs(self) -> usize {
         match self {
