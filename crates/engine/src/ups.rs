@@ -1,6 +1,6 @@
 //! A 6-UPS run (docs/model.md §10.3): the same plan, directory, shards and resume as
 //! the 3-limb kinds ([`run`](crate::run())), with the six-input samples, the
-//! 42 × 42 / 30 × 30 solve of [`solve_ups_par`] and the kind's own tables.
+//! legs-eliminated 6 × 6 solve of [`solve_ups_par`] and the kind's own tables.
 //!
 //! A unit (variant, mode, chunk) is solved whole on the pool and written as one part
 //! file with its statistics beside it. When every unit is in, the discontinuity

@@ -3,14 +3,17 @@
 //! leg of two slender bodies (cylinder and piston, §10.2) and a spherical joint.
 //!
 //! Reactions: 7 unknowns per limb, `f_Ui` (base on leg at `B_i`), `m_Ui = μ_i·n_i` and
-//! `f_Si` (leg on platform at `A_i`): the 42 × 42 `A·w = b`. Clearances, in the order of
+//! `f_Si` (leg on platform at `A_i`): the 42 × 42 `A·w = b`, solved with the legs
+//! eliminated (one force along each leg, a 6 × 6 system). Clearances, in the order of
 //! [`UPS_KINDS`]: `s_radial` (platform relative to leg, `−s·f_Si/|f_Si|`), `u_radial`
 //! (leg relative to base, `−u·f_Ui/|f_Ui|`) and `u_angular` (a rotation `+θ·n_i` of the
 //! leg about `B_i`, which no load decides). Error system: five passive rotations per
 //! limb (about `a1_i`, `a2_i` through `B_i`, about x, y, z through `A_i`), the 30 × 30
-//! `J_P`. `u_angular` moves `A_i` across the leg only, which the universal joint's own
-//! freedoms absorb: its error comes out zero (computed, not written in), and the
-//! slender legs carry no couple along their axis, so `μ_i` is round-off.
+//! `J_P`, solved in its 6 × 6 form `Gᵀ·[Δp; Δα] = d` (the assembled systems remain as
+//! [`solve_ups_pose_assembled`], the general path). `u_angular` moves `A_i` across the
+//! leg only, which the universal joint's own freedoms absorb: its error comes out zero
+//! (computed, not written in), and the slender legs carry no couple along their axis,
+//! so `μ_i` is round-off.
 //!
 //! ```
 //! use clearance_model::Mode;
@@ -400,11 +403,21 @@ pub fn solve_ups_loads_reduced(model: &UpsModel, sample: &UpsSample, mode: Mode,
     solve_ups(model, sample, mode, ws, Solve::Reduced)
 }
 
+/// [`solve_ups_pose`] with the 42 × 42 equilibrium and the 30 × 30 error system
+/// assembled and factored instead of the legs eliminated: the general path the
+/// reduced one is tested against (the same values to round-off, not to the bit).
+pub fn solve_ups_pose_assembled(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace) -> UpsResult {
+    solve_ups(model, sample, mode, ws, Solve::Assembled)
+}
+
 /// What [`solve_ups`] solves.
 #[derive(Clone, Copy, PartialEq)]
 enum Solve {
-    /// Everything: reactions, errors, envelope, exact error.
+    /// Everything: reactions, errors, envelope, exact error; the legs eliminated
+    /// (reactions as [`Solve::Reduced`], errors through `G⁻ᵀ`) where that applies.
     All,
+    /// Everything, from the assembled 42 × 42 and 30 × 30 systems.
+    Assembled,
     /// The reactions and take-ups, from the 42 × 42 factorisation.
     Loads,
     /// The reactions and take-ups, from the reduced system where it applies.
@@ -424,7 +437,14 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
         return out;
     }
     let sol = match how {
-        Solve::All => model.assembly.solve(&posed, &mut ws.data),
+        Solve::All => match (&inverse, model.assembly.solve_loads_reduced(&posed)) {
+            (Some(inverse), Some(mut sol)) => {
+                leg_errors(&model.assembly, &pose, inverse, &mut sol);
+                sol
+            }
+            _ => model.assembly.solve(&posed, &mut ws.data),
+        },
+        Solve::Assembled => model.assembly.solve(&posed, &mut ws.data),
         Solve::Loads => model.assembly.solve_loads(&posed, &mut ws.data),
         Solve::Reduced => model
             .assembly
@@ -443,7 +463,7 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
         out.errors[k] = sol.errors[k];
         out.kind_ok[k] = sol.kind_ok[k];
     }
-    if how != Solve::All {
+    if !matches!(how, Solve::All | Solve::Assembled) {
         return out;
     }
     out.total = sol.total;
@@ -466,6 +486,33 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
 pub fn ups_condition(pose: &UpsPosture) -> (f64, f64) {
     let (cond_a, cond_jp, _) = condition_of(&leg_screws(pose));
     (cond_a, cond_jp)
+}
+
+/// Each kind's error and the total from the take-ups in `sol`, through the legs'
+/// screws instead of the 30 × 30 loop system (docs/model.md §12.6, the 6 × 6 form): a
+/// leg keeps its length, so `Gᵀ·[Δp; Δα] = d` with `d_i = e_i·u` for the translations
+/// `u` of the leg at `B_i` and of the platform at `A_i`, and `d_i = e_i·(ω × (A_i − B_i))`
+/// for a rotation `ω` of the leg about `B_i` (`set_envelope` reads the same rows);
+/// `inverse` is `G⁻¹`. `u_angular`'s `d_i` is round-off: computed, not written in.
+fn leg_errors(assembly: &Assembly, pose: &UpsPosture, inverse: &SMatrix<f64, 6, 6>, sol: &mut LimbsSolution) {
+    sol.total = PoseError::default();
+    for (k, kind) in assembly.kinds().iter().enumerate() {
+        let d: [f64; 6] = std::array::from_fn(|i| {
+            let t = sol.take[k][i];
+            let moved = if kind.rule.rotation() { t.cross(&(pose.a[i] - pose.b[i])) } else { t };
+            pose.e[i].dot(&moved)
+        });
+        // [Δp; Δα] = G⁻ᵀ·d, then the twist [Δα; Δp].
+        let x: [f64; 6] = std::array::from_fn(|c| (0..6).map(|i| inverse[(i, c)] * d[i]).sum());
+        let twist = nalgebra::Vector6::new(x[3], x[4], x[5], x[0], x[1], x[2]);
+        let e = crate::assembly::pose_error(&twist, (pose.inputs[4], pose.inputs[5]));
+        sol.errors[k] = e;
+        sol.total.dalpha += e.dalpha;
+        sol.total.dp += e.dp;
+        for q in 0..3 {
+            sol.total.euler[q] += e.euler[q];
+        }
+    }
 }
 
 /// `G`, whose column i is leg i's screw `[e_i; r_i × e_i]`, `r_i = A_i − P`.

@@ -11,9 +11,9 @@ use clearance_model::Mode;
 use clearance_solver::limbs::Posed;
 use clearance_solver::ups::{
     UpsMass, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_loads, solve_ups_loads_reduced, solve_ups_par,
-    solve_ups_pose, solve_ups_poses, statics_sample, ups_exact_error, ups_posture,
+    solve_ups_pose, solve_ups_pose_assembled, solve_ups_poses, statics_sample, ups_exact_error, ups_posture,
 };
-use clearance_solver::{LimbsSolution, Status};
+use clearance_solver::{LimbsSolution, PoseError, Status};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -525,6 +525,66 @@ fn reduced_loads_equal_the_assembled_ones() {
                     for i in 0..6 {
                         assert!((full.margins[k][i] - reduced.margins[k][i]).abs() <= 1e-10 * scale);
                     }
+                }
+            }
+        }
+    }
+    assert!(compared > 400, "{compared} poses compared");
+}
+
+/// A pose solved with the legs eliminated (reactions from the 6 × 6 platform system,
+/// errors through the legs' screws) equals the same pose from the assembled 42 × 42
+/// equilibrium and 30 × 30 error system (the general path): statuses, take-up
+/// determinacy and dominant joints the same, reactions to 1e-10 of the largest load,
+/// each kind's error, the total and the envelope to 1e-10 of the clearance scale, on
+/// random models in statics and dynamics, with the exact error on.
+#[test]
+fn reduced_poses_equal_the_assembled_ones() {
+    let mut rng = ChaCha8Rng::seed_from_u64(67);
+    let mut compared = 0;
+    for _ in 0..40 {
+        let c = [rng.random_range(1e-5..1e-3), rng.random_range(1e-5..1e-3), rng.random_range(1e-4..1e-2)];
+        let mut model = random_model(&mut rng, c);
+        model.exact = rng.random_bool(0.5);
+        let mut ws = UpsWorkspace::new(&model);
+        for mode in [Mode::Kinetostatic, Mode::Dynamic] {
+            for _ in 0..10 {
+                let s = random_sample(&mut rng, mode == Mode::Dynamic);
+                let (full, reduced) =
+                    (solve_ups_pose_assembled(&model, &s, mode, &mut ws), solve_ups_pose(&model, &s, mode, &mut ws));
+                assert_eq!(full.status, reduced.status);
+                if full.status != Status::Ok {
+                    continue;
+                }
+                compared += 1;
+                let scale = (0..6).map(|i| full.f_s[i].norm().max(full.f_u[i].norm())).fold(0.0, f64::max);
+                for i in 0..6 {
+                    assert!((full.f_s[i] - reduced.f_s[i]).norm() <= 1e-10 * scale);
+                    assert!((full.f_u[i] - reduced.f_u[i]).norm() <= 1e-10 * scale);
+                }
+                assert_eq!(full.kind_ok, reduced.kind_ok);
+                assert_eq!(full.dominant, reduced.dominant);
+                let tol = 1e-10 * c[0].max(c[1]);
+                let near = |a: &PoseError, b: &PoseError| {
+                    (a.dp - b.dp).amax() <= tol
+                        && (a.dalpha - b.dalpha).amax() <= tol
+                        && (0..3).all(|q| (a.euler[q] - b.euler[q]).abs() <= tol)
+                };
+                for k in 0..3 {
+                    assert!(
+                        near(&full.errors[k], &reduced.errors[k]),
+                        "kind {k}: {:?} vs {:?}",
+                        full.errors[k],
+                        reduced.errors[k]
+                    );
+                    for v in 0..8 {
+                        assert!((full.envelope[k][v] - reduced.envelope[k][v]).abs() <= tol);
+                    }
+                }
+                assert!(near(&full.total, &reduced.total));
+                assert_eq!(full.exact.is_some(), reduced.exact.is_some());
+                if let (Some(a), Some(b)) = (full.exact, reduced.exact) {
+                    assert!(a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol), "{a:?} vs {b:?}");
                 }
             }
         }
