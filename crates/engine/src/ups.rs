@@ -26,8 +26,7 @@ use clearance_parquet::{
 };
 use clearance_solver::Status;
 use clearance_solver::ups::{
-    UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_loads, solve_ups_loads_reduced, solve_ups_par,
-    solve_ups_pose,
+    UpsLoads, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_leg_loads, solve_ups_par, solve_ups_pose,
 };
 use rayon::prelude::*;
 
@@ -116,47 +115,92 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     let mut done = mine_poses - todo_poses;
     let mut stages = StageTimes::default();
     let mut known = KnownSamples::default();
+    // A unit's part file and statistics, written by `write_unit` (which returns the
+    // seconds it took): the last unit of each work item is written while the pool
+    // solves the next item's poses, so that writing a part, partly serial (the file,
+    // its footer), does not leave cores idle.
+    struct Written {
+        part: std::path::PathBuf,
+        stats_path: std::path::PathBuf,
+        stats: UpsStats,
+        batch: Option<RecordBatch>,
+        meta: Vec<(String, String)>,
+        poses: u64,
+    }
+    let write_unit = |w: Written| -> Result<f64> {
+        let writing = Instant::now();
+        for dir in [w.part.parent().filter(|_| w.batch.is_some()), w.stats_path.parent()].into_iter().flatten() {
+            std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
+        }
+        write_bytes(&w.stats_path, &serde_json::to_vec(&w.stats).expect("statistics are plain numbers"), &write_opts)?;
+        if let Some(batch) = &w.batch {
+            crate::run::write_part_batch(opts.writer, &w.part, batch, &write_opts, &w.meta)?;
+        }
+        Ok(writing.elapsed().as_secs_f64())
+    };
+    let mut pending: Option<Written> = None;
     for w in &todo_work {
         let u0 = &w.units[0];
         progress.stage(&format!("variant {} {}", u0.variant, u0.mode.name()));
         let pose_pass = Instant::now();
         let (group, (model, source)) = (&groups[w.group], &models[w.group]);
         let (rows, samples) = samples(source, u0.range.clone());
-        let solved = solve_rows(model, &samples, u0.mode);
+        let earlier = pending.take();
+        let (solved, written) =
+            rayon::join(|| solve_rows(model, &samples, u0.mode), || earlier.map(|p| (p.poses, write_unit(p))));
+        if let Some((poses, secs)) = written {
+            stages.writing += secs?;
+            done += poses;
+            progress.advance(poses, done);
+        }
         known.keep(w.group, u0.mode, source.len(), u0.range.start, &solved);
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-        for u in &w.units {
+        for (k, u) in w.units.iter().enumerate() {
             let pose_pass = Instant::now();
             let scaled: Vec<UpsResult>;
             let results = if group.alone() {
                 &solved
             } else {
                 let [s0, s1, s2, _] = group.scales[group.member(u.variant)];
-                scaled = solved.iter().map(|r| r.scaled(&[s0, s1, s2])).collect();
+                scaled = solved.par_iter().map(|r| r.scaled(&[s0, s1, s2])).collect();
                 &scaled
             };
-            let batch = opts.poses.then(|| schema.batch(u.mode, &rows, results));
-            let mut stats = UpsStats::default();
-            for r in results {
-                stats.push(r);
-            }
-            stats.flush();
+            // The statistics on this thread while the pool builds the columns.
+            let (batch, stats) = rayon::join(
+                || opts.poses.then(|| schema.batch(u.mode, &rows, results)),
+                || {
+                    let mut stats = UpsStats::default();
+                    for r in results {
+                        stats.push(r);
+                    }
+                    stats.flush();
+                    stats
+                },
+            );
             stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-            let writing = Instant::now();
-            let (part, stats_path) =
-                (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
-            for dir in [part.parent().filter(|_| opts.poses), stats_path.parent()].into_iter().flatten() {
-                std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
+            let unit = Written {
+                part: layout.part(u.variant, u.mode, u.chunk),
+                stats_path: layout.stats(u.variant, u.mode, u.chunk),
+                stats,
+                batch,
+                meta: part_metadata(&variants[u.variant as usize]),
+                poses: u.range.end - u.range.start,
+            };
+            if k + 1 < w.units.len() {
+                let poses = unit.poses;
+                stages.writing += write_unit(unit)?;
+                done += poses;
+                progress.advance(poses, done);
+            } else {
+                pending = Some(unit);
             }
-            write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
-            let meta = part_metadata(&variants[u.variant as usize]);
-            if let Some(batch) = batch {
-                crate::run::write_part_batch(opts.writer, &part, &batch, &write_opts, &meta)?;
-            }
-            stages.writing += writing.elapsed().as_secs_f64();
-            done += u.range.end - u.range.start;
-            progress.advance(u.range.end - u.range.start, done);
         }
+    }
+    if let Some(unit) = pending.take() {
+        let poses = unit.poses;
+        stages.writing += write_unit(unit)?;
+        done += poses;
+        progress.advance(poses, done);
     }
     progress.finish();
     let syncing = Instant::now();
@@ -375,14 +419,21 @@ impl KnownSamples {
             self.tables.insert((group, mode), vec![None; len as usize]);
         }
         let table = self.tables.get_mut(&(group, mode)).expect("inserted above");
-        for (slot, r) in table[first as usize..].iter_mut().zip(solved) {
+        table[first as usize..].par_iter_mut().zip(solved).for_each(|(slot, r)| {
             *slot = Some(Known { loads: sample_loads(r), errors: [kind_error(r, 0), kind_error(r, 1)] });
-        }
+        });
     }
 
     fn get(&self, group: usize, mode: Mode) -> Option<&[Option<Known>]> {
         self.tables.get(&(group, mode)).map(Vec::as_slice)
     }
+}
+
+/// [`sample_loads`] of a sample solved for its loads alone: the same bits as the
+/// pass's (the search of a shard solves the samples it did not compute).
+fn leg_sample_loads(r: &UpsLoads) -> SampleLoads {
+    let ok = loaded(r.status);
+    [r.f_s.map(|f| ok.then_some(f)), r.f_u.map(|f| ok.then_some(f))]
 }
 
 fn sample_loads(r: &UpsResult) -> SampleLoads {
@@ -392,13 +443,17 @@ fn sample_loads(r: &UpsResult) -> SampleLoads {
 /// The load deciding kind `kind` (0 `s_radial`, 1 `u_radial`) of limb `l`, and that
 /// kind's error `[Δp; Δα]`, where the pose has reactions.
 fn load(r: &UpsResult, kind: usize, l: usize) -> Option<nalgebra::Vector3<f64>> {
-    matches!(r.status, Status::Ok | Status::IndeterminateContact).then(|| if kind == 0 { r.f_s[l] } else { r.f_u[l] })
+    loaded(r.status).then(|| if kind == 0 { r.f_s[l] } else { r.f_u[l] })
+}
+
+/// Whether a pose of this status has reactions.
+fn loaded(status: Status) -> bool {
+    matches!(status, Status::Ok | Status::IndeterminateContact)
 }
 
 fn kind_error(r: &UpsResult, kind: usize) -> Option<[f64; 6]> {
     let e = &r.errors[kind];
-    (matches!(r.status, Status::Ok | Status::IndeterminateContact) && r.kind_ok[kind])
-        .then(|| [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z])
+    (loaded(r.status) && r.kind_ok[kind]).then(|| [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z])
 }
 
 /// The switches of one (group, mode) with the group's magnitudes (`clearance`, as
@@ -435,7 +490,7 @@ fn search(
                 || UpsWorkspace::new(model),
                 |ws, i| match kept(i) {
                     Some(known) => known.loads,
-                    None => sample_loads(&solve_ups_loads(model, &source.sample6(i).1, mode, ws)),
+                    None => leg_sample_loads(&solve_ups_leg_loads(model, &source.sample6(i).1, mode, ws)),
                 },
             )
             .collect()
@@ -451,14 +506,14 @@ fn search(
                 // to round-off); at samples, the pass's values or the same solve as its.
                 let loads_at = |ws: &mut UpsWorkspace, p: f64| {
                     let (_, s) = path.sample_at(source, trajectory.as_ref(), p);
-                    solve_ups_loads_reduced(model, &s, mode, ws)
+                    solve_ups_leg_loads(model, &s, mode, ws)
                 };
                 let sample = |k: usize| source.sample6(path.index(k)).1;
                 let loads: Vec<SampleLoads> = (0..path.len)
                     .map(|k| match (&shared, kept(path.index(k))) {
                         (Some(all), _) => all[path.index(k) as usize],
                         (None, Some(known)) => known.loads,
-                        (None, None) => sample_loads(&solve_ups_loads(model, &sample(k), mode, ws)),
+                        (None, None) => leg_sample_loads(&solve_ups_leg_loads(model, &sample(k), mode, ws)),
                     })
                     .collect();
                 let mut out = Vec::new();
@@ -468,7 +523,11 @@ fn search(
                             .iter()
                             .map(|r| r[kind][l].map(|f| (f.norm(), f)).filter(|(m, _)| *m > floor))
                             .collect();
-                        let at = |p: f64| load(&loads_at(ws, p), kind, l).map(|v| [v.x, v.y, v.z]);
+                        let at = |p: f64| {
+                            let r = loads_at(ws, p);
+                            let f = if kind == 0 { r.f_s[l] } else { r.f_u[l] };
+                            loaded(r.status).then_some([f.x, f.y, f.z])
+                        };
                         for found in vector_load::switches(&mags, &rule, at) {
                             // The kind's error where each direction was read: the
                             // pass's (or the same solve) at a sample, solved between.

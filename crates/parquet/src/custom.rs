@@ -15,9 +15,10 @@ use clearance_model::Mode;
 use clearance_model::custom::{COORDINATES, Group, JointType};
 use clearance_solver::Status;
 use clearance_solver::custom::{CustomModel, CustomResult};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_column};
 use crate::summary::{Series, SummaryTable, field};
 use crate::ups::INPUT_UNITS;
 
@@ -192,9 +193,8 @@ impl CustomSchema {
                     .map(|r| (r.status == Status::Ok).then(|| r.dominant.map(|g| names[g].as_str())).flatten()),
             )));
         }
-        for f in &self.floats {
-            out.push(Arc::new(Float64Array::from_iter(results.iter().map(|r| f(r).filter(|v| v.is_finite())))));
-        }
+        // Each column on the rayon pool: the run's threads are otherwise idle here.
+        out.par_extend(self.floats.par_iter().map(|f| finite_column(results.len(), results.iter().map(f))));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 }

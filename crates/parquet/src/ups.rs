@@ -16,9 +16,10 @@ use arrow::record_batch::RecordBatch;
 use clearance_model::Mode;
 use clearance_solver::ups::{UPS_KINDS, UpsResult};
 use clearance_solver::{PoseError, Status};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_column};
 use crate::summary::{Series, SummaryTable, field};
 
 /// The six inputs, in the grid's row-major order.
@@ -183,11 +184,10 @@ impl UpsSchema {
                 results.iter().map(|r| r.dominant.map(|(k, l)| names[6 * k + l].as_str())),
             )));
         }
-        for f in &self.floats {
-            out.push(Arc::new(Float64Array::from_iter(
-                rows.iter().zip(results).map(|(s, r)| f(s, r).filter(|v| v.is_finite())),
-            )));
-        }
+        // Each column on the rayon pool: the run's threads are otherwise idle here.
+        out.par_extend(
+            self.floats.par_iter().map(|f| finite_column(rows.len(), rows.iter().zip(results).map(|(s, r)| f(s, r)))),
+        );
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 }

@@ -422,12 +422,32 @@ impl Assembly {
     /// `None` (for the caller to factor `A`) where there are not six limbs whose base
     /// joints transmit one couple, a leg's couple axis lies across the leg, or the
     /// legs' screws are singular.
-    pub fn solve_loads_reduced(&self, posed: &Posed) -> Option<LimbsSolution> {
+    ///
+    /// `legs_inverse`, where the caller has it, is the inverse of the legs' screws
+    /// reduced to P (`[ê; (A − P)×ê]`): the platform's moments are then taken about P
+    /// and multiplied by it instead of factoring the screws about C.
+    pub fn solve_loads_reduced(
+        &self,
+        posed: &Posed,
+        legs_inverse: Option<&SMatrix<f64, 6, 6>>,
+    ) -> Option<LimbsSolution> {
+        let mut out = LimbsSolution::default();
+        self.solve_loads_reduced_into(posed, legs_inverse, &mut out).then_some(out)
+    }
+
+    /// [`Assembly::solve_loads_reduced`] into `out` (a worker's, reused: a solution is
+    /// some 2 kB), false where it does not apply. Writes the status, the reactions,
+    /// take-ups, margins and determinacy; leaves the errors and condition numbers.
+    pub fn solve_loads_reduced_into(
+        &self,
+        posed: &Posed,
+        legs_inverse: Option<&SMatrix<f64, 6, 6>>,
+        out: &mut LimbsSolution,
+    ) -> bool {
         let n = self.limbs.len();
         if n != 6 || self.limbs.iter().any(|l| l.base.moments() != 1) {
-            return None;
+            return false;
         }
-        let mut out = LimbsSolution::default();
         let g = &self.gravity;
         let plat = &posed.platform;
         let mut forces = [Vector3::zeros(); MAX_LIMBS];
@@ -451,7 +471,7 @@ impl Assembly {
             let e = r / len2.sqrt();
             let along = e.dot(&d);
             if along.abs() <= 1e-12 * d.norm() || len2 == 0.0 {
-                return None;
+                return false;
             }
             let mu = e.dot(&m) / along;
             let perp = -r.cross(&(mu * d - m)) / len2;
@@ -466,14 +486,26 @@ impl Assembly {
             out.mu[i][0] = mu;
             out.m_b[i] = mu * d;
         }
-        let t = screws.lu().solve(&rhs)?;
+        let t = match legs_inverse {
+            Some(inverse) => {
+                // Σ (A − C)×f = Σ (A − P)×f + (P − C)×Σ f.
+                let force = rhs.fixed_rows::<3>(0).into_owned();
+                let about_p = rhs.fixed_rows::<3>(3) - (posed.p - plat.centre).cross(&force);
+                rhs.fixed_rows_mut::<3>(3).copy_from(&about_p);
+                inverse * rhs
+            }
+            None => match screws.lu().solve(&rhs) {
+                Some(t) => t,
+                None => return false,
+            },
+        };
         for i in 0..n {
             out.f_s[i] = t[i] * axis[i] + across[i];
             out.f_b[i] = forces[i] + out.f_s[i];
         }
-        self.take_up(posed, &mut out);
-        out.status = self.determinacy(&out);
-        Some(out)
+        self.take_up(posed, out);
+        out.status = self.determinacy(out);
+        true
     }
 
     /// `ok` when every kind's take-up is determinate, else `indeterminate_contact`.

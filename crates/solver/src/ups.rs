@@ -307,19 +307,28 @@ impl Default for UpsResult {
 /// Scratch for one worker thread.
 pub struct UpsWorkspace {
     pub data: AssemblyData,
+    /// The bodies of the pose being solved, and its loads ([`solve_ups_leg_loads`]).
+    posed: Posed,
+    sol: LimbsSolution,
 }
 
 impl UpsWorkspace {
     pub fn new(model: &UpsModel) -> Self {
-        Self { data: AssemblyData::new(&model.assembly) }
+        Self { data: AssemblyData::new(&model.assembly), posed: Posed::default(), sol: LimbsSolution::default() }
     }
 }
 
 /// The posture and, in dynamics, its motion as the limbs' [`Posed`].
 pub fn ups_posed(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion>) -> Posed {
+    let mut posed = Posed::default();
+    ups_posed_into(model, pose, motion, &mut posed);
+    posed
+}
+
+/// [`ups_posed`] into `posed`, every field written.
+fn ups_posed_into(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion>, posed: &mut Posed) {
     let mass = &model.mass;
     let (cyl, pis) = (&mass.cylinder, &mass.piston);
-    let mut posed = Posed::default();
     for i in 0..6 {
         let e = pose.e[i];
         let (w, w_dot, e_ddot, a_ddot) = match motion {
@@ -362,22 +371,29 @@ pub fn ups_posed(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion>
     posed.force = model.load.force;
     posed.force_at = pose.p + pose.rot * model.load.at_local;
     posed.moment = model.load.moment;
-    posed
 }
 
 /// The nominal posture of a sample and its bodies, or `None` where a leg is outside
 /// its stroke.
 pub fn ups_posture(model: &UpsModel, sample: &UpsSample, mode: Mode) -> Option<(UpsPosture, Posed)> {
+    let mut posed = Posed::default();
+    let pose = ups_posture_into(model, sample, mode, &mut posed)?;
+    Some((pose, posed))
+}
+
+/// [`ups_posture`] with the bodies written into `posed` (a worker's, reused: a
+/// [`Posed`] is some 3 kB, and copying it out of each call was a tenth of a run).
+fn ups_posture_into(model: &UpsModel, sample: &UpsSample, mode: Mode, posed: &mut Posed) -> Option<UpsPosture> {
     match mode {
         Mode::Kinetostatic => {
             let pose = ups_inverse_kinematics(&model.geometry, sample.map(|v| v[0])).ok()?;
-            let posed = ups_posed(model, &pose, None);
-            Some((pose, posed))
+            ups_posed_into(model, &pose, None, posed);
+            Some(pose)
         }
         Mode::Dynamic => {
             let (pose, motion) = ups_inverse_kinematics_motion(&model.geometry, *sample).ok()?;
-            let posed = ups_posed(model, &pose, Some(&motion));
-            Some((pose, posed))
+            ups_posed_into(model, &pose, Some(&motion), posed);
+            Some(pose)
         }
     }
 }
@@ -424,32 +440,70 @@ enum Solve {
     Reduced,
 }
 
-fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace, how: Solve) -> UpsResult {
-    let mut out = UpsResult::default();
-    let Some((pose, posed)) = ups_posture(model, sample, mode) else { return out };
-    out.q = pose.q;
+/// The reactions of the legs of one sample: what the switch search evaluates between
+/// samples, bit for bit [`solve_ups_loads_reduced`]'s status, `f_s` and `f_u` without
+/// the rest of a [`UpsResult`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpsLoads {
+    pub status: Status,
+    pub f_s: [Vector3<f64>; 6],
+    pub f_u: [Vector3<f64>; 6],
+}
+
+/// [`UpsLoads`] of one sample, with the legs eliminated where that applies.
+pub fn solve_ups_leg_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace) -> UpsLoads {
+    let mut out = UpsLoads { status: Status::Unreachable, f_s: [Vector3::zeros(); 6], f_u: [Vector3::zeros(); 6] };
+    let Some(pose) = ups_posture_into(model, sample, mode, &mut ws.posed) else { return out };
     out.status = Status::NearSingular;
-    let inverse;
-    (out.cond_a, out.cond_jp, inverse) = condition_of(&leg_screws(&pose));
+    let (_, _, inverse, conditioned) = conditioning(model, &pose);
+    if !conditioned {
+        return out;
+    }
+    if !model.assembly.solve_loads_reduced_into(&ws.posed, inverse.as_ref(), &mut ws.sol) {
+        ws.sol = model.assembly.solve_loads(&ws.posed, &mut ws.data);
+    }
+    if ws.sol.status != Status::NearSingular {
+        out.status = ws.sol.status;
+        out.f_s = std::array::from_fn(|i| ws.sol.f_s[i]);
+        out.f_u = std::array::from_fn(|i| ws.sol.f_b[i]);
+    }
+    out
+}
+
+/// `(cond_a, cond_jp, G⁻¹)` of a posture, and whether it is regular and within the
+/// model's limit (not `near_singular`).
+fn conditioning(model: &UpsModel, pose: &UpsPosture) -> (f64, f64, Option<SMatrix<f64, 6, 6>>, bool) {
+    let (cond_a, cond_jp, inverse) = condition_of(&leg_screws(pose));
     // NaN is not within the limit.
     let within = |c: f64| c <= model.singular_cond;
-    if pose.near_singular || !within(out.cond_a) || !within(out.cond_jp) {
+    (cond_a, cond_jp, inverse, !pose.near_singular && within(cond_a) && within(cond_jp))
+}
+
+fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace, how: Solve) -> UpsResult {
+    let mut out = UpsResult::default();
+    let Some(pose) = ups_posture_into(model, sample, mode, &mut ws.posed) else { return out };
+    let posed = &ws.posed;
+    out.q = pose.q;
+    out.status = Status::NearSingular;
+    let (inverse, conditioned);
+    (out.cond_a, out.cond_jp, inverse, conditioned) = conditioning(model, &pose);
+    if !conditioned {
         return out;
     }
     let sol = match how {
-        Solve::All => match (&inverse, model.assembly.solve_loads_reduced(&posed)) {
+        Solve::All => match (&inverse, model.assembly.solve_loads_reduced(posed, inverse.as_ref())) {
             (Some(inverse), Some(mut sol)) => {
                 leg_errors(&model.assembly, &pose, inverse, &mut sol);
                 sol
             }
-            _ => model.assembly.solve(&posed, &mut ws.data),
+            _ => model.assembly.solve(posed, &mut ws.data),
         },
-        Solve::Assembled => model.assembly.solve(&posed, &mut ws.data),
-        Solve::Loads => model.assembly.solve_loads(&posed, &mut ws.data),
+        Solve::Assembled => model.assembly.solve(posed, &mut ws.data),
+        Solve::Loads => model.assembly.solve_loads(posed, &mut ws.data),
         Solve::Reduced => model
             .assembly
-            .solve_loads_reduced(&posed)
-            .unwrap_or_else(|| model.assembly.solve_loads(&posed, &mut ws.data)),
+            .solve_loads_reduced(posed, inverse.as_ref())
+            .unwrap_or_else(|| model.assembly.solve_loads(posed, &mut ws.data)),
     };
     if sol.status == Status::NearSingular {
         return out;
@@ -533,11 +587,47 @@ fn leg_screws(pose: &UpsPosture) -> SMatrix<f64, 6, 6> {
 fn condition_of(g: &SMatrix<f64, 6, 6>) -> (f64, f64, Option<SMatrix<f64, 6, 6>>) {
     let one = |m: &SMatrix<f64, 6, 6>| (0..6).map(|c| m.column(c).abs().sum()).fold(0.0, f64::max);
     let inf = |m: &SMatrix<f64, 6, 6>| (0..6).map(|r| m.row(r).abs().sum()).fold(0.0, f64::max);
-    let inverse = g.try_inverse();
+    let inverse = inverse6(g);
     match &inverse {
         Some(gi) if gi.iter().all(|v| v.is_finite()) => (one(g) * one(gi), inf(g) * inf(gi), inverse),
         _ => (f64::INFINITY, f64::INFINITY, inverse),
     }
+}
+
+/// `g⁻¹` by Gauss–Jordan elimination with partial pivoting, `None` where a pivot is
+/// zero or not finite. Written out for 6 × 6: nalgebra's generic `try_inverse` was a
+/// ninth of a 6-UPS run (`perf`), this is about a third of it.
+fn inverse6(g: &SMatrix<f64, 6, 6>) -> Option<SMatrix<f64, 6, 6>> {
+    // Row-major rows [g | I], eliminated in place.
+    let mut m = [[0.0f64; 12]; 6];
+    for (r, row) in m.iter_mut().enumerate() {
+        for c in 0..6 {
+            row[c] = g[(r, c)];
+        }
+        row[6 + r] = 1.0;
+    }
+    for col in 0..6 {
+        let pivot = (col..6).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))?;
+        m.swap(col, pivot);
+        let p = m[col][col];
+        if p == 0.0 || !p.is_finite() {
+            return None;
+        }
+        let inv = 1.0 / p;
+        let pivot_row = m[col].map(|v| v * inv);
+        m[col] = pivot_row;
+        for (r, row) in m.iter_mut().enumerate() {
+            if r != col {
+                let f = row[col];
+                if f != 0.0 {
+                    for c in 0..12 {
+                        row[c] -= f * pivot_row[c];
+                    }
+                }
+            }
+        }
+    }
+    Some(SMatrix::from_fn(|r, c| m[r][6 + c]))
 }
 
 /// The envelope, the joints' contributions and the dominant joint of a solved pose
