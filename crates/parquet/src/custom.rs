@@ -15,10 +15,9 @@ use clearance_model::Mode;
 use clearance_model::custom::{COORDINATES, Group, JointType};
 use clearance_solver::Status;
 use clearance_solver::custom::{CustomModel, CustomResult};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_column};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_columns};
 use crate::summary::{Series, SummaryTable, field};
 use crate::ups::INPUT_UNITS;
 
@@ -193,8 +192,7 @@ impl CustomSchema {
                     .map(|r| (r.status == Status::Ok).then(|| r.dominant.map(|g| names[g].as_str())).flatten()),
             )));
         }
-        // Each column on the rayon pool: the run's threads are otherwise idle here.
-        out.par_extend(self.floats.par_iter().map(|f| finite_column(results.len(), results.iter().map(f))));
+        out.extend(finite_columns(results.len(), &self.floats, |f, i| f(&results[i])));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 }

@@ -16,10 +16,9 @@ use arrow::record_batch::RecordBatch;
 use clearance_model::Mode;
 use clearance_solver::ups::{UPS_KINDS, UpsResult};
 use clearance_solver::{PoseError, Status};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_column};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_columns};
 use crate::summary::{Series, SummaryTable, field};
 
 /// The six inputs, in the grid's row-major order.
@@ -184,10 +183,7 @@ impl UpsSchema {
                 results.iter().map(|r| r.dominant.map(|(k, l)| names[6 * k + l].as_str())),
             )));
         }
-        // Each column on the rayon pool: the run's threads are otherwise idle here.
-        out.par_extend(
-            self.floats.par_iter().map(|f| finite_column(rows.len(), rows.iter().zip(results).map(|(s, r)| f(s, r)))),
-        );
+        out.extend(finite_columns(rows.len(), &self.floats, |f, i| f(&rows[i], &results[i])));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 }
