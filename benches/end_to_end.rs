@@ -38,6 +38,7 @@ fn run_job(job: &JobSpec, solver: SolverKind, out: &Path) {
         solver,
         compression: Codec::Zstd,
         writer: Writer::Engine,
+        precision: clearance_engine::Precision::Double,
         progress: Reporter::default(),
         direct_io: true,
         search: true,

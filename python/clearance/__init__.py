@@ -256,6 +256,7 @@ def run(
     compression: str = "zstd",
     chunk_size: int = 65536,
     progress: Union[bool, Callable[[int, int], Any], None] = None,
+    precision: str = "double",
 ) -> dict:
     """Runs ``job`` into the directory ``out``: the same dataset as
     ``clearance run JOB --out OUT`` (docs/interface.md §4).
@@ -282,6 +283,10 @@ def run(
     - ``compression``: ``"none"``, ``"lz4"`` or ``"zstd"``.
     - ``chunk_size``: samples per part file, a positive int.
     - ``progress``: as for :func:`solve`.
+    - ``precision``: ``"double"``, or ``"single"``: the error, envelope and margin
+      columns of the pose files stored as float32 (each value rounded, a relative
+      change of at most 6e-8); inputs, parasitic motions, actuator positions,
+      reactions and the summary stay float64.
     """
     kind, value = _job(job)
     out = _folder("out", out)
@@ -302,6 +307,7 @@ def run(
         )
     columns = _name("columns", columns, ("none", "minimal", "standard", "full"))
     compression = _name("compression", compression, ("none", "lz4", "zstd"))
+    precision = _name("precision", precision, ("double", "single"))
     chunk_size = _int("chunk_size", chunk_size, "a positive int")
     if not 1 <= chunk_size < 2**64:
         raise ValueError(f"chunk_size must be a positive int (below 2**64), got {chunk_size}")
@@ -317,6 +323,7 @@ def run(
             overwrite=overwrite,
             columns_name=columns,
             compression=compression,
+            precision=precision,
             chunk_size=chunk_size,
             direct_io="CLEARANCE_BUFFERED_IO" not in os.environ,
             progress=callback,

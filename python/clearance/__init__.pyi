@@ -65,6 +65,7 @@ def run(
     compression: str = "zstd",
     chunk_size: int = 65536,
     progress: Progress = None,
+    precision: str = "double",
 ) -> RunReport:
     """Runs ``job`` into ``out``: the dataset of ``clearance run``.
 
@@ -72,7 +73,8 @@ def run(
     same job's run) or ``overwrite=True`` (a run), not both. ``threads``: None (all
     cores) or an int from 1 to 4096; ``shard``: None or ``(i, n)`` with
     ``0 <= i < n``; ``columns``: minimal, standard or full; ``compression``: none,
-    lz4 or zstd; ``chunk_size``: a positive int.
+    lz4 or zstd; ``chunk_size``: a positive int; ``precision``: double, or single
+    (the error, envelope and margin columns of the pose files as float32).
     """
 
 def check(job: Job) -> dict[str, Any]:

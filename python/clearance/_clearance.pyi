@@ -33,6 +33,7 @@ def run(
     overwrite: bool = False,
     columns_name: str = "standard",
     compression: str = "zstd",
+    precision: str = "double",
     chunk_size: int = 65536,
     direct_io: bool = True,
     progress: Optional[Callable[[int, int], Any]] = None,

@@ -11,8 +11,8 @@ use arrow::array::{Array, RecordBatch, StructArray};
 use arrow::datatypes::SchemaRef;
 use arrow::ffi::{FFI_ArrowArray, FFI_ArrowSchema};
 use clearance_engine::{
-    Codec, ColumnSet, EngineError, JobSpec, OutputDirError, Poses, Progress, Reporter, RunOptions, SolveOptions,
-    SolverKind, Writer,
+    Codec, ColumnSet, EngineError, JobSpec, OutputDirError, Poses, Precision, Progress, Reporter, RunOptions,
+    SolveOptions, SolverKind, Writer,
 };
 use clearance_plot::PlotError;
 use pyo3::create_exception;
@@ -363,7 +363,7 @@ fn solve<'py>(
 }
 
 #[pyfunction]
-#[pyo3(signature = (kind, value, out, threads=None, shard=None, resume=false, overwrite=false, columns_name="standard", compression="zstd", chunk_size=65536, direct_io=true, progress=None))]
+#[pyo3(signature = (kind, value, out, threads=None, shard=None, resume=false, overwrite=false, columns_name="standard", compression="zstd", precision="double", chunk_size=65536, direct_io=true, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn run(
     py: Python<'_>,
@@ -376,11 +376,15 @@ fn run(
     overwrite: bool,
     columns_name: &str,
     compression: &str,
+    precision: &str,
     chunk_size: u64,
     direct_io: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(u64, u64, f64, bool)> {
     let job = load_job(kind, value)?;
+    let precision = Precision::parse(precision).ok_or_else(|| {
+        PyValueError::new_err(format!("precision must be {}, got '{precision}'", one_of(&Precision::NAMES)))
+    })?;
     if let Some((i, n)) = shard
         && i >= n
     {
@@ -403,6 +407,7 @@ fn run(
             PyValueError::new_err(format!("compression must be {}, got '{compression}'", one_of(&Codec::NAMES)))
         })?,
         writer: Writer::Engine,
+        precision,
         progress: PyProgress::reporter(progress),
         direct_io,
         search: true,

@@ -111,6 +111,27 @@ def test_solve_equals_run_read_back(job, tmp_path):
         assert a.equals(b), name
 
 
+@pytest.mark.parametrize("job", [GRID, CUSTOM], ids=["grid", "custom"])
+def test_single_precision_stores_the_double_values_rounded(job, tmp_path):
+    """precision="single": error, envelope and margin columns float32, each value the
+    double run's rounded to float32; every other column the same."""
+    clearance.run(job, tmp_path / "double", threads=2, chunk_size=100)
+    clearance.run(job, tmp_path / "single", threads=2, chunk_size=100, precision="single")
+    order = [(k, "ascending") for k in ["variant", "mode", "sample"]]
+    double = read_run(tmp_path / "double").sort_by(order)
+    single = read_run(tmp_path / "single").sort_by(order)
+    narrowed = 0
+    for name in double.column_names:
+        a, b = double.column(name).combine_chunks(), single.column(name).combine_chunks()
+        if name.startswith(("err_", "exact_err_", "env_", "margin_")):
+            assert b.type == pa.float32(), name
+            assert a.cast(pa.float32()).equals(b), name
+            narrowed += 1
+        else:
+            assert a.equals(b), name
+    assert narrowed > 30
+
+
 def test_custom_columns_come_from_the_description():
     t = clearance.solve(CUSTOM)
     for name in ["q1", "tau3", "err_knee_axial_z", "err_crank_backlash_rx", "margin_crank2_backlash", "x", "phi"]:

@@ -181,6 +181,7 @@ fn verify(job: &JobSpec, file: &str, a: &Allocation, out: &Path, quiet: bool) ->
         solver: Default::default(),
         compression: Codec::default(),
         writer: Writer::default(),
+        precision: clearance_engine::Precision::Double,
         progress: Reporter::default(),
         direct_io: false,
         search: true,

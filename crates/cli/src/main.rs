@@ -12,7 +12,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use clearance_engine::{
-    Codec, ColumnSet, EngineError, Isa, JobError, JobSpec, Reporter, RunOptions, SolverKind, Writer, cap_isa,
+    Codec, ColumnSet, EngineError, Isa, JobError, JobSpec, Precision, Reporter, RunOptions, SolverKind, Writer, cap_isa,
 };
 
 #[derive(Parser)]
@@ -66,6 +66,9 @@ enum Command {
         /// Encoder of the part files: `engine` (its own pages) or `arrow` (parquet's ArrowWriter); the same table.
         #[arg(long, default_value = "engine", value_parser = parse_writer)]
         writer: Writer,
+        /// `double`, or `single`: the error, envelope and margin columns of the pose files as float32 (relative rounding at most 6e-8).
+        #[arg(long, default_value = "double", value_parser = parse_precision)]
+        precision: Precision,
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
@@ -218,6 +221,10 @@ fn parse_scale(s: &str) -> Result<f64, String> {
     }
 }
 
+fn parse_precision(s: &str) -> Result<Precision, String> {
+    Precision::parse(s).ok_or_else(|| format!("unknown precision `{s}`; use {}", Precision::NAMES.join(", ")))
+}
+
 fn parse_codec(s: &str) -> Result<Codec, String> {
     Codec::parse(s).ok_or_else(|| format!("unknown compression `{s}`; use {}", Codec::NAMES.join(", ")))
 }
@@ -330,6 +337,7 @@ fn main() -> ExitCode {
             solver,
             compression,
             writer,
+            precision,
             quiet,
         } => {
             let spec = match load_job(&job) {
@@ -352,6 +360,7 @@ fn main() -> ExitCode {
                 solver,
                 compression,
                 writer,
+                precision,
                 progress: Reporter::new(std::sync::Arc::new(progress::Display::new(quiet))),
                 direct_io,
                 search: true,
@@ -384,6 +393,7 @@ fn main() -> ExitCode {
                     solver,
                     compression: Codec::default(),
                     writer: Writer::default(),
+                    precision: clearance_engine::Precision::Double,
                     progress: Reporter::default(),
                     direct_io: buffered_io_not_asked(),
                     search: true,

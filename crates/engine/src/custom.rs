@@ -258,7 +258,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
             write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
             let meta = part_metadata(&variants[v]);
             if let Some(batch) = batch {
-                crate::run::write_part_batch(opts.writer, &part, &batch, &write_opts, &meta)?;
+                crate::run::write_part_batch(opts.writer, opts.precision, &part, &batch, &write_opts, &meta)?;
             }
             stages.writing += writing.elapsed().as_secs_f64();
             done += u.range.end - u.range.start;

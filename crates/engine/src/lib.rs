@@ -58,5 +58,5 @@ pub use solve::{Poses, SolveOptions, solve};
 pub use status::{RunStatus, status};
 
 pub use clearance_model::{JobError, JobSpec, MechanismKind};
-pub use clearance_parquet::{Codec, ColumnSet, Writer};
+pub use clearance_parquet::{Codec, ColumnSet, Precision, Writer};
 pub use clearance_solver::{Isa, SolverKind, cap_isa};

@@ -24,9 +24,9 @@ use clearance_discontinuity::{
 use clearance_grid::{SampleSource, chunks};
 use clearance_model::{JobSpec, Mode, Variant};
 use clearance_parquet::{
-    BlockSink, Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PageWriter, PartPages, PoseSchema, SummaryRow,
-    SummaryStats, TAIL_PAGE_ROWS, WriteOptions, Writer, discontinuity_batch, summary_batch, write_batch_arrow,
-    write_bytes, write_parquet, write_part,
+    BlockSink, Codec, ColumnSet, ENGINE_VERSION, PAGE_ROWS, PageBuffer, PageWriter, PartPages, PoseSchema, Precision,
+    SummaryRow, SummaryStats, TAIL_PAGE_ROWS, WriteOptions, Writer, discontinuity_batch, summary_batch, with_precision,
+    write_batch_arrow, write_bytes, write_parquet, write_part,
 };
 use clearance_solver::{Blocks, Model, SolverKind};
 use rayon::prelude::*;
@@ -54,6 +54,9 @@ pub struct RunOptions {
     /// The encoder of the `poses` part files: the engine's own pages (the default)
     /// or `parquet`'s `ArrowWriter`. Both give the same table.
     pub writer: Writer,
+    /// How the error, envelope and margin columns of the part files are stored
+    /// (`--precision`): `float64`, or `float32` ([`Precision::Single`]).
+    pub precision: Precision,
     /// Told how far the run is; nothing by default.
     pub progress: Reporter,
     /// Part files past the page cache where the disk allows ([`WriteOptions::direct_io`]).
@@ -1325,6 +1328,7 @@ pub(crate) fn prepare_run(
             ("clearance.version".into(), ENGINE_VERSION.into()),
             ("clearance.git_commit".into(), env!("CLEARANCE_GIT_COMMIT").into()),
             ("clearance.columns".into(), if opts.poses { opts.columns.name() } else { "none" }.into()),
+            ("clearance.precision".into(), opts.precision.name().into()),
         ],
         row_group_rows: opts.chunk_size as usize,
         codec: opts.compression,
@@ -1374,11 +1378,20 @@ pub(crate) fn check_solver(job: &JobSpec, solver: SolverKind) -> Result<()> {
 /// Writes one part file of `batch` with the encoder `writer` names (the same table).
 pub(crate) fn write_part_batch(
     writer: Writer,
+    precision: Precision,
     path: &std::path::Path,
     batch: &RecordBatch,
     opts: &WriteOptions,
     meta: &[(String, String)],
 ) -> Result<()> {
+    let narrowed;
+    let batch = match precision {
+        Precision::Double => batch,
+        Precision::Single => {
+            narrowed = with_precision(batch, precision);
+            &narrowed
+        }
+    };
     match writer {
         Writer::Engine => write_parquet(path, batch.schema(), std::slice::from_ref(batch), opts, meta)?,
         Writer::Arrow => write_batch_arrow(path, batch, opts, meta)?,
@@ -1401,7 +1414,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     let layout = &layout;
     // Without pose files (`--columns none`) the pages hold the fewest columns, and
     // are not written: the statistics come from the poses' results.
-    let schema = PoseSchema::new(if opts.poses { opts.columns } else { ColumnSet::Minimal }, job.analysis.exact);
+    let schema = PoseSchema::new(if opts.poses { opts.columns } else { ColumnSet::Minimal }, job.analysis.exact)
+        .with_precision(opts.precision);
     // Per group, the job it is solved as.
     let models: Vec<(Model, SampleSource)> = groups
         .iter()
@@ -1461,7 +1475,9 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                         }
                         spare.lock().expect("no panic while held").extend(pages.into_buffers());
                     }
-                    Body::Batch(batch) if opts.poses => write_batch_arrow(&part.path, &batch, write_opts, &part.extra)?,
+                    Body::Batch(batch) if opts.poses => {
+                        write_part_batch(opts.writer, opts.precision, &part.path, &batch, write_opts, &part.extra)?
+                    }
                     Body::Batch(_) => {}
                 }
                 busy += start.elapsed().as_secs_f64();

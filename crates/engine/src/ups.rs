@@ -134,7 +134,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         }
         write_bytes(&w.stats_path, &serde_json::to_vec(&w.stats).expect("statistics are plain numbers"), &write_opts)?;
         if let Some(batch) = &w.batch {
-            crate::run::write_part_batch(opts.writer, &w.part, batch, &write_opts, &w.meta)?;
+            crate::run::write_part_batch(opts.writer, opts.precision, &w.part, batch, &write_opts, &w.meta)?;
         }
         Ok(writing.elapsed().as_secs_f64())
     };

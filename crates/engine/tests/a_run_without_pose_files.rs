@@ -46,6 +46,7 @@ fn the_summary_and_the_switches_are_those_of_a_standard_run() {
             columns: ColumnSet::Standard,
             chunk_size: chunk,
             writer,
+            precision: clearance_engine::Precision::Double,
             ..common::options(dir)
         };
         run(&job, "job.toml", &base(with.path())).unwrap();

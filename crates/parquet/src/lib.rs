@@ -19,6 +19,8 @@
 //!   ([`PageWriter`], [`write_part`]; pages encoded as their rows are computed), or
 //!   `parquet`'s stock `ArrowWriter` from a record batch ([`write_batch_arrow`]).
 //!   Both give the same table.
+//! - [`Precision`]: `--precision single` stores the error, envelope and margin columns
+//!   of the part files as `float32` ([`with_precision`]).
 //!
 //! ```
 //! use clearance_parquet::{ColumnSet, PoseSchema};
@@ -30,6 +32,7 @@
 mod custom;
 mod output;
 mod pages;
+mod precision;
 mod schema;
 mod stock;
 mod summary;
@@ -42,6 +45,7 @@ pub use custom::{
     custom_summary_batch,
 };
 pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
+pub use precision::{Precision, stored_single, with_precision};
 pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSchema, UnitColumns};
 pub use stock::{Writer, arrow_properties, write_batch_arrow};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};

@@ -14,6 +14,7 @@ use clearance_solver::{PoseError, PoseResult, Status};
 use rayon::prelude::*;
 
 use crate::pages::{self, PAGE_ROWS, PageStats};
+use crate::precision::{Precision, stored_single, with_precision};
 use crate::writer::Codec;
 
 /// Which columns to write (docs/interface.md `--columns`).
@@ -83,7 +84,13 @@ struct FloatColumn {
 
 /// The `poses` schema of one column set, and the batch builder for it.
 pub struct PoseSchema {
+    /// The columns as the part files store them.
     schema: SchemaRef,
+    /// The columns as computed: every float a double.
+    computed: SchemaRef,
+    precision: Precision,
+    /// Per float column: stored as `float32` ([`PoseSchema::with_precision`]).
+    single: Vec<bool>,
     floats: Vec<FloatColumn>,
     /// The slot of each float column, in column order.
     slots: Vec<usize>,
@@ -292,7 +299,37 @@ impl PoseSchema {
         fields.extend(f.iter().map(|c| Field::new(&c.name, DataType::Float64, true).with_metadata(unit(c.unit))));
         let slots = f.iter().map(|c| c.slot).collect();
         let fill = Fill { standard: set >= ColumnSet::Standard, full: set >= ColumnSet::Full, exact };
-        Self { schema: Arc::new(Schema::new(fields)), floats: f, slots, dominant, fill }
+        let schema = Arc::new(Schema::new(fields));
+        let single = vec![false; f.len()];
+        Self {
+            schema: schema.clone(),
+            computed: schema,
+            precision: Precision::Double,
+            single,
+            floats: f,
+            slots,
+            dominant,
+            fill,
+        }
+    }
+
+    /// The same columns stored with `precision`: with [`Precision::Single`] those that
+    /// [`stored_single`] names are `float32` in the schema, the pages and the batches.
+    pub fn with_precision(mut self, precision: Precision) -> Self {
+        self.precision = precision;
+        self.single = self.floats.iter().map(|c| precision == Precision::Single && stored_single(&c.name)).collect();
+        let fields: Vec<Field> = self
+            .computed
+            .fields()
+            .iter()
+            .map(|f| {
+                let narrow = precision == Precision::Single && stored_single(f.name());
+                let f = f.as_ref().clone();
+                if narrow { f.with_data_type(DataType::Float32) } else { f }
+            })
+            .collect();
+        self.schema = Arc::new(Schema::new(fields));
+        self
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -362,7 +399,8 @@ impl PoseSchema {
         } else {
             out.par_extend(cols.floats.into_par_iter().zip(float_nulls).map(float));
         }
-        RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
+        let batch = RecordBatch::try_new(self.computed.clone(), out).expect("columns match the schema");
+        with_precision(&batch, self.precision)
     }
 
     /// One record batch from the rows of one mode.
@@ -569,8 +607,9 @@ impl PageWriter<'_> {
         bytes.reserve((n + 1) * (rows * 8 + rows / 8 + 64));
         let mut stats = Vec::with_capacity(n + 1);
         stats.push(pages::encode_page(&buf.t[..rows], codec, &mut bytes)?);
-        for col in buf.floats.chunks(PAGE_ROWS) {
-            stats.push(pages::encode_page(&col[..rows], codec, &mut bytes)?);
+        for (col, &single) in buf.floats.chunks(PAGE_ROWS).zip(&schema.single) {
+            let encode = if single { pages::encode_page_single } else { pages::encode_page };
+            stats.push(encode(&col[..rows], codec, &mut bytes)?);
         }
         *out = Some(EncodedPage { bytes, stats });
         Ok(result)

@@ -24,6 +24,7 @@ pub fn options(out: &Path) -> RunOptions {
         solver: SolverKind::Fast,
         compression: Codec::Zstd,
         writer: Writer::Engine,
+        precision: clearance_engine::Precision::Double,
         progress: Reporter::default(),
         direct_io: false,
         search: true,

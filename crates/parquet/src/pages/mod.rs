@@ -81,6 +81,8 @@ pub fn page_spans(rows: usize) -> Vec<(usize, usize)> {
 #[derive(Default)]
 struct Scratch {
     compact: Vec<f64>,
+    /// A page narrowed to `f32` ([`encode_page_single`]).
+    single: Vec<f32>,
     bits: Vec<u8>,
     payload: Vec<u8>,
     compressed: Vec<u8>,
@@ -139,9 +141,22 @@ impl<'a> DoubleChunk<'a> {
             return Err(ParquetError::General(format!("nulls in the required column {}", descr.path())));
         }
         let (min, max) = self.range.bounds();
-        let statistics = ValueStatistics::new(min, max, None, Some(self.nulls as u64), false)
-            .with_nan_count(Some(self.range.nans))
-            .with_backwards_compatible_min_max(true);
+        let (nulls, nans) = (Some(self.nulls as u64), Some(self.range.nans));
+        // A column of floats holds the `f32` values its range was taken over.
+        let statistics = if descr.physical_type() == parquet::basic::Type::FLOAT {
+            let narrow = |v: Option<f64>| v.map(|v| v as f32);
+            Statistics::Float(
+                ValueStatistics::new(narrow(min), narrow(max), None, nulls, false)
+                    .with_nan_count(nans)
+                    .with_backwards_compatible_min_max(true),
+            )
+        } else {
+            Statistics::Double(
+                ValueStatistics::new(min, max, None, nulls, false)
+                    .with_nan_count(nans)
+                    .with_backwards_compatible_min_max(true),
+            )
+        };
         let mut encodings = vec![if codec == Codec::None { Encoding::PLAIN } else { Encoding::BYTE_STREAM_SPLIT }];
         if optional {
             encodings.push(Encoding::RLE);
@@ -153,7 +168,7 @@ impl<'a> DoubleChunk<'a> {
             .set_total_uncompressed_size(self.uncompressed as i64)
             .set_num_values(self.rows as i64)
             .set_data_page_offset(0)
-            .set_statistics(Statistics::Double(statistics))
+            .set_statistics(statistics)
             .build()?;
         let close = ColumnCloseResult {
             bytes_written: self.bytes as u64,
@@ -167,10 +182,11 @@ impl<'a> DoubleChunk<'a> {
     }
 }
 
-/// Whether `descr` is a flat double column that may hold nulls; an error if it is
-/// not a flat double.
+/// Whether `descr` is a flat double (or float, [`encode_page_single`]) column that
+/// may hold nulls; an error if it is not a flat double or float.
 fn flat_double(descr: &ColumnDescPtr) -> Result<bool, ParquetError> {
-    let flat = descr.physical_type() == parquet::basic::Type::DOUBLE
+    use parquet::basic::Type;
+    let flat = matches!(descr.physical_type(), Type::DOUBLE | Type::FLOAT)
         && descr.max_rep_level() == 0
         && descr.max_def_level() <= 1;
     if !flat {
@@ -276,6 +292,20 @@ fn write_page(
     } else {
         s.payload.extend(present.iter().flat_map(|v| v.to_le_bytes()));
     }
+    finish_page(s, out, rows, present.len(), range, codec)
+}
+
+/// The page whose levels and values are in `s.payload`, compressed with `codec` and
+/// appended to `out` after its header: `rows` rows, `present` of them values.
+fn finish_page(
+    s: &mut Scratch,
+    out: &mut Vec<u8>,
+    rows: usize,
+    present: usize,
+    range: Range,
+    codec: Codec,
+) -> Result<PageStats, ParquetError> {
+    let split = codec != Codec::None;
     let encoding = if split { BYTE_STREAM_SPLIT } else { PLAIN };
     let before = out.len();
     let body = match codec {
@@ -295,7 +325,54 @@ fn write_page(
         }
     };
     let bytes = out.len() - before;
-    Ok(PageStats { bytes, uncompressed: bytes - body + s.payload.len(), rows, nulls: rows - present.len(), range })
+    Ok(PageStats { bytes, uncompressed: bytes - body + s.payload.len(), rows, nulls: rows - present, range })
+}
+
+/// [`encode_page`] for a column stored as `float`s (`--precision single`): each value
+/// rounded to the nearest `f32`, and a value whose `f32` is not finite (not finite
+/// already, or beyond the range of `f32`) written as a null. The page's range is
+/// that of the `f32` values (as doubles, exactly).
+pub(crate) fn encode_page_single(values: &[f64], codec: Codec, out: &mut Vec<u8>) -> Result<PageStats, ParquetError> {
+    SCRATCH.with_borrow_mut(|s| {
+        let (mut single, mut bits, mut compact) =
+            (std::mem::take(&mut s.single), std::mem::take(&mut s.bits), std::mem::take(&mut s.compact));
+        single.clear();
+        single.extend(values.iter().map(|&v| v as f32));
+        let all = single.iter().all(|v| v.is_finite());
+        bits.clear();
+        if !all {
+            for c in single.chunks(8) {
+                bits.push(c.iter().enumerate().fold(0u8, |b, (j, v)| b | (u8::from(v.is_finite()) << j)));
+            }
+            single.retain(|v| v.is_finite());
+        }
+        compact.clear();
+        compact.extend(single.iter().map(|&v| f64::from(v)));
+        let mut range = Range::default();
+        range.extend(&compact);
+        s.payload.clear();
+        def_levels(&mut s.payload, values.len(), (!all).then_some(&bits[..]), single.len());
+        if codec == Codec::None {
+            s.payload.extend(single.iter().flat_map(|v| v.to_le_bytes()));
+        } else {
+            split_streams_single(&single, &mut s.payload);
+        }
+        let page = finish_page(s, out, values.len(), single.len(), range, codec);
+        (s.single, s.bits, s.compact) = (single, bits, compact);
+        page
+    })
+}
+
+/// `BYTE_STREAM_SPLIT` of `float`s appended to `out`: byte k of value i at `k·len + i`.
+fn split_streams_single(values: &[f32], out: &mut Vec<u8>) {
+    let (m, base) = (values.len(), out.len());
+    out.resize(base + 4 * m, 0);
+    let dst = &mut out[base..];
+    for (i, v) in values.iter().enumerate() {
+        for (k, b) in v.to_le_bytes().into_iter().enumerate() {
+            dst[k * m + i] = b;
+        }
+    }
 }
 
 /// Appends the page header and the zstd-compressed `s.payload` to `out`; returns
