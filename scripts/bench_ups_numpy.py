@@ -13,13 +13,13 @@ NumPy, ...) so that load on a shared machine hits all of them alike:
   ``reference_ups.pipeline`` on the same poses ("numpy kernel": the kinetostatic
   pipeline alone, all three kinds, no envelope, no column assembly) as NumPy's best
   case;
-* the engine: ``clearance run JOB --out DIR --threads N --columns C --solver general
-  --quiet`` for N = 1 and 2, timed by wall clock (process start, the pose pass, the
+* the engine: ``clearance run JOB --out DIR --threads N --columns C`` for N = 1 and 2, timed by wall clock (process start, the pose pass, the
   discontinuity search, Parquet written and synced: everything), and, from the
   engine's own last progress line (``progress: N/N poses (100.0%), R poses/s``), the
   rate of its pose pass alone (solving and writing the parts, before the search): the
   figure to set beside NumPy's, which searches nothing and writes nothing. The 6-UPS
-  has one solver, the assembled systems, whatever ``--solver`` says.
+  has one solver (each leg reduced to its force along it, two 6 × 6 systems a pose);
+  ``--solver general`` is refused for it.
 
 Each figure is the best of ``--rounds``. Before the table, once, the engine's first
 run (the richest column set, 1 thread) is checked against NumPy's first result for
@@ -153,7 +153,7 @@ def run_engine(binary, job_path, out, threads, columns):
     stderr (plain progress lines, not a terminal) captured."""
     shutil.rmtree(out, ignore_errors=True)
     cmd = [str(binary), "run", str(job_path), "--out", str(out), "--threads", str(threads),
-           "--columns", columns, "--solver", "general"]
+           "--columns", columns]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     secs = time.perf_counter() - t0
