@@ -28,7 +28,13 @@ pub fn check(job: &JobSpec, file: &str, timing: Option<&RunOptions>) -> Result<(
     }
     println!("rows: {}", plan.rows);
     for c in &plan.columns {
-        println!("  --columns {:<8}: {:>3} columns, at most ~{}", c.set, c.columns, human_bytes(c.bytes as f64));
+        println!(
+            "  --columns {:<8}: {:>3} columns, at most ~{} (~{} with --precision single)",
+            c.set,
+            c.columns,
+            human_bytes(c.bytes as f64),
+            human_bytes(c.bytes_single as f64)
+        );
     }
     if let Some(opts) = timing {
         let est = estimate(job, file, opts, CALIBRATION_SECONDS)?;

@@ -61,6 +61,9 @@ pub struct ColumnSize {
     pub columns: usize,
     /// 8 bytes a value before compression (the default zstd makes it about 30 % less).
     pub bytes: u64,
+    /// The same with `--precision single`: 4 bytes a value of the error, envelope and
+    /// margin columns.
+    pub bytes_single: u64,
 }
 
 /// The plan of `job` (read from `file`, named in messages); validates every variant.
@@ -88,14 +91,18 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
     let columns = [ColumnSet::Minimal, ColumnSet::Standard, ColumnSet::Full]
         .into_iter()
         .map(|set| {
-            let columns = if let Some(model) = models.first() {
-                clearance_parquet::CustomSchema::new(model, set, job.analysis.exact).schema().fields().len()
+            let names: Vec<String> = if let Some(model) = models.first() {
+                let schema = clearance_parquet::CustomSchema::new(model, set, job.analysis.exact).schema();
+                schema.fields().iter().map(|f| f.name().clone()).collect()
             } else if ups {
-                UpsSchema::new(set, job.analysis.exact).names().count()
+                UpsSchema::new(set, job.analysis.exact).names().map(str::to_string).collect()
             } else {
-                PoseSchema::new(set, job.analysis.exact).names().count()
+                PoseSchema::new(set, job.analysis.exact).names().map(str::to_string).collect()
             };
-            ColumnSize { set: set.name(), columns, bytes: rows * columns as u64 * 8 }
+            let columns = names.len();
+            let single = names.iter().filter(|n| clearance_parquet::stored_single(n)).count() as u64;
+            let (bytes, bytes_single) = (rows * columns as u64 * 8, rows * (columns as u64 * 8 - single * 4));
+            ColumnSize { set: set.name(), columns, bytes, bytes_single }
         })
         .collect();
     Ok(Plan {

@@ -148,3 +148,29 @@ fn custom_grid() {
     let (columns, values) = check(CUSTOM, Writer::Engine);
     assert!(columns > 2 * 30 && values > 2_000, "{columns} {values}");
 }
+
+/// `clearance check`'s size with `--precision single` counts 4 bytes for each column
+/// the run writes as `float32` (8 for the others, as without it), for each kind.
+#[test]
+fn the_plan_counts_the_float32_columns_written() {
+    for text in [GRID, UPS, CUSTOM] {
+        let job = JobSpec::from_toml_str(text, "t.toml").unwrap();
+        let plan = clearance_engine::plan(&job, "t.toml").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let opts = RunOptions {
+            columns: clearance_engine::ColumnSet::Standard,
+            precision: Precision::Single,
+            ..common::options(dir.path())
+        };
+        run(&job, "t.toml", &opts).unwrap();
+        let mode = job.analysis.modes[0];
+        let part = read(&Layout::new(dir.path()).part(0, mode, 0));
+        let fields = part.schema().fields().len() as u64;
+        let narrow = part.schema().fields().iter().filter(|f| f.data_type() == &DataType::Float32).count() as u64;
+        assert!(narrow > 30, "{narrow}");
+        let standard = plan.columns.iter().find(|c| c.set == "standard").unwrap();
+        assert_eq!(standard.columns as u64, fields);
+        assert_eq!(standard.bytes, plan.rows * fields * 8);
+        assert_eq!(standard.bytes_single, plan.rows * (fields * 8 - narrow * 4));
+    }
+}
