@@ -1384,14 +1384,7 @@ pub(crate) fn write_part_batch(
     opts: &WriteOptions,
     meta: &[(String, String)],
 ) -> Result<()> {
-    let narrowed;
-    let batch = match precision {
-        Precision::Double => batch,
-        Precision::Single => {
-            narrowed = with_precision(batch, precision);
-            &narrowed
-        }
-    };
+    let batch = &with_precision(batch, precision);
     match writer {
         Writer::Engine => write_parquet(path, batch.schema(), std::slice::from_ref(batch), opts, meta)?,
         Writer::Arrow => write_batch_arrow(path, batch, opts, meta)?,

@@ -46,6 +46,16 @@ pub fn stored_single(name: &str) -> bool {
     ["err_", "exact_err_", "env_", "margin_"].iter().any(|p| name.starts_with(p))
 }
 
+/// `field` as a part file of `precision` stores it: with [`Precision::Single`], a double
+/// column that [`stored_single`] names as `float32` (name, nullability and metadata
+/// kept); any other as it is. The one rule for the schemas and the batches.
+pub(crate) fn stored_field(field: &Field, precision: Precision) -> Field {
+    let narrow =
+        precision == Precision::Single && field.data_type() == &DataType::Float64 && stored_single(field.name());
+    let field = field.clone();
+    if narrow { field.with_data_type(DataType::Float32) } else { field }
+}
+
 /// `batch` as a part file of `precision` stores it: with [`Precision::Single`] each
 /// double column that [`stored_single`] names becomes `float32`, its field's metadata
 /// kept, each value rounded to the nearest `f32`; a value beyond the range of `f32`
@@ -59,22 +69,17 @@ pub fn with_precision(batch: &RecordBatch, precision: Precision) -> RecordBatch 
     let mut fields = Vec::with_capacity(schema.fields().len());
     let mut columns = Vec::with_capacity(schema.fields().len());
     for (field, column) in schema.fields().iter().zip(batch.columns()) {
-        match column.as_any().downcast_ref::<Float64Array>().filter(|_| stored_single(field.name())) {
+        let stored = stored_field(field, precision);
+        match column.as_any().downcast_ref::<Float64Array>().filter(|_| stored.data_type() == &DataType::Float32) {
             Some(doubles) => {
                 let single: Vec<f32> = doubles.values().iter().map(|&v| v as f32).collect();
                 let valid = BooleanBuffer::collect_bool(single.len(), |i| doubles.is_valid(i) && single[i].is_finite());
                 let nulls = (valid.count_set_bits() < single.len()).then(|| NullBuffer::new(valid));
-                let array: ArrayRef = Arc::new(Float32Array::new(single.into(), nulls));
-                fields.push(Arc::new(
-                    Field::new(field.name(), DataType::Float32, true).with_metadata(field.metadata().clone()),
-                ));
-                columns.push(array);
+                columns.push(Arc::new(Float32Array::new(single.into(), nulls)) as ArrayRef);
             }
-            None => {
-                fields.push(field.clone());
-                columns.push(column.clone());
-            }
+            None => columns.push(column.clone()),
         }
+        fields.push(Arc::new(stored));
     }
     let schema = Arc::new(Schema::new_with_metadata(fields, schema.metadata().clone()));
     RecordBatch::try_new(schema, columns).expect("the same columns, some narrowed")

@@ -14,7 +14,7 @@ use clearance_solver::{PoseError, PoseResult, Status};
 use rayon::prelude::*;
 
 use crate::pages::{self, PAGE_ROWS, PageStats};
-use crate::precision::{Precision, stored_single, with_precision};
+use crate::precision::{Precision, stored_field, with_precision};
 use crate::writer::Codec;
 
 /// Which columns to write (docs/interface.md `--columns`).
@@ -314,20 +314,13 @@ impl PoseSchema {
     }
 
     /// The same columns stored with `precision`: with [`Precision::Single`] those that
-    /// [`stored_single`] names are `float32` in the schema, the pages and the batches.
+    /// [`stored_single`](crate::stored_single) names are `float32` in the schema, the pages and the batches.
     pub fn with_precision(mut self, precision: Precision) -> Self {
         self.precision = precision;
-        self.single = self.floats.iter().map(|c| precision == Precision::Single && stored_single(&c.name)).collect();
-        let fields: Vec<Field> = self
-            .computed
-            .fields()
-            .iter()
-            .map(|f| {
-                let narrow = precision == Precision::Single && stored_single(f.name());
-                let f = f.as_ref().clone();
-                if narrow { f.with_data_type(DataType::Float32) } else { f }
-            })
-            .collect();
+        let fields: Vec<Field> = self.computed.fields().iter().map(|f| stored_field(f, precision)).collect();
+        // The float columns are the last fields.
+        let first = fields.len() - self.floats.len();
+        self.single = fields[first..].iter().map(|f| f.data_type() == &DataType::Float32).collect();
         self.schema = Arc::new(Schema::new(fields));
         self
     }
@@ -423,7 +416,6 @@ pub(crate) fn joint_names() -> [String; 12] {
     std::array::from_fn(|i| clearance_solver::joint_name(i / 3, i % 3))
 }
 
-/// The `dominant` column from each row's `3·kind + limb` ([`NO_JOINT`]: null).
 /// Float columns of `len` rows, `value(fill, row)` the value of the column of `fill`
 /// at `row`, null where it is `None` or not finite: the arrays `Float64Array::from_iter`
 /// makes (0 under a null, a validity bitmap only where there is a null). Filled a
@@ -472,6 +464,7 @@ pub(crate) fn finite_columns<F: Sync>(
         .collect()
 }
 
+/// The `dominant` column from each row's `3·kind + limb` ([`NO_JOINT`]: null).
 pub(crate) fn dominant_column(index: &[u8]) -> ArrayRef {
     let names = joint_names();
     Arc::new(StringArray::from_iter(index.iter().map(|&i| names.get(i as usize).map(String::as_str))))

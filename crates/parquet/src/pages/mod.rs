@@ -142,20 +142,22 @@ impl<'a> DoubleChunk<'a> {
         }
         let (min, max) = self.range.bounds();
         let (nulls, nans) = (Some(self.nulls as u64), Some(self.range.nans));
+        fn value_statistics<T>(
+            min: Option<T>,
+            max: Option<T>,
+            nulls: Option<u64>,
+            nans: Option<u64>,
+        ) -> ValueStatistics<T> {
+            ValueStatistics::new(min, max, None, nulls, false)
+                .with_nan_count(nans)
+                .with_backwards_compatible_min_max(true)
+        }
         // A column of floats holds the `f32` values its range was taken over.
         let statistics = if descr.physical_type() == parquet::basic::Type::FLOAT {
             let narrow = |v: Option<f64>| v.map(|v| v as f32);
-            Statistics::Float(
-                ValueStatistics::new(narrow(min), narrow(max), None, nulls, false)
-                    .with_nan_count(nans)
-                    .with_backwards_compatible_min_max(true),
-            )
+            Statistics::Float(value_statistics(narrow(min), narrow(max), nulls, nans))
         } else {
-            Statistics::Double(
-                ValueStatistics::new(min, max, None, nulls, false)
-                    .with_nan_count(nans)
-                    .with_backwards_compatible_min_max(true),
-            )
+            Statistics::Double(value_statistics(min, max, nulls, nans))
         };
         let mut encodings = vec![if codec == Codec::None { Encoding::PLAIN } else { Encoding::BYTE_STREAM_SPLIT }];
         if optional {
@@ -250,15 +252,8 @@ pub(crate) fn encode_page(values: &[f64], codec: Codec, out: &mut Vec<u8>) -> Re
     SCRATCH.with_borrow_mut(|s| {
         let mut bits = std::mem::take(&mut s.bits);
         let mut compact = std::mem::take(&mut s.compact);
-        bits.clear();
+        validity(values, f64::is_finite, &mut bits);
         compact.clear();
-        for c in values.chunks(8) {
-            let mut b = 0u8;
-            for (j, v) in c.iter().enumerate() {
-                b |= u8::from(v.is_finite()) << j;
-            }
-            bits.push(b);
-        }
         compact.extend(values.iter().copied().filter(|v| v.is_finite()));
         let mut range = Range::default();
         range.extend(&compact);
@@ -266,6 +261,15 @@ pub(crate) fn encode_page(values: &[f64], codec: Codec, out: &mut Vec<u8>) -> Re
         (s.bits, s.compact) = (bits, compact);
         page
     })
+}
+
+/// The validity bitmap of `values` into `bits` (cleared first): bit j of byte k set
+/// where `valid(values[8k + j])`, the bit-packed form of a page's definition levels.
+fn validity<T: Copy>(values: &[T], valid: impl Fn(T) -> bool, bits: &mut Vec<u8>) {
+    bits.clear();
+    for c in values.chunks(8) {
+        bits.push(c.iter().enumerate().fold(0u8, |b, (j, v)| b | (u8::from(valid(*v)) << j)));
+    }
 }
 
 /// One data page appended to `out`: `rows` rows whose values are `present`, with
@@ -339,11 +343,8 @@ pub(crate) fn encode_page_single(values: &[f64], codec: Codec, out: &mut Vec<u8>
         single.clear();
         single.extend(values.iter().map(|&v| v as f32));
         let all = single.iter().all(|v| v.is_finite());
-        bits.clear();
         if !all {
-            for c in single.chunks(8) {
-                bits.push(c.iter().enumerate().fold(0u8, |b, (j, v)| b | (u8::from(v.is_finite()) << j)));
-            }
+            validity(&single, f32::is_finite, &mut bits);
             single.retain(|v| v.is_finite());
         }
         compact.clear();
