@@ -115,8 +115,8 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     let mut done = mine_poses - todo_poses;
     let mut stages = StageTimes::default();
     let mut known = KnownSamples::default();
-    // A unit's part file and statistics, written by `write_unit` (which returns the
-    // seconds it took): the last unit of each work item is written while the pool
+    // A unit's part file and statistics, written by `write_unit` (which returns its
+    // poses and the seconds it took, for `written`): the last unit of each work item is written while the pool
     // solves the next item's poses, so that writing a part, partly serial (the file,
     // its footer), does not leave cores idle.
     struct Written {
@@ -127,7 +127,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         meta: Vec<(String, String)>,
         poses: u64,
     }
-    let write_unit = |w: Written| -> Result<f64> {
+    let write_unit = |w: Written| -> Result<(u64, f64)> {
         let writing = Instant::now();
         for dir in [w.part.parent().filter(|_| w.batch.is_some()), w.stats_path.parent()].into_iter().flatten() {
             std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
@@ -136,7 +136,12 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         if let Some(batch) = &w.batch {
             crate::run::write_part_batch(opts.writer, opts.precision, &w.part, batch, &write_opts, &w.meta)?;
         }
-        Ok(writing.elapsed().as_secs_f64())
+        Ok((w.poses, writing.elapsed().as_secs_f64()))
+    };
+    let written = |stages: &mut StageTimes, done: &mut u64, (poses, secs): (u64, f64)| {
+        stages.writing += secs;
+        *done += poses;
+        progress.advance(poses, *done);
     };
     let mut pending: Option<Written> = None;
     for w in &todo_work {
@@ -146,12 +151,9 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         let (group, (model, source)) = (&groups[w.group], &models[w.group]);
         let (rows, samples) = samples(source, u0.range.clone());
         let earlier = pending.take();
-        let (solved, written) =
-            rayon::join(|| solve_rows(model, &samples, u0.mode), || earlier.map(|p| (p.poses, write_unit(p))));
-        if let Some((poses, secs)) = written {
-            stages.writing += secs?;
-            done += poses;
-            progress.advance(poses, done);
+        let (solved, earlier) = rayon::join(|| solve_rows(model, &samples, u0.mode), || earlier.map(write_unit));
+        if let Some(earlier) = earlier {
+            written(&mut stages, &mut done, earlier?);
         }
         known.keep(w.group, u0.mode, source.len(), u0.range.start, &solved);
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
@@ -187,20 +189,14 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
                 poses: u.range.end - u.range.start,
             };
             if k + 1 < w.units.len() {
-                let poses = unit.poses;
-                stages.writing += write_unit(unit)?;
-                done += poses;
-                progress.advance(poses, done);
+                written(&mut stages, &mut done, write_unit(unit)?);
             } else {
                 pending = Some(unit);
             }
         }
     }
     if let Some(unit) = pending.take() {
-        let poses = unit.poses;
-        stages.writing += write_unit(unit)?;
-        done += poses;
-        progress.advance(poses, done);
+        written(&mut stages, &mut done, write_unit(unit)?);
     }
     progress.finish();
     let syncing = Instant::now();
