@@ -488,6 +488,23 @@ fn tilt_play_alone_names_no_joint() {
     assert!(r.envelope_total().iter().all(|v| v.abs() <= 1e-15), "{:?}", r.envelope_total());
 }
 
+/// `reduced`'s reactions are `full`'s to 1e-10 of the largest load (`f_S`, `f_U`, `μ`,
+/// the radial margins), with the same take-up determinacy.
+fn assert_same_loads(full: &UpsResult, reduced: &UpsResult) {
+    let scale = (0..6).map(|i| full.f_s[i].norm().max(full.f_u[i].norm())).fold(0.0, f64::max);
+    for i in 0..6 {
+        assert!((full.f_s[i] - reduced.f_s[i]).norm() <= 1e-10 * scale, "{:?} {:?}", full.f_s[i], reduced.f_s[i]);
+        assert!((full.f_u[i] - reduced.f_u[i]).norm() <= 1e-10 * scale);
+        assert!((full.mu[i] - reduced.mu[i]).abs() <= 1e-10 * scale);
+    }
+    assert_eq!(full.kind_ok, reduced.kind_ok);
+    for k in 0..2 {
+        for i in 0..6 {
+            assert!((full.margins[k][i] - reduced.margins[k][i]).abs() <= 1e-10 * scale);
+        }
+    }
+}
+
 /// The legs eliminated in closed form and the platform's 6 × 6 system give the
 /// reactions of the 42 × 42 factorisation to round-off (1e-10 of the largest load),
 /// the same statuses and the same take-ups, on random models (jittered layouts,
@@ -509,23 +526,7 @@ fn reduced_loads_equal_the_assembled_ones() {
                     continue;
                 }
                 compared += 1;
-                let scale = (0..6).map(|i| full.f_s[i].norm().max(full.f_u[i].norm())).fold(0.0, f64::max);
-                for i in 0..6 {
-                    assert!(
-                        (full.f_s[i] - reduced.f_s[i]).norm() <= 1e-10 * scale,
-                        "{:?} {:?}",
-                        full.f_s[i],
-                        reduced.f_s[i]
-                    );
-                    assert!((full.f_u[i] - reduced.f_u[i]).norm() <= 1e-10 * scale);
-                    assert!((full.mu[i] - reduced.mu[i]).abs() <= 1e-10 * scale);
-                }
-                assert_eq!(full.kind_ok, reduced.kind_ok);
-                for k in 0..2 {
-                    for i in 0..6 {
-                        assert!((full.margins[k][i] - reduced.margins[k][i]).abs() <= 1e-10 * scale);
-                    }
-                }
+                assert_same_loads(&full, &reduced);
             }
         }
     }
@@ -535,7 +536,7 @@ fn reduced_loads_equal_the_assembled_ones() {
 /// A pose solved with the legs eliminated (reactions from the 6 × 6 platform system,
 /// errors through the legs' screws) equals the same pose from the assembled 42 × 42
 /// equilibrium and 30 × 30 error system (the general path): statuses, take-up
-/// determinacy and dominant joints the same, reactions to 1e-10 of the largest load,
+/// determinacy and dominant joints the same, reactions and margins to 1e-10 of the largest load,
 /// each kind's error, the total and the envelope to 1e-10 of the clearance scale, on
 /// random models in statics and dynamics, with the exact error on.
 #[test]
@@ -557,12 +558,7 @@ fn reduced_poses_equal_the_assembled_ones() {
                     continue;
                 }
                 compared += 1;
-                let scale = (0..6).map(|i| full.f_s[i].norm().max(full.f_u[i].norm())).fold(0.0, f64::max);
-                for i in 0..6 {
-                    assert!((full.f_s[i] - reduced.f_s[i]).norm() <= 1e-10 * scale);
-                    assert!((full.f_u[i] - reduced.f_u[i]).norm() <= 1e-10 * scale);
-                }
-                assert_eq!(full.kind_ok, reduced.kind_ok);
+                assert_same_loads(&full, &reduced);
                 assert_eq!(full.dominant, reduced.dominant);
                 let tol = 1e-10 * c[0].max(c[1]);
                 let near = |a: &PoseError, b: &PoseError| {
