@@ -37,8 +37,10 @@ struct SmallFs {
 impl SmallFs {
     fn mount(size: &str) -> Result<SmallFs, String> {
         let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+        // `huge=never`: a file's blocks are its 4 KiB pages, as the tests count them,
+        // whatever large folios the host's tmpfs would otherwise use.
         let o = Command::new("mount")
-            .args(["-t", "tmpfs", "-o", &format!("size={size},mode=0755"), "tmpfs"])
+            .args(["-t", "tmpfs", "-o", &format!("size={size},mode=0755,huge=never"), "tmpfs"])
             .arg(dir.path())
             .output()
             .map_err(|e| format!("cannot run mount: {e}"))?;
@@ -282,6 +284,7 @@ fn a_full_disk_at_every_kind_of_write() {
         std::fs::remove_dir_all(&out).unwrap();
 
         let at = |name: &str| writes.iter().position(|w| w == name).unwrap();
+        let finalize = at("discontinuities.parquet");
         for failing in [
             at("job.toml"),
             at(&trace_name(0)),
@@ -289,13 +292,27 @@ fn a_full_disk_at_every_kind_of_write() {
             at(&part_name(0)),
             at(&stats_name(1)),
             at(&part_name(1)),
-            at("discontinuities.parquet"),
+            finalize,
             at("summary.parquet"),
         ] {
-            // Everything before it fits, and half of it.
-            let free = need[..failing].iter().sum::<u64>() + need[failing] / 2;
+            // Everything before it fits, and half of it. The files of finalize are
+            // written by `--resume` after a whole run less them: a run's parts,
+            // counted to the block, once left a CI host some blocks short of here
+            // (never reproduced); finalize's own writes are what is tested.
+            let first = if failing >= finalize {
+                let o = run(&job, &out, &[]);
+                assert!(o.status.success(), "the run before finalize: {}", String::from_utf8_lossy(&o.stderr));
+                for name in ["_SUCCESS", "discontinuities.parquet", "summary.parquet"] {
+                    std::fs::remove_file(out.join(name)).unwrap();
+                }
+                finalize
+            } else {
+                0
+            };
+            let free = need[first..failing].iter().sum::<u64>() + need[failing] / 2;
             fs.fill_leaving(free);
-            let o = run(&job, &out, &[]);
+            let extra: &[&str] = if failing >= finalize { &["--resume"] } else { &[] };
+            let o = run(&job, &out, extra);
             let name = &writes[failing];
             assert_failed_cleanly(&o, &out, name);
             for earlier in &writes[..failing] {
