@@ -1042,19 +1042,10 @@ fn compute_pages<'a>(
         } else {
             let rows = page_traces.len();
             let shared = solve_shared(&mut blocks, model, source, mode, first, page_traces, page_loads, page_sampled);
-            pages
-                .into_iter()
-                .zip(&work.units)
-                .map(|(page, unit)| {
-                    let scale = &group.scales[group.member(unit.variant)];
-                    page.write(&mut buf, codec, spare(), |sink| {
-                        (0..rows)
-                            .step_by(BLOCK)
-                            .map(|row| shared.put(scale, sink, row..rows.min(row + BLOCK)))
-                            .collect()
-                    })
-                })
-                .collect()
+            PageWriter::write_members(pages, &mut buf, codec, spare, |m, sink| {
+                let scale = &group.scales[group.member(work.units[m].variant)];
+                (0..rows).step_by(BLOCK).map(|row| shared.put(scale, sink, row..rows.min(row + BLOCK))).collect()
+            })
         };
         ctx.put_worker((blocks, buf));
         written

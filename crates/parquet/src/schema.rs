@@ -364,7 +364,7 @@ impl PoseSchema {
 
     /// The buffer a thread fills pages of a [`PartPages`] in.
     pub fn page_buffer(&self) -> PageBuffer {
-        PageBuffer { t: Vec::new(), floats: Vec::new() }
+        PageBuffer { t: Vec::new(), floats: Vec::new(), first_t: Vec::new(), first_floats: Vec::new() }
     }
 
     /// The record batch of filled column buffers.
@@ -560,9 +560,60 @@ pub struct PageBuffer {
     t: Vec<f64>,
     /// Column c at `floats[c·PAGE_ROWS..]`.
     floats: Vec<f64>,
+    /// The first member's `t` and `floats` while the other members of a group are
+    /// written ([`PageWriter::write_members`]).
+    first_t: Vec<f64>,
+    first_floats: Vec<f64>,
 }
 
-impl PageWriter<'_> {
+/// Whether two columns hold the same values bit for bit (so the same encoding).
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(true, |same, (x, y)| same & (x.to_bits() == y.to_bits()))
+}
+
+/// A page's `t` and float columns, as [`PageBuffer`] holds them.
+type PageColumns<'p> = (&'p [f64], &'p [f64]);
+
+/// Encodes a page's columns (`t`, then the float columns of `floats`, `PAGE_ROWS`
+/// apart, `rows` each) into `bytes`, with their statistics. A column whose values
+/// are bit for bit those of the same column of `like` (another member's page of the
+/// same rows, its values and its encoding) is copied from `like`'s encoding.
+fn encode_columns(
+    schema: &PoseSchema,
+    codec: Codec,
+    rows: usize,
+    (t, floats): PageColumns<'_>,
+    like: Option<(PageColumns<'_>, &EncodedPage)>,
+    mut bytes: Vec<u8>,
+) -> Result<EncodedPage, parquet::errors::ParquetError> {
+    let n = schema.slots.len();
+    bytes.clear();
+    // Room for every page uncompressed, headers and levels included: reserved
+    // memory is not touched, and the buffer never grows while encoding.
+    bytes.reserve((n + 1) * (rows * 8 + rows / 8 + 64));
+    let mut stats = Vec::with_capacity(n + 1);
+    let columns = std::iter::once((&t[..rows], false))
+        .chain(floats.chunks(PAGE_ROWS).zip(&schema.single).map(|(c, &single)| (&c[..rows], single)));
+    let mut like_at = 0;
+    for (c, (values, single)) in columns.enumerate() {
+        if let Some(((like_t, like_floats), page)) = like {
+            let same = if c == 0 { &like_t[..rows] } else { &like_floats[(c - 1) * PAGE_ROWS..][..rows] };
+            let encoded = page.stats[c];
+            if same_bits(values, same) {
+                bytes.extend_from_slice(&page.bytes[like_at..like_at + encoded.bytes]);
+                stats.push(encoded);
+                like_at += encoded.bytes;
+                continue;
+            }
+            like_at += encoded.bytes;
+        }
+        let encode = if single { pages::encode_page_single } else { pages::encode_page };
+        stats.push(encode(values, codec, &mut bytes)?);
+    }
+    Ok(EncodedPage { bytes, stats })
+}
+
+impl<'a> PageWriter<'a> {
     pub fn rows(&self) -> usize {
         self.sample.len()
     }
@@ -580,32 +631,68 @@ impl PageWriter<'_> {
         self,
         buf: &mut PageBuffer,
         codec: Codec,
-        mut bytes: Vec<u8>,
+        bytes: Vec<u8>,
         fill: impl FnOnce(&mut BlockSink<'_>) -> R,
     ) -> Result<R, parquet::errors::ParquetError> {
+        let (schema, out, rows, result) = self.fill(buf, fill);
+        *out = Some(encode_columns(schema, codec, rows, (&buf.t, &buf.floats), None, bytes)?);
+        Ok(result)
+    }
+
+    /// [`PageWriter::write`] for the same page of each member of a group (the same
+    /// rows, `fill(m, sink)` putting member m's), each encoded into a buffer from
+    /// `bytes`. The first member's page is encoded whole; of each other member's, a
+    /// column whose values are the first member's bit for bit is copied from its
+    /// encoding instead of encoded again: a member that changes one clearance
+    /// changes only that kind's errors, envelope and contributions, and the totals.
+    /// The same bytes as writing each page alone.
+    pub fn write_members<R>(
+        writers: Vec<PageWriter<'a>>,
+        buf: &mut PageBuffer,
+        codec: Codec,
+        mut bytes: impl FnMut() -> Vec<u8>,
+        mut fill: impl FnMut(usize, &mut BlockSink<'_>) -> R,
+    ) -> Vec<Result<R, parquet::errors::ParquetError>> {
+        let mut first: Option<&'a EncodedPage> = None;
+        let mut results = Vec::with_capacity(writers.len());
+        for (m, writer) in writers.into_iter().enumerate() {
+            let (schema, out, rows, result) = writer.fill(buf, |sink| fill(m, sink));
+            let like = first.map(|page| ((&buf.first_t[..], &buf.first_floats[..]), page));
+            match encode_columns(schema, codec, rows, (&buf.t, &buf.floats), like, bytes()) {
+                Ok(page) => *out = Some(page),
+                Err(e) => {
+                    results.push(Err(e));
+                    continue;
+                }
+            }
+            results.push(Ok(result));
+            if first.is_none() {
+                let out: &'a Option<EncodedPage> = out;
+                first = out.as_ref();
+                std::mem::swap(&mut buf.t, &mut buf.first_t);
+                std::mem::swap(&mut buf.floats, &mut buf.first_floats);
+            }
+        }
+        results
+    }
+
+    /// Lets `fill` put the page's rows into `buf`: the schema, the page's slot and
+    /// rows, and what `fill` returned.
+    fn fill<R>(
+        self,
+        buf: &mut PageBuffer,
+        fill: impl FnOnce(&mut BlockSink<'_>) -> R,
+    ) -> (&'a PoseSchema, &'a mut Option<EncodedPage>, usize, R) {
         let PageWriter { schema, sample, status, dominant, out, .. } = self;
         let rows = sample.len();
-        let n = schema.slots.len();
         buf.t.resize(PAGE_ROWS, 0.0);
-        buf.floats.resize(n * PAGE_ROWS, 0.0);
-        let result = {
-            let floats = buf.floats.chunks_mut(PAGE_ROWS).map(|c| &mut c[..rows]).collect();
-            // No null flags: each page's encoder finds its nulls from the values' range.
-            let mut sink = BlockSink::new(schema, sample, &mut buf.t[..rows], status, dominant, floats, None);
-            fill(&mut sink)
-        };
-        bytes.clear();
-        // Room for every page uncompressed, headers and levels included: reserved
-        // memory is not touched, and the buffer never grows while encoding.
-        bytes.reserve((n + 1) * (rows * 8 + rows / 8 + 64));
-        let mut stats = Vec::with_capacity(n + 1);
-        stats.push(pages::encode_page(&buf.t[..rows], codec, &mut bytes)?);
-        for (col, &single) in buf.floats.chunks(PAGE_ROWS).zip(&schema.single) {
-            let encode = if single { pages::encode_page_single } else { pages::encode_page };
-            stats.push(encode(&col[..rows], codec, &mut bytes)?);
-        }
-        *out = Some(EncodedPage { bytes, stats });
-        Ok(result)
+        buf.floats.resize(schema.slots.len() * PAGE_ROWS, 0.0);
+        let floats = buf.floats.chunks_mut(PAGE_ROWS).map(|c| &mut c[..rows]).collect();
+        // No null flags: each page's encoder finds its nulls from the values' range.
+        let mut sink = BlockSink::new(schema, sample, &mut buf.t[..rows], status, dominant, floats, None);
+        let result = fill(&mut sink);
+        drop(sink);
+        (schema, out, rows, result)
     }
 }
 

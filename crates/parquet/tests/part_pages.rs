@@ -10,7 +10,8 @@ use arrow::record_batch::RecordBatch;
 use clearance_grid::Sample;
 use clearance_model::Mode;
 use clearance_parquet::{
-    Codec, ColumnSet, PAGE_ROWS, PoseSchema, TAIL_PAGE_ROWS, WriteOptions, page_spans, write_part,
+    Codec, ColumnSet, PAGE_ROWS, PageWriter, PoseSchema, Precision, TAIL_PAGE_ROWS, WriteOptions, page_spans,
+    write_part,
 };
 use clearance_solver::{PoseResult, Status};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -146,6 +147,71 @@ fn parts_encoded_page_by_page_read_back_as_the_batch() {
                 let pages = rg.get_column_page_reader(c).unwrap().collect::<Result<Vec<_>, _>>().unwrap().len();
                 assert_eq!(pages, page_spans(n).len(), "{what}: pages of {name}");
             }
+        }
+    }
+}
+
+/// A group's members written page by page together (`PageWriter::write_members`:
+/// the columns a member shares bit for bit with the first copied from its encoding)
+/// give the same files, byte for byte, as each member written alone: members that
+/// scale one kind, another, none, and all, in every codec and precision.
+#[test]
+fn members_written_together_give_the_files_written_alone() {
+    let n = 2 * PAGE_ROWS + 77;
+    let rows: Vec<(Sample, PoseResult)> = rows(n)
+        .into_iter()
+        .map(|(s, mut r)| {
+            r.envelope = std::array::from_fn(|k| std::array::from_fn(|c| r.errors[k].dp.x * (1.0 + c as f64)));
+            r.contribution = std::array::from_fn(|k| std::array::from_fn(|j| r.errors[k].dalpha.y * (1.0 + j as f64)));
+            (s, r)
+        })
+        .collect();
+    let scales = [[1.0, 1.0, 1.0, 1.0], [1.0, 2.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0], [0.5, 3.0, 0.0, 1e-3]];
+    let members: Vec<Vec<PoseResult>> =
+        scales.iter().map(|scale| rows.iter().map(|(_, r)| r.scaled(scale)).collect()).collect();
+    let dir = tempfile::tempdir().unwrap();
+    for precision in [Precision::Double, Precision::Single] {
+        let schema = PoseSchema::new(ColumnSet::Full, false).with_precision(precision);
+        for codec in [Codec::None, Codec::Zstd] {
+            let what = format!("{precision:?}, {}", codec.name());
+            let opts = WriteOptions { codec, ..WriteOptions::default() };
+            let mut together: Vec<_> = members.iter().map(|_| schema.part(Mode::Kinetostatic, n)).collect();
+            let mut writers: Vec<_> = together.iter_mut().map(|p| p.pages(&schema).into_iter()).collect();
+            let mut buf = schema.page_buffer();
+            while let Some(pages) = writers.iter_mut().map(|w| w.next()).collect::<Option<Vec<_>>>() {
+                let (first, len) = (pages[0].first(), pages[0].rows());
+                let results = PageWriter::write_members(pages, &mut buf, codec, Vec::new, |m, sink| {
+                    for i in 0..len {
+                        sink.put(i, &rows[first + i].0, &members[m][first + i]);
+                    }
+                    m
+                });
+                let results: Vec<usize> = results.into_iter().map(Result::unwrap).collect();
+                assert_eq!(results, (0..members.len()).collect::<Vec<_>>(), "{what}: each member's fill");
+            }
+            drop(writers);
+            let mut files = Vec::new();
+            for (m, part) in together.iter().enumerate() {
+                let alone = dir.path().join(format!("alone-{m}.parquet"));
+                let mut single = schema.part(Mode::Kinetostatic, n);
+                for page in single.pages(&schema) {
+                    let (first, len) = (page.first(), page.rows());
+                    page.write(&mut schema.page_buffer(), codec, Vec::new(), |sink| {
+                        for i in 0..len {
+                            sink.put(i, &rows[first + i].0, &members[m][first + i]);
+                        }
+                    })
+                    .unwrap();
+                }
+                write_part(&alone, &schema, &single, &opts, &[]).unwrap();
+                let with = dir.path().join(format!("together-{m}.parquet"));
+                write_part(&with, &schema, part, &opts, &[]).unwrap();
+                let bytes = std::fs::read(&with).unwrap();
+                assert!(bytes == std::fs::read(&alone).unwrap(), "{what}: member {m} differs from its file alone");
+                files.push(bytes);
+            }
+            assert!(files[0] == files[2], "{what}: members with the same scale");
+            assert!(files[0] != files[1] && files[1] != files[3], "{what}: members that scale a kind differ");
         }
     }
 }
