@@ -183,6 +183,14 @@ fn out_dir_message(e: &OutputDirError) -> String {
              choose another out",
             dir.display()
         ),
+        OutputDirError::OtherOptions { dir, option, was, now } => {
+            let arg = option.trim_start_matches('-');
+            format!(
+                "out: {} holds part files written with {arg}='{was}'; resume it with the same (this run asks for \
+                 {arg}='{now}'), or pass overwrite=True",
+                dir.display()
+            )
+        }
     }
 }
 

@@ -235,6 +235,20 @@ def test_resume_into_another_jobs_run_names_overwrite(tmp_path):
     assert "overwrite=True" in message, message
 
 
+def test_resume_with_another_precision_or_columns_names_the_argument(tmp_path):
+    """The parts of a run share a schema: resuming with another precision or column
+    set is refused in Python's terms, and with the run's own it goes on."""
+    out = tmp_path / "run"
+    clearance.run(JOB, out, precision="single")
+    message = refused(ValueError, "out", lambda: clearance.run(JOB, out, resume=True), out)
+    assert "precision='single'" in message and "precision='double'" in message, message
+    message = refused(
+        ValueError, "out", lambda: clearance.run(JOB, out, resume=True, precision="single", columns="full"), out
+    )
+    assert "columns='standard'" in message and "columns='full'" in message, message
+    assert clearance.run(JOB, out, resume=True, precision="single")["computed"] == 0
+
+
 @pytest.mark.parametrize("asked", [dict(resume=True), dict(overwrite=True), dict(shard=(1, 2))])
 def test_a_folder_that_holds_no_run_is_kept(asked, tmp_path):
     out = tmp_path / "mine"

@@ -189,6 +189,58 @@ fn output_directory_contract() {
     assert!(status.status.success());
 }
 
+/// Resuming a run with another `--precision` or `--columns` than its part files were
+/// written with is refused (exit 2, the option and both values named, nothing
+/// written): the dataset's parts would not share a schema. With the run's own
+/// options it finishes, the part it lacked written as the others were.
+#[test]
+fn resume_with_other_columns_or_precision_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = write_job(dir.path(), "grid.toml", GRID_JOB);
+    let out = dir.path().join("out");
+    let (job, out_s) = (job.to_str().unwrap(), out.to_str().unwrap());
+    let first = run(&["run", job, "--out", out_s, "-q", "--chunk-size", "100", "--precision", "single"]);
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let lost = out.join("poses/variant=0/part-kinetostatic-000001.parquet");
+    let kept = std::fs::read(&lost).unwrap();
+    std::fs::remove_file(&lost).unwrap();
+    std::fs::remove_file(out.join("_SUCCESS")).unwrap();
+    let listing = |dir: &Path| {
+        let mut names: Vec<_> =
+            walk(dir).into_iter().map(|p| (p.clone(), std::fs::metadata(&p).unwrap().modified().unwrap())).collect();
+        names.sort();
+        names
+    };
+    let before = listing(&out);
+    for (extra, option, was, now) in [
+        (&["--precision", "double"][..], "--precision", "single", "double"),
+        (&["--columns", "minimal", "--precision", "single"][..], "--columns", "standard", "minimal"),
+        (&["--columns", "none", "--precision", "single"][..], "--columns", "standard", "none"),
+    ] {
+        let o = run(&[&["run", job, "--out", out_s, "-q", "--chunk-size", "100", "--resume"][..], extra].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(err.contains(&format!("{option} {was}")) && err.contains(now), "{extra:?}: {err}");
+        assert_eq!(listing(&out), before, "{extra:?}: nothing written");
+    }
+    let o = run(&["run", job, "--out", out_s, "-q", "--chunk-size", "100", "--resume", "--precision", "single"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read(&lost).unwrap() == kept, "the lost part written again as before");
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let path = e.unwrap().path();
+        if path.is_dir() {
+            out.extend(walk(&path));
+        } else {
+            out.push(path);
+        }
+    }
+    out
+}
+
 #[test]
 fn same_data_for_any_threads_chunks_shards_and_resume() {
     let dir = tempfile::tempdir().unwrap();

@@ -56,6 +56,10 @@ pub enum OutputDirError {
     /// Asked to resume (or to add a shard) where files that are not a run are.
     #[error("{} holds files that are not a clearance run; use --overwrite to replace it, or another --out", dir.display())]
     NotARun { dir: PathBuf },
+    /// Asked to resume (or to add a shard) with another `--columns` or `--precision`
+    /// than the run's part files were written with: the parts would not share a schema.
+    #[error("{} holds part files written with {option} {was}; resume it with the same (this run asks for {now}), or use --overwrite", dir.display())]
+    OtherOptions { dir: PathBuf, option: &'static str, was: String, now: String },
     /// Asked to overwrite files that are not a run (no `job.toml`): they stay.
     #[error("{} is not empty and holds no clearance run (no job.toml); refusing to overwrite it", dir.display())]
     NotARunToOverwrite { dir: PathBuf },

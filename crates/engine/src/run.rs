@@ -308,6 +308,7 @@ pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) ->
                     if existing.is_some() { OutputDirError::OtherJob { dir } } else { OutputDirError::NotARun { dir } };
                 return Err(e.into());
             }
+            same_part_options(layout, opts)?;
         } else {
             return Err(OutputDirError::NotEmpty { dir: out.to_path_buf() }.into());
         }
@@ -315,6 +316,47 @@ pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) ->
     std::fs::create_dir_all(out).map_err(EngineError::io("create the output directory", out))?;
     let opts = WriteOptions { durable: false, direct_io: opts.direct_io, ..WriteOptions::default() };
     Ok(write_bytes(&layout.job(), job_toml.as_bytes(), &opts)?)
+}
+
+/// The `--columns` a run's files say they were written with (`none`: no pose files).
+fn columns_name(opts: &RunOptions) -> &'static str {
+    if opts.poses { opts.columns.name() } else { "none" }
+}
+
+/// Refuses to resume (or add a shard to) a run whose part files were written with
+/// another `--columns` or `--precision` than `opts` asks for, as one of them says
+/// (`clearance.columns`, `clearance.precision`; a part without the key is not held to
+/// it, one without `clearance.precision` is double): the dataset's parts would not
+/// share a schema. A run without part files (`--columns none`, or none written yet)
+/// has nothing to hold.
+fn same_part_options(layout: &Layout, opts: &RunOptions) -> Result<()> {
+    fn first_part(dir: &Path) -> Option<PathBuf> {
+        let mut entries: Vec<_> = std::fs::read_dir(dir).ok()?.filter_map(|e| e.ok()).map(|e| e.path()).collect();
+        entries.sort();
+        entries.into_iter().find_map(|path| {
+            let name = path.file_name()?.to_string_lossy().into_owned();
+            if path.is_dir() {
+                first_part(&path)
+            } else {
+                (name.starts_with("part-") && name.ends_with(".parquet")).then_some(path)
+            }
+        })
+    }
+    let Some(part) = first_part(&layout.root().join("poses")) else { return Ok(()) };
+    // A part that cannot be read is not complete: `--resume` computes it again.
+    let Some(kv) = clearance_parquet::key_values(&part) else { return Ok(()) };
+    let value = |key: &str| kv.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
+    let held = [
+        ("--columns", value("clearance.columns"), columns_name(opts)),
+        ("--precision", value("clearance.precision").or_else(|| Some("double".into())), opts.precision.name()),
+    ];
+    for (option, was, now) in held {
+        if let Some(was) = was.filter(|was| was != now) {
+            let dir = layout.root().to_path_buf();
+            return Err(OutputDirError::OtherOptions { dir, option, was, now: now.to_string() }.into());
+        }
+    }
+    Ok(())
 }
 
 /// An empty completion marker, on the disk before this returns.
@@ -1318,7 +1360,7 @@ pub(crate) fn prepare_run(
             ("clearance.job".into(), job_toml),
             ("clearance.version".into(), ENGINE_VERSION.into()),
             ("clearance.git_commit".into(), env!("CLEARANCE_GIT_COMMIT").into()),
-            ("clearance.columns".into(), if opts.poses { opts.columns.name() } else { "none" }.into()),
+            ("clearance.columns".into(), columns_name(opts).into()),
             ("clearance.precision".into(), opts.precision.name().into()),
         ],
         row_group_rows: opts.chunk_size as usize,

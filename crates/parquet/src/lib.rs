@@ -54,7 +54,7 @@ pub use ups::{
     UPS_INPUTS, UPS_SWITCH_KINDS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch, ups_discontinuity_batch,
     ups_summary_batch,
 };
-pub use writer::{Codec, ParquetError, WriteOptions, write_bytes, write_parquet, write_part};
+pub use writer::{Codec, ParquetError, WriteOptions, key_values, write_bytes, write_parquet, write_part};
 
 /// The engine version written into every file's metadata.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

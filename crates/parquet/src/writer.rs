@@ -386,6 +386,15 @@ pub fn write_part(
     })
 }
 
+/// The key-value metadata in the footer of the Parquet file at `path` (`None` where
+/// it cannot be read as one), keys without a value left out.
+pub fn key_values(path: &Path) -> Option<Vec<(String, String)>> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let reader = SerializedFileReader::new(std::fs::File::open(path).ok()?).ok()?;
+    let kv = reader.metadata().file_metadata().key_value_metadata().cloned().unwrap_or_default();
+    Some(kv.into_iter().filter_map(|k| Some((k.key, k.value?))).collect())
+}
+
 /// Writes `bytes` to `path` via a temporary sibling and an atomic rename, past the
 /// page cache where the file system allows it (as Parquet files are), and, when
 /// `opts.durable`, on the disk before this returns. For a run's side files (statistics,
