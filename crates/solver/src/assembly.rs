@@ -444,6 +444,23 @@ impl Assembly {
         legs_inverse: Option<&SMatrix<f64, 6, 6>>,
         out: &mut LimbsSolution,
     ) -> bool {
+        if !self.reduced_reactions_into(posed, legs_inverse, out) {
+            return false;
+        }
+        self.take_up(posed, out);
+        out.status = self.determinacy(out);
+        true
+    }
+
+    /// The reactions of [`Assembly::solve_loads_reduced_into`] alone (`f_s`, `f_b`,
+    /// `mu`, `m_b`), bit for bit, without the take-up: what the switch search needs
+    /// between samples. Leaves the status. False where the reduced form does not apply.
+    pub fn reduced_reactions_into(
+        &self,
+        posed: &Posed,
+        legs_inverse: Option<&SMatrix<f64, 6, 6>>,
+        out: &mut LimbsSolution,
+    ) -> bool {
         let n = self.limbs.len();
         if n != 6 || self.limbs.iter().any(|l| l.base.moments() != 1) {
             return false;
@@ -503,8 +520,6 @@ impl Assembly {
             out.f_s[i] = t[i] * axis[i] + across[i];
             out.f_b[i] = forces[i] + out.f_s[i];
         }
-        self.take_up(posed, out);
-        out.status = self.determinacy(out);
         true
     }
 

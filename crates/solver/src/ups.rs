@@ -325,10 +325,13 @@ pub fn ups_posed(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion>
     posed
 }
 
-/// [`ups_posed`] into `posed`, every field written.
+/// [`ups_posed`] into `posed`, every field written. In statics (`motion` `None`) the
+/// bodies neither turn nor accelerate, so their inertia is not formed (zero: it
+/// multiplies zero velocities).
 fn ups_posed_into(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion>, posed: &mut Posed) {
     let mass = &model.mass;
     let (cyl, pis) = (&mass.cylinder, &mass.piston);
+    let moving = motion.is_some();
     for i in 0..6 {
         let e = pose.e[i];
         let (w, w_dot, e_ddot, a_ddot) = match motion {
@@ -338,7 +341,7 @@ fn ups_posed_into(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion
         let rod = |r: &Rod, centre, acc| Body {
             mass: r.mass,
             centre,
-            inertia: r.inertia_world(&e),
+            inertia: if moving { r.inertia_world(&e) } else { Matrix3::zeros() },
             acc,
             omega: w,
             omega_dot: w_dot,
@@ -361,7 +364,7 @@ fn ups_posed_into(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion
     posed.platform = Body {
         mass: mass.platform,
         centre: pose.p + c,
-        inertia: pose.rot * mass.inertia_local * pose.rot.transpose(),
+        inertia: if moving { pose.rot * mass.inertia_local * pose.rot.transpose() } else { Matrix3::zeros() },
         acc: com_acc,
         omega,
         omega_dot,
@@ -441,10 +444,12 @@ enum Solve {
 }
 
 /// The reactions of the legs of one sample: what the switch search evaluates between
-/// samples, bit for bit [`solve_ups_loads_reduced`]'s status, `f_s` and `f_u` without
-/// the rest of a [`UpsResult`].
+/// samples, bit for bit [`solve_ups_loads_reduced`]'s `f_s` and `f_u` without the rest
+/// of a [`UpsResult`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UpsLoads {
+    /// `unreachable`, `near_singular`, or `ok` where the legs have reactions (whether
+    /// each take-up is determinate is not decided: the search reads the loads alone).
     pub status: Status,
     pub f_s: [Vector3<f64>; 6],
     pub f_u: [Vector3<f64>; 6],
@@ -459,11 +464,13 @@ pub fn solve_ups_leg_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws:
     if !conditioned {
         return out;
     }
-    if !model.assembly.solve_loads_reduced_into(&ws.posed, inverse.as_ref(), &mut ws.sol) {
+    if model.assembly.reduced_reactions_into(&ws.posed, inverse.as_ref(), &mut ws.sol) {
+        ws.sol.status = Status::Ok;
+    } else {
         ws.sol = model.assembly.solve_loads(&ws.posed, &mut ws.data);
     }
     if ws.sol.status != Status::NearSingular {
-        out.status = ws.sol.status;
+        out.status = if ws.sol.status == Status::IndeterminateContact { Status::Ok } else { ws.sol.status };
         out.f_s = std::array::from_fn(|i| ws.sol.f_s[i]);
         out.f_u = std::array::from_fn(|i| ws.sol.f_b[i]);
     }
