@@ -26,7 +26,7 @@ use clearance_parquet::{
 };
 use clearance_solver::Status;
 use clearance_solver::ups::{
-    UpsLoads, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_leg_loads, solve_ups_par, solve_ups_pose,
+    UpsLoads, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_errors, solve_ups_leg_loads, solve_ups_par,
 };
 use rayon::prelude::*;
 
@@ -529,10 +529,10 @@ fn search(
                             // pass's (or the same solve) at a sample, solved between.
                             let mut error = |r: &Reading| match (r.sample, r.sample.and_then(|k| kept(path.index(k)))) {
                                 (_, Some(known)) => known.errors[kind],
-                                (Some(k), None) => kind_error(&solve_ups_pose(model, &sample(k), mode, ws), kind),
+                                (Some(k), None) => kind_error(&solve_ups_errors(model, &sample(k), mode, ws), kind),
                                 (None, None) => {
                                     let (_, s) = path.sample_at(source, trajectory.as_ref(), r.at);
-                                    kind_error(&solve_ups_pose(model, &s, mode, ws), kind)
+                                    kind_error(&solve_ups_errors(model, &s, mode, ws), kind)
                                 }
                             };
                             let jump = match (error(&found.before), error(&found.after)) {

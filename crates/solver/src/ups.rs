@@ -406,6 +406,13 @@ pub fn solve_ups_pose(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut
     solve_ups(model, sample, mode, ws, Solve::All)
 }
 
+/// [`solve_ups_pose`] without the envelope, the joints' contributions and the exact
+/// error: the status, reactions, margins, each kind's error and the total, bit for
+/// bit. What the switch search reads a jump from, at the two points of each switch.
+pub fn solve_ups_errors(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace) -> UpsResult {
+    solve_ups(model, sample, mode, ws, Solve::Errors)
+}
+
 /// The status, reactions, margins and take-up determinacy of a sample as
 /// [`solve_ups_pose`] gives them, without the error system, the envelope or the exact
 /// error: what the switch search evaluates between samples ([`Assembly::solve_loads`]).
@@ -435,6 +442,8 @@ enum Solve {
     /// Everything: reactions, errors, envelope, exact error; the legs eliminated
     /// (reactions as [`Solve::Reduced`], errors through `G⁻ᵀ`) where that applies.
     All,
+    /// [`Solve::All`] up to the errors and their total.
+    Errors,
     /// Everything, from the assembled 42 × 42 and 30 × 30 systems.
     Assembled,
     /// The reactions and take-ups, from the 42 × 42 factorisation.
@@ -498,7 +507,7 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
         return out;
     }
     let sol = match how {
-        Solve::All => match (&inverse, model.assembly.solve_loads_reduced(posed, inverse.as_ref())) {
+        Solve::All | Solve::Errors => match (&inverse, model.assembly.solve_loads_reduced(posed, inverse.as_ref())) {
             (Some(inverse), Some(mut sol)) => {
                 leg_errors(&model.assembly, &pose, inverse, &mut sol);
                 sol
@@ -524,10 +533,13 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
         out.errors[k] = sol.errors[k];
         out.kind_ok[k] = sol.kind_ok[k];
     }
-    if !matches!(how, Solve::All | Solve::Assembled) {
+    if !matches!(how, Solve::All | Solve::Errors | Solve::Assembled) {
         return out;
     }
     out.total = sol.total;
+    if how == Solve::Errors {
+        return out;
+    }
     if let Some(inverse) = &inverse {
         set_envelope(model, &pose, inverse, &sol, &mut out);
     }
