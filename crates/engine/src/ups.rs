@@ -195,8 +195,16 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
             }
         }
     }
-    if let Some(unit) = pending.take() {
-        written(&mut stages, &mut done, write_unit(unit)?);
+    // Without shards the run is complete once its last unit is written: the search,
+    // which reads the samples the pass kept rather than the files, runs while it is
+    // (writing a part is partly serial: its file, its footer).
+    let early = opts.shard.is_none() && opts.search && pending.is_some();
+    let (last, searched) = rayon::join(
+        || pending.take().map(write_unit),
+        || early.then(|| searches(job, &variants, &groups, &models, &known)),
+    );
+    if let Some(last) = last {
+        written(&mut stages, &mut done, last?);
     }
     progress.finish();
     let syncing = Instant::now();
@@ -207,15 +215,59 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
         let known = opts.search.then_some(&known);
-        finalize(layout, job, &variants, &groups, &models, &all, &durable, known, &mut stages)?;
+        let mut found = match searched {
+            Some((found, seconds)) => {
+                stages.search += seconds;
+                found
+            }
+            None => Default::default(),
+        };
+        finalize(layout, job, &variants, &groups, &models, &all, &durable, known, &mut found, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
 }
 
+/// The switches of each (group, mode), keyed so: every group searched once, as
+/// [`finalize`] would search it; and the seconds it took.
+fn searches(
+    job: &JobSpec,
+    variants: &[Variant],
+    groups: &[Group],
+    models: &[(UpsModel, SampleSource)],
+    known: &KnownSamples,
+) -> (Found, f64) {
+    let searching = Instant::now();
+    let mut found = Found::new();
+    for g in 0..groups.len() {
+        for &mode in &job.analysis.modes {
+            found.insert((g, mode), search_group(variants, groups, models, g, mode, known));
+        }
+    }
+    (found, searching.elapsed().as_secs_f64())
+}
+
+/// The switches of group `g` in `mode`, searched with its first member's job and the
+/// group's magnitudes.
+fn search_group(
+    variants: &[Variant],
+    groups: &[Group],
+    models: &[(UpsModel, SampleSource)],
+    g: usize,
+    mode: Mode,
+    known: &KnownSamples,
+) -> Vec<UpsSwitch> {
+    let (group, (model, source)) = (&groups[g], &models[g]);
+    let first = &variants[group.first() as usize];
+    search(&first.job, group.clearance, model, source, mode, known.get(g, mode))
+}
+
+/// The switches of each (group, mode) ([`searches`]).
+type Found = std::collections::HashMap<(usize, Mode), Vec<UpsSwitch>>;
+
 /// The summary and the discontinuities of a run whose units are all written. Each
-/// group is searched once (`models` are the groups') and its switches scaled to
-/// each member.
+/// group is searched once (`models` are the groups'; those `found_by_group` lacks) and its
+/// switches scaled to each member.
 #[allow(clippy::too_many_arguments)]
 fn finalize(
     layout: &Layout,
@@ -226,15 +278,15 @@ fn finalize(
     all: &[Unit],
     write_opts: &WriteOptions,
     known: Option<&KnownSamples>,
+    found_by_group: &mut Found,
     stages: &mut StageTimes,
 ) -> Result<()> {
     let mut summary = Vec::new();
     let mut switches = Vec::new();
-    let mut found_by_group = std::collections::HashMap::new();
     let member_of = membership(groups, variants.len());
     for variant in variants {
         let (g, m) = member_of[variant.index as usize];
-        let (group, (model, source)) = (&groups[g], &models[g]);
+        let group = &groups[g];
         for &mode in &job.analysis.modes {
             let mut stats = UpsStats::default();
             for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
@@ -242,10 +294,9 @@ fn finalize(
             }
             let found: &Vec<UpsSwitch> = found_by_group.entry((g, mode)).or_insert_with(|| {
                 let searching = Instant::now();
-                let first = &variants[group.first() as usize];
                 // `None`: the run does not search (`RunOptions::search`).
                 let found = match known {
-                    Some(known) => search(&first.job, group.clearance, model, source, mode, known.get(g, mode)),
+                    Some(known) => search_group(variants, groups, models, g, mode, known),
                     None => Vec::new(),
                 };
                 stages.search += searching.elapsed().as_secs_f64();
