@@ -191,8 +191,9 @@ fn output_directory_contract() {
 
 /// Resuming a run with another `--precision` or `--columns` than its part files were
 /// written with is refused (exit 2, the option and both values named, nothing
-/// written): the dataset's parts would not share a schema. With the run's own
-/// options it finishes, the part it lacked written as the others were.
+/// written), also when its first part is torn: the dataset's parts would not share a
+/// schema. With the run's own options it finishes, the parts it lacked written as the
+/// others were.
 #[test]
 fn resume_with_other_columns_or_precision_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -205,6 +206,10 @@ fn resume_with_other_columns_or_precision_is_refused() {
     let kept = std::fs::read(&lost).unwrap();
     std::fs::remove_file(&lost).unwrap();
     std::fs::remove_file(out.join("_SUCCESS")).unwrap();
+    // The first part torn (a power cut): the next one still says how the run was written.
+    let first = out.join("poses/variant=0/part-kinetostatic-000000.parquet");
+    let whole = std::fs::read(&first).unwrap();
+    std::fs::write(&first, &whole[..whole.len() / 2]).unwrap();
     let listing = |dir: &Path| {
         let mut names: Vec<_> =
             walk(dir).into_iter().map(|p| (p.clone(), std::fs::metadata(&p).unwrap().modified().unwrap())).collect();
@@ -226,6 +231,7 @@ fn resume_with_other_columns_or_precision_is_refused() {
     let o = run(&["run", job, "--out", out_s, "-q", "--chunk-size", "100", "--resume", "--precision", "single"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(std::fs::read(&lost).unwrap() == kept, "the lost part written again as before");
+    assert!(std::fs::read(&first).unwrap() == whole, "the torn part written again as before");
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {

@@ -324,27 +324,29 @@ fn columns_name(opts: &RunOptions) -> &'static str {
 }
 
 /// Refuses to resume (or add a shard to) a run whose part files were written with
-/// another `--columns` or `--precision` than `opts` asks for, as one of them says
-/// (`clearance.columns`, `clearance.precision`; a part without the key is not held to
-/// it, one without `clearance.precision` is double): the dataset's parts would not
-/// share a schema. A run without part files (`--columns none`, or none written yet)
-/// has nothing to hold.
+/// another `--columns` or `--precision` than `opts` asks for, as the first readable one
+/// says (`clearance.columns`, `clearance.precision`; a part without the key is not held
+/// to it, one without `clearance.precision` is double): the dataset's parts would not
+/// share a schema. A run without readable part files (`--columns none`, none written
+/// yet, or only torn ones, which `--resume` computes again) has nothing to hold.
 fn same_part_options(layout: &Layout, opts: &RunOptions) -> Result<()> {
-    fn first_part(dir: &Path) -> Option<PathBuf> {
+    /// The first part below `dir` (in name order) whose footer can be read, and its
+    /// key-value metadata.
+    fn first_readable(dir: &Path) -> Option<Vec<(String, String)>> {
         let mut entries: Vec<_> = std::fs::read_dir(dir).ok()?.filter_map(|e| e.ok()).map(|e| e.path()).collect();
         entries.sort();
         entries.into_iter().find_map(|path| {
             let name = path.file_name()?.to_string_lossy().into_owned();
             if path.is_dir() {
-                first_part(&path)
+                first_readable(&path)
+            } else if name.starts_with("part-") && name.ends_with(".parquet") {
+                clearance_parquet::key_values(&path)
             } else {
-                (name.starts_with("part-") && name.ends_with(".parquet")).then_some(path)
+                None
             }
         })
     }
-    let Some(part) = first_part(&layout.root().join("poses")) else { return Ok(()) };
-    // A part that cannot be read is not complete: `--resume` computes it again.
-    let Some(kv) = clearance_parquet::key_values(&part) else { return Ok(()) };
+    let Some(kv) = first_readable(&layout.root().join("poses")) else { return Ok(()) };
     let value = |key: &str| kv.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone());
     let held = [
         ("--columns", value("clearance.columns"), columns_name(opts)),
