@@ -116,9 +116,9 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     let mut stages = StageTimes::default();
     let mut known = KnownSamples::default();
     // A unit's part file and statistics, written by `write_unit` (which returns its
-    // poses and the seconds it took, for `written`): the last unit of each work item is written while the pool
-    // solves the next item's poses, so that writing a part, partly serial (the file,
-    // its footer), does not leave cores idle.
+    // poses and the seconds it took, for `written`): the last unit of each work item
+    // is written while the pool solves the next item's poses, so that writing a part,
+    // partly serial (the file, its footer), does not leave cores idle.
     struct Written {
         part: std::path::PathBuf,
         stats_path: std::path::PathBuf,
@@ -214,22 +214,20 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
     if complete {
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        let known = opts.search.then_some(&known);
-        let mut found = match searched {
-            Some((found, seconds)) => {
-                stages.search += seconds;
-                found
-            }
-            None => Default::default(),
-        };
-        finalize(layout, job, &variants, &groups, &models, &all, &durable, known, &mut found, &mut stages)?;
+        // Searched here where it did not run beside the last write (shards, resumed
+        // runs with nothing left to compute); not at all without `RunOptions::search`.
+        let (found, seconds) = searched.unwrap_or_else(|| {
+            if opts.search { searches(job, &variants, &groups, &models, &known) } else { (Found::new(), 0.0) }
+        });
+        stages.search += seconds;
+        finalize(layout, job, &variants, &groups, &all, &durable, &found, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
 }
 
-/// The switches of each (group, mode), keyed so: every group searched once, as
-/// [`finalize`] would search it; and the seconds it took.
+/// The switches of each (group, mode), keyed so: every group searched once, with its
+/// first member's job and the group's magnitudes; and the seconds it took.
 fn searches(
     job: &JobSpec,
     variants: &[Variant],
@@ -239,46 +237,30 @@ fn searches(
 ) -> (Found, f64) {
     let searching = Instant::now();
     let mut found = Found::new();
-    for g in 0..groups.len() {
+    for (g, (group, (model, source))) in groups.iter().zip(models).enumerate() {
+        let first = &variants[group.first() as usize];
         for &mode in &job.analysis.modes {
-            found.insert((g, mode), search_group(variants, groups, models, g, mode, known));
+            found.insert((g, mode), search(&first.job, group.clearance, model, source, mode, known.get(g, mode)));
         }
     }
     (found, searching.elapsed().as_secs_f64())
 }
 
-/// The switches of group `g` in `mode`, searched with its first member's job and the
-/// group's magnitudes.
-fn search_group(
-    variants: &[Variant],
-    groups: &[Group],
-    models: &[(UpsModel, SampleSource)],
-    g: usize,
-    mode: Mode,
-    known: &KnownSamples,
-) -> Vec<UpsSwitch> {
-    let (group, (model, source)) = (&groups[g], &models[g]);
-    let first = &variants[group.first() as usize];
-    search(&first.job, group.clearance, model, source, mode, known.get(g, mode))
-}
-
 /// The switches of each (group, mode) ([`searches`]).
 type Found = std::collections::HashMap<(usize, Mode), Vec<UpsSwitch>>;
 
-/// The summary and the discontinuities of a run whose units are all written. Each
-/// group is searched once (`models` are the groups'; those `found_by_group` lacks) and its
-/// switches scaled to each member.
+/// The summary and the discontinuities of a run whose units are all written: each
+/// group's switches (`found`, [`searches`]; none where a group is missing) scaled to
+/// each member.
 #[allow(clippy::too_many_arguments)]
 fn finalize(
     layout: &Layout,
     job: &JobSpec,
     variants: &[Variant],
     groups: &[Group],
-    models: &[(UpsModel, SampleSource)],
     all: &[Unit],
     write_opts: &WriteOptions,
-    known: Option<&KnownSamples>,
-    found_by_group: &mut Found,
+    found: &Found,
     stages: &mut StageTimes,
 ) -> Result<()> {
     let mut summary = Vec::new();
@@ -292,16 +274,7 @@ fn finalize(
             for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
                 stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
             }
-            let found: &Vec<UpsSwitch> = found_by_group.entry((g, mode)).or_insert_with(|| {
-                let searching = Instant::now();
-                // `None`: the run does not search (`RunOptions::search`).
-                let found = match known {
-                    Some(known) => search_group(variants, groups, models, g, mode, known),
-                    None => Vec::new(),
-                };
-                stages.search += searching.elapsed().as_secs_f64();
-                found
-            });
+            let found = found.get(&(g, mode)).map_or(&[][..], Vec::as_slice);
             // The member's kinds, jumps scaled (`UpsSwitch::kind` is s_radial or u_radial).
             let scale = group.scales[m];
             let found: Vec<UpsSwitch> = found

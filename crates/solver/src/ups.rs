@@ -473,13 +473,12 @@ pub fn solve_ups_leg_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws:
     if !conditioned {
         return out;
     }
-    if model.assembly.reduced_reactions_into(&ws.posed, inverse.as_ref(), &mut ws.sol) {
-        ws.sol.status = Status::Ok;
-    } else {
+    let loaded = model.assembly.reduced_reactions_into(&ws.posed, inverse.as_ref(), &mut ws.sol) || {
         ws.sol = model.assembly.solve_loads(&ws.posed, &mut ws.data);
-    }
-    if ws.sol.status != Status::NearSingular {
-        out.status = if ws.sol.status == Status::IndeterminateContact { Status::Ok } else { ws.sol.status };
+        ws.sol.status != Status::NearSingular
+    };
+    if loaded {
+        out.status = Status::Ok;
         out.f_s = std::array::from_fn(|i| ws.sol.f_s[i]);
         out.f_u = std::array::from_fn(|i| ws.sol.f_b[i]);
     }
