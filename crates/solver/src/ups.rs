@@ -637,8 +637,10 @@ fn inverse6(g: &SMatrix<f64, 6, 6>) -> Option<SMatrix<f64, 6, 6>> {
         for (r, row) in m.iter_mut().enumerate() {
             if r != col {
                 let f = row[col];
+                // Columns up to `col` are never read again (the pivots to come are
+                // further right, the inverse is the right half): left as they are.
                 if f != 0.0 {
-                    for c in 0..12 {
+                    for c in col + 1..12 {
                         row[c] -= f * pivot_row[c];
                     }
                 }
