@@ -1,6 +1,6 @@
 //! A 6-UPS run (docs/model.md §10.3): the same plan, directory, shards and resume as
 //! the 3-limb kinds ([`run`](crate::run())), with the six-input samples, the
-//! legs-eliminated 6 × 6 solve of [`solve_ups_par`] and the kind's own tables.
+//! legs-eliminated 6 × 6 solve of [`solve_ups_pose`] and the kind's own tables.
 //!
 //! A unit (variant, mode, chunk) is solved whole on the pool and written as one part
 //! file with its statistics beside it. When every unit is in, the discontinuity
@@ -26,7 +26,7 @@ use clearance_parquet::{
 };
 use clearance_solver::Status;
 use clearance_solver::ups::{
-    UpsLoads, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_errors, solve_ups_leg_loads, solve_ups_par,
+    UpsLoads, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_errors, solve_ups_leg_loads, solve_ups_pose,
 };
 use rayon::prelude::*;
 
@@ -46,8 +46,13 @@ const BLOCK: usize = 64;
 /// The samples `range` of a 6-UPS source: their rows (identity and inputs) and the
 /// solver's samples (inputs with rates).
 fn samples(source: &SampleSource, range: std::ops::Range<u64>) -> (Vec<UpsRow>, Vec<UpsSample>) {
-    range
-        .map(|i| {
+    // On the pool: a unit's samples are some 13 MB, serial time the other cores spent idle.
+    let first = range.start;
+    (0..(range.end - first) as usize)
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|k| {
+            let i = first + k as u64;
             let (t, s) = source.sample6(i);
             (UpsRow { sample: i, t, inputs: s.map(|v| v[0]) }, s)
         })
@@ -56,8 +61,23 @@ fn samples(source: &SampleSource, range: std::ops::Range<u64>) -> (Vec<UpsRow>, 
 
 /// Solves `rows` of one mode on the current rayon pool.
 fn solve_rows(model: &UpsModel, samples: &[UpsSample], mode: Mode) -> Vec<UpsResult> {
-    let mut out = vec![UpsResult::default(); samples.len()];
-    solve_ups_par(model, samples, mode, BLOCK, &mut out);
+    solve_rows_into(model, samples, mode, Vec::new())
+}
+
+/// [`solve_rows`] into `out`, a vector of an earlier unit's results (every result is
+/// written again): a unit's results are some 80 MB, and fresh memory costs a page
+/// fault every 4 KiB.
+fn solve_rows_into(model: &UpsModel, samples: &[UpsSample], mode: Mode, mut out: Vec<UpsResult>) -> Vec<UpsResult> {
+    // Each result written once, in place, on the pool (the same results as
+    // `clearance_solver::ups::solve_ups_par`, which needs them initialised first: on one thread, a serial
+    // stretch of the run's first unit).
+    out.clear();
+    out.par_extend(
+        samples
+            .par_iter()
+            .with_min_len(BLOCK)
+            .map_init(|| UpsWorkspace::new(model), |ws, s| solve_ups_pose(model, s, mode, ws)),
+    );
     out
 }
 
@@ -144,6 +164,8 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         progress.advance(poses, *done);
     };
     let mut pending: Option<Written> = None;
+    // The results of the work item before, to solve the next one's into.
+    let mut spare: Vec<UpsResult> = Vec::new();
     for w in &todo_work {
         let u0 = &w.units[0];
         progress.stage(&format!("variant {} {}", u0.variant, u0.mode.name()));
@@ -151,7 +173,9 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         let (group, (model, source)) = (&groups[w.group], &models[w.group]);
         let (rows, samples) = samples(source, u0.range.clone());
         let earlier = pending.take();
-        let (solved, earlier) = rayon::join(|| solve_rows(model, &samples, u0.mode), || earlier.map(write_unit));
+        let reused = std::mem::take(&mut spare);
+        let (solved, earlier) =
+            rayon::join(|| solve_rows_into(model, &samples, u0.mode, reused), || earlier.map(write_unit));
         if let Some(earlier) = earlier {
             written(&mut stages, &mut done, earlier?);
         }
@@ -194,6 +218,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
                 pending = Some(unit);
             }
         }
+        spare = solved;
     }
     // Without shards the run is complete once its last unit is written: the search,
     // which reads the samples the pass kept rather than the files, runs while it is
@@ -270,9 +295,16 @@ fn finalize(
         let (g, m) = member_of[variant.index as usize];
         let group = &groups[g];
         for &mode in &job.analysis.modes {
+            // Read on the pool (each file is parsed, a serial stretch at the end of a
+            // run), merged in the units' order: the same sums.
+            let units: Vec<&Unit> = all.iter().filter(|u| u.variant == variant.index && u.mode == mode).collect();
+            let parts: Vec<UpsStats> = units
+                .par_iter()
+                .map(|u| read_stats(&layout.stats(u.variant, u.mode, u.chunk)))
+                .collect::<Result<_>>()?;
             let mut stats = UpsStats::default();
-            for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
-                stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
+            for part in &parts {
+                stats.merge(part);
             }
             let found = found.get(&(g, mode)).map_or(&[][..], Vec::as_slice);
             // The member's kinds, jumps scaled (`UpsSwitch::kind` is s_radial or u_radial).
@@ -431,19 +463,34 @@ impl KnownSamples {
         }
         if !self.tables.contains_key(&(group, mode)) {
             let entry = std::mem::size_of::<Option<Known>>() as u64;
-            let held: u64 = self.tables.values().map(|t| t.len() as u64 * entry).sum();
+            let held: u64 = self.tables.values().map(|t| t.capacity() as u64 * entry).sum();
             if held.saturating_add(len.saturating_mul(entry)) > SHARED_LOADS_BYTES {
                 self.refused.insert((group, mode));
                 return;
             }
-            self.tables.insert((group, mode), vec![None; len as usize]);
+            // Reserved, not filled: a table is some 500 bytes a sample, and filling it
+            // ahead on one thread was a serial stretch of the run (the memory's page
+            // faults); each unit's samples are appended on the pool as they come.
+            self.tables.insert((group, mode), Vec::with_capacity(len as usize));
         }
         let table = self.tables.get_mut(&(group, mode)).expect("inserted above");
-        table[first as usize..].par_iter_mut().zip(solved).for_each(|(slot, r)| {
-            *slot = Some(Known { loads: sample_loads(r), errors: [kind_error(r, 0), kind_error(r, 1)] });
-        });
+        let (first, end) = (first as usize, first as usize + solved.len());
+        let known =
+            |r: &UpsResult| Some(Known { loads: sample_loads(r), errors: [kind_error(r, 0), kind_error(r, 1)] });
+        if table.len() <= first {
+            // Samples before `first` that this run did not compute are unknown.
+            table.par_extend(rayon::iter::repeat_n(None, first - table.len()));
+            table.par_extend(solved.par_iter().map(known));
+        } else {
+            if table.len() < end {
+                table.par_extend(rayon::iter::repeat_n(None, end - table.len()));
+            }
+            table[first..end].par_iter_mut().zip(solved).for_each(|(slot, r)| *slot = known(r));
+        }
     }
 
+    /// The table of a group and mode: sample i at index i; samples past its end (or
+    /// `None` in it) were not computed by this run.
     fn get(&self, group: usize, mode: Mode) -> Option<&[Option<Known>]> {
         self.tables.get(&(group, mode)).map(Vec::as_slice)
     }
@@ -501,8 +548,8 @@ fn search(
     inputs.dedup();
     let fits = n.saturating_mul(std::mem::size_of::<SampleLoads>() as u64) <= SHARED_LOADS_BYTES;
     // What the pass kept of a sample, where it kept it.
-    let kept = |i: u64| known.and_then(|k| k[i as usize].as_ref());
-    let complete = known.is_some_and(|k| k.iter().all(Option::is_some));
+    let kept = |i: u64| known.and_then(|k| k.get(i as usize)?.as_ref());
+    let complete = known.is_some_and(|k| k.len() as u64 == n && k.iter().all(Option::is_some));
     let shared: Option<Vec<SampleLoads>> = (inputs.len() > 1 && fits && !complete).then(|| {
         (0..n)
             .into_par_iter()
