@@ -1060,9 +1060,12 @@ fn compute_pages<'a>(
         let first = range.start + pages[0].first() as u64;
         let spare = || ctx.spare.lock().expect("no panic while held").pop().unwrap_or_default();
         let codec = ctx.opts.compression;
+        // Without pose files the pages are filled (their rows' sample and status) but
+        // not encoded: nothing writes them.
+        let poses = ctx.opts.poses;
         let written: Vec<_> = if group.alone() {
             let page = pages.into_iter().next().expect("a page per unit");
-            vec![page.write(&mut buf, codec, spare(), |sink| {
+            let fill = |sink: &mut BlockSink<'_>| {
                 let mut all = Vec::with_capacity(PAGE_ROWS / BLOCK);
                 let blocks_of = page_traces.chunks_mut(BLOCK).zip(page_loads.chunks_mut(BLOCK));
                 for (b, (block_traces, block_loads)) in blocks_of.enumerate() {
@@ -1082,14 +1085,24 @@ fn compute_pages<'a>(
                     ));
                 }
                 all
-            })]
+            };
+            vec![if poses { page.write(&mut buf, codec, spare(), fill) } else { Ok(page.discard(&mut buf, fill)) }]
         } else {
             let rows = page_traces.len();
             let shared = solve_shared(&mut blocks, model, source, mode, first, page_traces, page_loads, page_sampled);
-            PageWriter::write_members(pages, &mut buf, codec, spare, |m, sink| {
+            let fill = |m: usize, sink: &mut BlockSink<'_>| {
                 let scale = &group.scales[group.member(work.units[m].variant)];
                 (0..rows).step_by(BLOCK).map(|row| shared.put(scale, sink, row..rows.min(row + BLOCK))).collect()
-            })
+            };
+            if poses {
+                PageWriter::write_members(pages, &mut buf, codec, spare, fill)
+            } else {
+                pages
+                    .into_iter()
+                    .enumerate()
+                    .map(|(m, page)| Ok(page.discard(&mut buf, |sink| fill(m, sink))))
+                    .collect()
+            }
         };
         ctx.put_worker((blocks, buf));
         written

@@ -1,7 +1,8 @@
 //! `--columns none` (`RunOptions::poses = false`): no pose file, and the same
 //! `summary.parquet` and `discontinuities.parquet` as a run with the standard
-//! columns, for a 3-limb grid (two writers, two parts), a 6-UPS grid and a custom
-//! mechanism; `--resume` of a finished run keeps everything.
+//! columns, for a 3-limb grid (two writers, two parts), a 3-limb clearance sweep
+//! (members sharing one solve), a 6-UPS grid and a custom mechanism; `--resume` of a
+//! finished run keeps everything.
 
 mod common;
 
@@ -11,6 +12,13 @@ const PRS: &str = "[clearance]\nr_axial = 1e-4\nr_radial = 1e-4\ns_radial = 5e-5
     [mass]\npoints = [ { mass = 30.0, at = [0.0, 0.0, 1.0] } ]\n\
     [grid]\nz = 2.05\npsi = { start = -0.5, stop = 0.5, n = 21 }\ntheta = { start = -0.5, stop = 0.5, n = 21 }\n\
     [[sweep]]\nparam = \"mass.platform\"\nvalues = [9.8, 30.0]\n";
+
+/// Masses crossed with `r_radial` magnitudes: groups of members that share a solve.
+const PRS_CLEARANCES: &str = "[clearance]\nr_axial = 1e-4\nr_radial = 1e-4\ns_radial = 5e-5\n\
+    [mass]\npoints = [ { mass = 30.0, at = [0.0, 0.0, 1.0] } ]\n\
+    [grid]\nz = 2.05\npsi = { start = -0.5, stop = 0.5, n = 21 }\ntheta = { start = -0.5, stop = 0.5, n = 21 }\n\
+    [[sweep]]\nparam = \"mass.platform\"\nvalues = [9.8, 30.0]\n\
+    [[sweep]]\nparam = \"clearance.r_radial\"\nvalues = [0.0, 1e-4, 3e-4]\n";
 
 const UPS: &str = "[mechanism]\nkind = \"6-UPS\"\n[mass]\npoints = [ { mass = 5.0, at = [0.05, 0.0, 0.3] } ]\n\
     [clearance]\ns_radial = 1e-4\nu_radial = 1e-4\n\
@@ -37,6 +45,7 @@ fn the_summary_and_the_switches_are_those_of_a_standard_run() {
     for (text, writer, chunk) in [
         (PRS, Writer::Engine, 200),
         (PRS, Writer::Arrow, 65536),
+        (PRS_CLEARANCES, Writer::Engine, 150),
         (UPS, Writer::Engine, 65536),
         (&custom, Writer::Engine, 40),
     ] {

@@ -639,6 +639,13 @@ impl<'a> PageWriter<'a> {
         Ok(result)
     }
 
+    /// Lets `fill` put every row of the page, as [`PageWriter::write`] does, and
+    /// encodes nothing: for a run without pose files, whose rows give only their
+    /// sample, status and statistics. The part's page stays unwritten (`None`).
+    pub fn discard<R>(self, buf: &mut PageBuffer, fill: impl FnOnce(&mut BlockSink<'_>) -> R) -> R {
+        self.fill(buf, fill).3
+    }
+
     /// [`PageWriter::write`] for the same page of each member of a group (the same
     /// rows, `fill(m, sink)` putting member m's), each encoded into a buffer from
     /// `bytes`. The first member's page is encoded whole; of each other member's, a
