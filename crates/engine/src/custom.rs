@@ -219,6 +219,20 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
     // a (variant, mode) is computed here and the table fits (else the search solves them).
     let mut tables: HashMap<(u64, Mode), Vec<Option<Sampled>>> = HashMap::new();
     let mut kept = 0u64;
+    // A unit's part file, written by `write_part` (which returns the seconds it took)
+    // while the pool solves the next unit, and the run's last part while the search
+    // runs: writing a part is partly serial (its file, its footer).
+    struct Pending {
+        part: std::path::PathBuf,
+        batch: RecordBatch,
+        meta: Vec<(String, String)>,
+    }
+    let write_part = |p: Pending| -> Result<f64> {
+        let writing = Instant::now();
+        crate::run::write_part_batch(opts.writer, opts.precision, &p.part, &p.batch, &write_opts, &p.meta)?;
+        Ok(writing.elapsed().as_secs_f64())
+    };
+    let mut pending: Option<Pending> = None;
     for w in &todo_work {
         // The units of a work are the members of one clearance sweep (or one variant)
         // for one (mode, part): their poses' kinematics and reactions are shared.
@@ -226,28 +240,45 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
         progress.stage(&format!("variant {} {}", first.variant, first.mode.name()));
         let pose_pass = Instant::now();
         let members: Vec<&CustomModel> = w.units.iter().map(|u| &models[u.variant as usize]).collect();
-        let (rows, shared) =
-            solve_members(&members, Samples::Job(&sources[first.variant as usize]), first.range.clone(), first.mode);
+        let source = Samples::Job(&sources[first.variant as usize]);
+        let earlier = pending.take();
+        let ((rows, shared), written) = rayon::join(
+            || solve_members(&members, source, first.range.clone(), first.mode),
+            || earlier.map(write_part),
+        );
+        if let Some(seconds) = written {
+            stages.writing += seconds?;
+        }
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
         for (u, results) in w.units.iter().zip(shared) {
             let v = u.variant as usize;
             let pose_pass = Instant::now();
-            let batch = opts.poses.then(|| schemas[v].batch(u.mode, &rows, &results));
-            let mut stats = CustomStats::new(models[v].kinds.len(), models[v].groups.len());
-            for r in &results {
-                stats.push(r);
-            }
             let bytes = sources[v].len().saturating_mul(table_entry(&models[v]));
             if opts.search && !tables.contains_key(&(u.variant, u.mode)) && kept.saturating_add(bytes) <= SHARED_BYTES {
                 kept += bytes;
                 tables.insert((u.variant, u.mode), (0..sources[v].len()).map(|_| None).collect());
             }
-            if let Some(table) = tables.get_mut(&(u.variant, u.mode)) {
-                for (i, r) in u.range.clone().zip(&results) {
-                    table[i as usize] = Some(Sampled::of(&models[v], r));
-                }
-            }
-            stats.flush();
+            // The statistics and the search's table on this thread while the pool
+            // builds the columns.
+            let table = tables.get_mut(&(u.variant, u.mode));
+            let (batch, stats) = rayon::join(
+                || opts.poses.then(|| schemas[v].batch(u.mode, &rows, &results)),
+                || {
+                    let mut stats = CustomStats::new(models[v].kinds.len(), models[v].groups.len());
+                    for r in &results {
+                        stats.push(r);
+                    }
+                    stats.flush();
+                    if let Some(table) = table {
+                        for (i, r) in u.range.clone().zip(&results) {
+                            table[i as usize] = Some(Sampled::of(&models[v], r));
+                        }
+                    }
+                    stats
+                },
+            );
+            // Each result holds a few vectors: freed on the pool, not on this thread.
+            results.into_par_iter().with_min_len(RUN as usize).for_each(drop);
             stages.pose_pass += pose_pass.elapsed().as_secs_f64();
             let writing = Instant::now();
             let (part, stats_path) =
@@ -256,14 +287,29 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
                 std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
             }
             write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
-            let meta = part_metadata(&variants[v]);
-            if let Some(batch) = batch {
-                crate::run::write_part_batch(opts.writer, opts.precision, &part, &batch, &write_opts, &meta)?;
-            }
             stages.writing += writing.elapsed().as_secs_f64();
+            let next = batch.map(|batch| Pending { part, batch, meta: part_metadata(&variants[v]) });
+            if let Some(p) = std::mem::replace(&mut pending, next) {
+                stages.writing += write_part(p)?;
+            }
             done += u.range.end - u.range.start;
             progress.advance(u.range.end - u.range.start, done);
         }
+    }
+    // Without shards the run is complete once its last part is written: the search,
+    // which reads the tables the pass kept (or solves), runs while it is.
+    let tables: HashMap<(u64, Mode), Vec<Sampled>> = tables
+        .into_iter()
+        .filter_map(|(key, t)| t.into_iter().collect::<Option<Vec<Sampled>>>().map(|t| (key, t)))
+        .collect();
+    let early = opts.shard.is_none() && opts.search && pending.is_some();
+    let mut tables = Some(tables);
+    let (last, searched) = rayon::join(
+        || pending.take().map(write_part),
+        || early.then(|| searches(job, &variants, &groups, &models, &sources, tables.take().unwrap_or_default())),
+    );
+    if let Some(seconds) = last {
+        stages.writing += seconds?;
     }
     progress.finish();
     let syncing = Instant::now();
@@ -273,48 +319,60 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
     if complete {
         progress.searching();
         let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        let tables: HashMap<(u64, Mode), Vec<Sampled>> = tables
-            .into_iter()
-            .filter_map(|(key, t)| t.into_iter().collect::<Option<Vec<Sampled>>>().map(|t| (key, t)))
-            .collect();
-        finalize(layout, job, &variants, &groups, &models, &sources, &all, &durable, opts.search, tables, &mut stages)?;
+        // Searched here where it did not run beside the last write (shards, resumed runs
+        // with nothing left to compute); not at all without `RunOptions::search`.
+        let (found, seconds) = searched.unwrap_or_else(|| {
+            if opts.search {
+                searches(job, &variants, &groups, &models, &sources, tables.take().unwrap_or_default())
+            } else {
+                (HashMap::new(), 0.0)
+            }
+        });
+        stages.search += seconds;
+        finalize(layout, job, &variants, &models, &all, &durable, found, &mut stages)?;
         write_marker(&layout.success())?;
     }
     Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
 }
 
-/// The summary and the discontinuities of a run whose units are all written.
-#[allow(clippy::too_many_arguments)]
-fn finalize(
-    layout: &Layout,
+/// The switches of each (variant, mode), searched group by group, and the seconds it took.
+fn searches(
     job: &JobSpec,
     variants: &[Variant],
     groups: &[Group],
     models: &[CustomModel],
     sources: &[SampleSource],
-    all: &[Unit],
-    write_opts: &WriteOptions,
-    search_on: bool,
     mut tables: HashMap<(u64, Mode), Vec<Sampled>>,
-    stages: &mut StageTimes,
-) -> Result<()> {
-    // The switches of each (variant, mode), searched group by group.
-    let mut found: HashMap<(u64, Mode), Vec<CustomSwitch>> = HashMap::new();
-    if search_on {
-        for group in groups {
-            let first = group.first() as usize;
-            let members: Vec<&CustomModel> = group.members.iter().map(|&v| &models[v as usize]).collect();
-            for &mode in &job.analysis.modes {
-                let searching = Instant::now();
-                let kept = group.members.iter().map(|&v| tables.remove(&(v, mode))).collect();
-                let per_member = search(&variants[first].job, &members, &sources[first], mode, kept);
-                stages.search += searching.elapsed().as_secs_f64();
-                for (&v, switches) in group.members.iter().zip(per_member) {
-                    found.insert((v, mode), switches);
-                }
+) -> (HashMap<(u64, Mode), Vec<CustomSwitch>>, f64) {
+    let searching = Instant::now();
+    let mut found = HashMap::new();
+    for group in groups {
+        let first = group.first() as usize;
+        let members: Vec<&CustomModel> = group.members.iter().map(|&v| &models[v as usize]).collect();
+        for &mode in &job.analysis.modes {
+            let kept = group.members.iter().map(|&v| tables.remove(&(v, mode))).collect();
+            let per_member = search(&variants[first].job, &members, &sources[first], mode, kept);
+            for (&v, switches) in group.members.iter().zip(per_member) {
+                found.insert((v, mode), switches);
             }
         }
     }
+    (found, searching.elapsed().as_secs_f64())
+}
+
+/// The summary and the discontinuities of a run whose units are all written, with the
+/// switches `found` ([`searches`]; none where a variant is missing).
+#[allow(clippy::too_many_arguments)]
+fn finalize(
+    layout: &Layout,
+    job: &JobSpec,
+    variants: &[Variant],
+    models: &[CustomModel],
+    all: &[Unit],
+    write_opts: &WriteOptions,
+    mut found: HashMap<(u64, Mode), Vec<CustomSwitch>>,
+    stages: &mut StageTimes,
+) -> Result<()> {
     let mut summary = Vec::new();
     let mut switches = Vec::new();
     for variant in variants {
