@@ -1,6 +1,6 @@
 //! A 6-UPS run (docs/model.md §10.3): the same plan, directory, shards and resume as
 //! the 3-limb kinds ([`run`](crate::run())), with the six-input samples, the
-//! legs-eliminated 6 × 6 solve of [`solve_ups_pose`] and the kind's own tables.
+//! legs-eliminated 6 × 6 solve of [`solve_ups_par`] and the kind's own tables.
 //!
 //! A unit (variant, mode, chunk) is solved whole on the pool and written as one part
 //! file with its statistics beside it. When every unit is in, the discontinuity
@@ -26,7 +26,7 @@ use clearance_parquet::{
 };
 use clearance_solver::Status;
 use clearance_solver::ups::{
-    UpsLoads, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_errors, solve_ups_leg_loads, solve_ups_pose,
+    UpsLoads, UpsModel, UpsResult, UpsSample, UpsWorkspace, solve_ups_errors, solve_ups_leg_loads, solve_ups_par,
 };
 use rayon::prelude::*;
 
@@ -59,25 +59,11 @@ fn samples(source: &SampleSource, range: std::ops::Range<u64>) -> (Vec<UpsRow>, 
         .unzip()
 }
 
-/// Solves `rows` of one mode on the current rayon pool.
-fn solve_rows(model: &UpsModel, samples: &[UpsSample], mode: Mode) -> Vec<UpsResult> {
-    solve_rows_into(model, samples, mode, Vec::new())
-}
-
-/// [`solve_rows`] into `out`, a vector of an earlier unit's results (every result is
-/// written again): a unit's results are some 80 MB, and fresh memory costs a page
-/// fault every 4 KiB.
-fn solve_rows_into(model: &UpsModel, samples: &[UpsSample], mode: Mode, mut out: Vec<UpsResult>) -> Vec<UpsResult> {
-    // Each result written once, in place, on the pool (the same results as
-    // `clearance_solver::ups::solve_ups_par`, which needs them initialised first: on one thread, a serial
-    // stretch of the run's first unit).
-    out.clear();
-    out.par_extend(
-        samples
-            .par_iter()
-            .with_min_len(BLOCK)
-            .map_init(|| UpsWorkspace::new(model), |ws, s| solve_ups_pose(model, s, mode, ws)),
-    );
+/// Solves `rows` of one mode on the current rayon pool, into `out`, a vector of an
+/// earlier unit's results (every result is written again): a unit's results are some
+/// 80 MB, and fresh memory costs a page fault every 4 KiB.
+fn solve_rows(model: &UpsModel, samples: &[UpsSample], mode: Mode, mut out: Vec<UpsResult>) -> Vec<UpsResult> {
+    solve_ups_par(model, samples, mode, BLOCK, &mut out);
     out
 }
 
@@ -97,7 +83,7 @@ pub(crate) fn solve_ups(
         let source = SampleSource::new(&v.job);
         let (rows, samples) = samples(&source, range.clone().unwrap_or(0..source.len()));
         for &mode in &v.job.analysis.modes {
-            let batch = schema.batch(mode, &rows, &solve_rows(&model, &samples, mode));
+            let batch = schema.batch(mode, &rows, &solve_rows(&model, &samples, mode, Vec::new()));
             out.push(crate::solve::with_variant(&batch, v.index));
         }
     }
@@ -175,7 +161,7 @@ pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Resul
         let earlier = pending.take();
         let reused = std::mem::take(&mut spare);
         let (solved, earlier) =
-            rayon::join(|| solve_rows_into(model, &samples, u0.mode, reused), || earlier.map(write_unit));
+            rayon::join(|| solve_rows(model, &samples, u0.mode, reused), || earlier.map(write_unit));
         if let Some(earlier) = earlier {
             written(&mut stages, &mut done, earlier?);
         }
