@@ -25,7 +25,7 @@ fn dir_size(dir: &std::path::Path) -> u64 {
 }
 
 /// CPU seconds this process has used so far, user and system, every thread (the
-/// pool, the writer thread, the caller's); `None` where the system will not say.
+/// pool, the writer threads, the caller's); `None` where the system will not say.
 fn process_cpu_seconds() -> Option<f64> {
     // SAFETY: `getrusage` only writes the `rusage` it is given, which is plain data.
     let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
@@ -592,7 +592,7 @@ struct Scaled {
 }
 
 /// The kernel and end-to-end rates at each thread count, side by side, on a pool of
-/// that many threads each (the run's writer thread comes on top), with where the
+/// that many threads each (the run's writer threads come on top), with where the
 /// end-to-end run's time went.
 pub fn scaling(o: &ScalingOptions) -> Result<()> {
     let job = match &o.job {
@@ -734,7 +734,7 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
     }
     println!(
         "(the kernel does what the column set needs, the envelope and the dominant joint but for minimal, without I/O; \
-         stage shares are busy time over the run's wall time, and overlap: the writer thread works beside the pool)"
+         stage shares are busy time over the run's wall time, and overlap: the writer threads work beside the pool)"
     );
     Ok(())
 }

@@ -142,8 +142,13 @@ fn with_small_fs(name: &str, size: &str, test: impl FnOnce(&SmallFs)) {
 }
 
 fn run(job: &Path, out: &Path, extra: &[&str]) -> Output {
+    run_threads(job, out, 2, extra)
+}
+
+fn run_threads(job: &Path, out: &Path, threads: usize, extra: &[&str]) -> Output {
     bin()
-        .args(["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q", "--threads", "2"])
+        .args(["run", job.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"])
+        .args(["--threads", &threads.to_string()])
         .args(["--chunk-size", &CHUNK.to_string()])
         .args(extra)
         .output()
@@ -229,6 +234,26 @@ fn assert_failed_cleanly(o: &Output, out: &Path, failed: &str) {
     }
     let status = bin().arg("status").arg(out).output().unwrap();
     assert_eq!(status.status.code(), Some(1), "`clearance status` calls a failed run complete");
+}
+
+/// With 16 threads four writer threads write parts at once: the disk fills under
+/// one of them, every writer stops, and the run fails as with one writer (one
+/// message, nothing incomplete under a final name) instead of hanging on a send.
+#[test]
+fn a_full_disk_stops_every_writer() {
+    with_small_fs("a_full_disk_stops_every_writer", "2m", |fs| {
+        let job = fs.path().join("job.toml");
+        std::fs::write(&job, JOB).unwrap();
+        let out = fs.path().join("out");
+        let o = run_threads(&job, &out, 16, &[]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let failed = (0..PARTS)
+            .flat_map(|k| [stats_name(k), trace_name(k), part_name(k)])
+            .find(|name| err.contains(&out.join(name).display().to_string()))
+            .unwrap_or_else(|| panic!("the message names no part, statistics or trace file: {err}"));
+        assert_failed_cleanly(&o, &out, &failed);
+        assert!(!out.join(part_name(PARTS - 1)).exists());
+    });
 }
 
 /// A 2 MiB disk fills a few parts into the run; once it is bigger, `--resume`

@@ -262,6 +262,12 @@ fn same_data_for_any_threads_chunks_shards_and_resume() {
     let m = multi.to_str().unwrap();
     assert!(run(&["run", j, "--out", m, "--threads", "2", "--chunk-size", "17", "-q"]).status.success());
     assert_eq!(read_rows(&multi), want, "2 threads and 17-sample chunks");
+    // 12 threads write with 3 writer threads, which finish parts in any order.
+    let writers = dir.path().join("writers");
+    let w = writers.to_str().unwrap();
+    assert!(run(&["run", j, "--out", w, "--threads", "12", "--chunk-size", "17", "-q"]).status.success());
+    assert_eq!(read_rows(&writers), want, "12 threads (3 writers) and 17-sample chunks");
+    assert_eq!(read_switches(&writers), read_switches(&reference), "switches with 3 writers");
 
     let sharded = dir.path().join("sharded");
     let s = sharded.to_str().unwrap();

@@ -101,11 +101,12 @@ pub struct StageTimes {
     /// the first batch of the grid lines or path they complete to the end of the last
     /// ([`run`]); the search at the end of a sharded, resumed or very long run.
     pub search: f64,
-    /// The writer thread (part files, statistics and trace files; with
-    /// [`Writer::Arrow`] the part's encoding too), `discontinuities.parquet` and
-    /// `summary.parquet`, and the sync of every file before `_SUCCESS`. The last two
-    /// may be written while the writer thread finishes the last part, so this busy
-    /// time can exceed the run's wall time (at most twice it).
+    /// The writer threads (part files, statistics and trace files; with
+    /// [`Writer::Arrow`] the part's encoding too; their mean busy time, when there
+    /// are several), `discontinuities.parquet` and `summary.parquet`, and the sync
+    /// of every file before `_SUCCESS`. The last two may be written while the
+    /// writers finish the last parts, so this busy time can exceed the run's wall
+    /// time (at most twice it).
     pub writing: f64,
     /// The step that finishes the run once every part is in, on its own: the search
     /// of whatever was not searched as it was computed (everything, after a resumed
@@ -919,9 +920,21 @@ struct Buffers {
 impl Buffers {
     /// Sized for `n` poses; `sampled` only where the run's search reads them (else
     /// empty, and never written).
+    ///
+    /// New rows are filled on the pool: a unit's are tens of megabytes, and filled
+    /// on one thread (its pages touched for the first time) they left the others
+    /// idle at the start of a run for as long as the pool took to solve a tenth of
+    /// the unit.
     fn sized(mut self, n: usize, sampled: bool) -> Self {
-        self.loads.resize(n, Loads::default());
-        self.sampled.resize(if sampled { n } else { 0 }, Sampled::default());
+        fn sized<T: Default + Clone + Send + Sync>(v: &mut Vec<T>, n: usize) {
+            v.truncate(n);
+            if v.len() < n {
+                v.reserve_exact(n - v.len());
+                v.par_extend(rayon::iter::repeat_n(T::default(), n - v.len()).with_min_len(4096));
+            }
+        }
+        sized(&mut self.loads, n);
+        sized(&mut self.sampled, if sampled { n } else { 0 });
         self
     }
 }
@@ -1440,6 +1453,17 @@ pub(crate) fn write_part_batch(
     Ok(())
 }
 
+/// The threads that write a 3-limb run's part files beside the pool: one for up to
+/// four pool threads, one more for each four more, at most four
+/// (`CLEARANCE_WRITERS` overrides it, for measurements).
+fn writer_threads() -> usize {
+    std::env::var("CLEARANCE_WRITERS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or_else(|| rayon::current_num_threads().div_ceil(4).clamp(1, 4))
+}
+
 /// Runs `job` (read from `job_file`, named in messages) into `opts.out`, computing
 /// the units of `opts.shard` on the current rayon pool.
 pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
@@ -1492,39 +1516,63 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     // The run's own files are on the disk before `_SUCCESS`: synced with the parts
     // when written before them, else as they are written.
     let durable = WriteOptions { durable: true, ..write_opts.clone() };
+    // After a writer's failure every writer stops; the receiver goes with the last,
+    // and the run's next send fails.
+    let failed = &std::sync::atomic::AtomicBool::new(false);
     let finalized = std::thread::scope(|scope| -> Result<bool> {
-        let (tx, rx) = sync_channel::<Part>(1);
+        // Writer threads take the parts in turn: one thread wrote every part, and
+        // with many threads it paced the run (issue 39: at 16 threads it was busy
+        // 80 % of the wall time, the pool half idle). Each holds at most one part,
+        // and the channel as many more, so memory stays bounded.
+        let writers = writer_threads();
+        let (tx, rx) = sync_channel::<Part>(writers);
+        let rx = std::sync::Arc::new(std::sync::Mutex::new(rx));
         let (schema, write_opts) = (&schema, &write_opts);
-        // Returns its busy seconds.
-        let writer = scope.spawn(move || -> Result<f64> {
-            let mut busy = 0.0;
-            for part in rx {
-                let start = Instant::now();
-                for dir in [part.path.parent().filter(|_| opts.poses), part.stats_path.parent()].into_iter().flatten() {
-                    std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
-                }
-                write_bytes(&part.trace_path, &encode_traces(&part.traces), write_opts)?;
-                write_bytes(
-                    &part.stats_path,
-                    &serde_json::to_vec(&part.stats).expect("statistics are plain numbers"),
-                    write_opts,
-                )?;
-                match part.body {
-                    Body::Pages(pages) => {
-                        if opts.poses {
-                            write_part(&part.path, schema, &pages, write_opts, &part.extra)?;
-                        }
-                        spare.lock().expect("no panic while held").extend(pages.into_buffers());
-                    }
-                    Body::Batch(batch) if opts.poses => {
-                        write_part_batch(opts.writer, opts.precision, &part.path, &batch, write_opts, &part.extra)?
-                    }
-                    Body::Batch(_) => {}
-                }
-                busy += start.elapsed().as_secs_f64();
+        let write = move |part: Part| -> Result<()> {
+            for dir in [part.path.parent().filter(|_| opts.poses), part.stats_path.parent()].into_iter().flatten() {
+                std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
             }
-            Ok(busy)
-        });
+            write_bytes(&part.trace_path, &encode_traces(&part.traces), write_opts)?;
+            write_bytes(
+                &part.stats_path,
+                &serde_json::to_vec(&part.stats).expect("statistics are plain numbers"),
+                write_opts,
+            )?;
+            match part.body {
+                Body::Pages(pages) => {
+                    if opts.poses {
+                        write_part(&part.path, schema, &pages, write_opts, &part.extra)?;
+                    }
+                    spare.lock().expect("no panic while held").extend(pages.into_buffers());
+                }
+                Body::Batch(batch) if opts.poses => {
+                    write_part_batch(opts.writer, opts.precision, &part.path, &batch, write_opts, &part.extra)?
+                }
+                Body::Batch(_) => {}
+            }
+            Ok(())
+        };
+        // Each returns its busy seconds.
+        let writer_handles: Vec<_> = (0..writers)
+            .map(|_| {
+                let rx = std::sync::Arc::clone(&rx);
+                scope.spawn(move || -> Result<f64> {
+                    let mut busy = 0.0;
+                    while !failed.load(std::sync::atomic::Ordering::Relaxed) {
+                        // The lock is let go before the part is written.
+                        let Ok(part) = rx.lock().expect("no panic while held").recv() else { break };
+                        let start = Instant::now();
+                        if let Err(e) = write(part) {
+                            failed.store(true, std::sync::atomic::Ordering::Relaxed);
+                            return Err(e);
+                        }
+                        busy += start.elapsed().as_secs_f64();
+                    }
+                    Ok(busy)
+                })
+            })
+            .collect();
+        drop(rx);
         let workers = &std::sync::Mutex::new(Vec::new());
         let ctx = Ctx {
             schema,
@@ -1635,7 +1683,10 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             done
         });
         // The writer's error first: a search over parts that failed to be written means nothing.
-        stages.writing += writer.join().expect("the writer thread does not panic")?;
+        let busy: Vec<Result<f64>> =
+            writer_handles.into_iter().map(|w| w.join().expect("a writer thread does not panic")).collect();
+        // The writers' mean busy time: the share of the wall time they were busy.
+        stages.writing += busy.into_iter().sum::<Result<f64>>()? / writers as f64;
         finalized.transpose().map(|f| f.is_some())
     })?;
     progress.finish();
