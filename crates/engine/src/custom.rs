@@ -1,6 +1,6 @@
 //! A custom mechanism's run (docs/model.md §12): the same plan, directory, shards and
-//! resume as the built-in kinds ([`run`](crate::run())), the mechanism's inputs as
-//! samples, [`solve_custom`] per pose, and tables built from the model
+//! resume as the built-in kinds ([`run`](crate::run())) and the 6-UPS's run loop
+//! ([`run_units`]), the mechanism's inputs as samples, [`solve_custom`] per pose, and tables built from the model
 //! ([`CustomSchema`]).
 //!
 //! The discontinuity search follows every grid line of every input, or the trajectory,
@@ -12,7 +12,6 @@
 //! platform are never searched.
 
 use std::collections::HashMap;
-use std::path::Path;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
@@ -23,7 +22,7 @@ use clearance_kinematics::custom::Configuration;
 use clearance_model::{JobError, JobSpec, Mode, Variant};
 use clearance_parquet::{
     ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
-    custom_discontinuity_batch, custom_summary_batch, write_bytes, write_parquet,
+    custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
 use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve_members_near};
 use rayon::prelude::*;
@@ -31,11 +30,9 @@ use rayon::prelude::*;
 use crate::error::EngineError;
 use crate::groups::Group;
 use crate::layout::Layout;
-use crate::run::{
-    RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
-    sync_units, write_marker,
-};
+use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_stats, unit_complete};
 use crate::solve::Poses;
+use crate::units::{UnitRun, run_units};
 use crate::ups::{UpsPath, ups_paths};
 
 /// The location tolerance of a scalar load's root, in the path parameter (sample steps).
@@ -189,150 +186,121 @@ pub(crate) fn solve_custom_job(
     Ok(out)
 }
 
-fn read_stats(path: &Path) -> Result<CustomStats> {
-    let text = std::fs::read(path).map_err(|source| EngineError::MissingStats { path: path.to_path_buf(), source })?;
-    serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
-}
-
-fn unit_complete(layout: &Layout, u: &Unit, poses: bool) -> bool {
-    (!poses || part_complete(&layout.part(u.variant, u.mode, u.chunk)))
-        && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
-}
-
 /// Runs a custom `job` into `opts.out` (see [`run`](crate::run())).
 pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
     // Every variant's description is checked before anything is written.
     let variants = job.variants(job_file)?;
     let models: Vec<CustomModel> = variants.iter().map(|v| model_of(&v.job, job_file)).collect::<Result<_, _>>()?;
-    let Setup { variants, groups, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
-        prepare_run(job, job_file, opts, unit_complete)?;
-    let layout = &layout;
-    let sources: Vec<SampleSource> = variants.iter().map(|v| SampleSource::new(&v.job)).collect();
-    let schemas: Vec<CustomSchema> =
-        models.iter().map(|m| CustomSchema::new(m, opts.columns, job.analysis.exact)).collect();
-    let progress = opts.progress.get();
-    progress.start(mine_poses, mine_poses - todo_poses);
-    let start = Instant::now();
-    let mut done = mine_poses - todo_poses;
-    let mut stages = StageTimes::default();
-    // What the search reads of each sample, kept from the pose pass where every unit of
-    // a (variant, mode) is computed here and the table fits (else the search solves them).
-    let mut tables: HashMap<(u64, Mode), Vec<Option<Sampled>>> = HashMap::new();
-    let mut kept = 0u64;
-    // A unit's part file, written by `write_part` (which returns the seconds it took)
-    // while the pool solves the next unit, and the run's last part while the search
-    // runs: writing a part is partly serial (its file, its footer).
-    struct Pending {
-        part: std::path::PathBuf,
-        batch: RecordBatch,
-        meta: Vec<(String, String)>,
-    }
-    let write_part = |p: Pending| -> Result<f64> {
-        let writing = Instant::now();
-        crate::run::write_part_batch(opts.writer, opts.precision, &p.part, &p.batch, &write_opts, &p.meta)?;
-        Ok(writing.elapsed().as_secs_f64())
+    let setup = prepare_run(job, job_file, opts, unit_complete::<CustomStats>)?;
+    let mut r = CustomRun {
+        job,
+        variants: &setup.variants,
+        groups: &setup.groups,
+        sources: setup.variants.iter().map(|v| SampleSource::new(&v.job)).collect(),
+        schemas: models.iter().map(|m| CustomSchema::new(m, opts.columns, job.analysis.exact)).collect(),
+        models,
+        search: opts.search,
+        tables: HashMap::new(),
+        kept: 0,
     };
-    let mut pending: Option<Pending> = None;
-    for w in &todo_work {
-        // The units of a work are the members of one clearance sweep (or one variant)
-        // for one (mode, part): their poses' kinematics and reactions are shared.
+    run_units(&mut r, opts, &setup)
+}
+
+/// A custom run's part in [`run_units`]: a work's units are the members of one
+/// clearance sweep (or one variant) for one (mode, part), whose poses' kinematics and
+/// reactions are solved once.
+struct CustomRun<'a> {
+    job: &'a JobSpec,
+    variants: &'a [Variant],
+    groups: &'a [Group],
+    /// Per variant.
+    models: Vec<CustomModel>,
+    sources: Vec<SampleSource>,
+    schemas: Vec<CustomSchema>,
+    search: bool,
+    /// What the search reads of each sample, kept from the pose pass where every unit
+    /// of a (variant, mode) is computed here and the table fits (else the search
+    /// solves them).
+    tables: HashMap<(u64, Mode), Vec<Option<Sampled>>>,
+    /// Bytes the tables take.
+    kept: u64,
+}
+
+impl UnitRun for CustomRun<'_> {
+    /// The work's rows and each member's results (taken out by its unit).
+    type Solved = (Vec<CustomRow>, Vec<Vec<CustomResult>>);
+    type Found = HashMap<(u64, Mode), Vec<CustomSwitch>>;
+
+    fn solve(&self, w: &Work, _spare: Option<Self::Solved>) -> Self::Solved {
         let first = &w.units[0];
-        progress.stage(&format!("variant {} {}", first.variant, first.mode.name()));
-        let pose_pass = Instant::now();
-        let members: Vec<&CustomModel> = w.units.iter().map(|u| &models[u.variant as usize]).collect();
-        let source = Samples::Job(&sources[first.variant as usize]);
-        let earlier = pending.take();
-        let ((rows, shared), written) = rayon::join(
-            || solve_members(&members, source, first.range.clone(), first.mode),
-            || earlier.map(write_part),
+        let members: Vec<&CustomModel> = w.units.iter().map(|u| &self.models[u.variant as usize]).collect();
+        let source = Samples::Job(&self.sources[first.variant as usize]);
+        solve_members(&members, source, first.range.clone(), first.mode)
+    }
+
+    fn unit(
+        &mut self,
+        w: &Work,
+        k: usize,
+        (rows, shared): &mut Self::Solved,
+        poses: bool,
+    ) -> (Option<RecordBatch>, Vec<u8>) {
+        let u = &w.units[k];
+        let v = u.variant as usize;
+        let results = std::mem::take(&mut shared[k]);
+        let bytes = self.sources[v].len().saturating_mul(table_entry(&self.models[v]));
+        if self.search
+            && !self.tables.contains_key(&(u.variant, u.mode))
+            && self.kept.saturating_add(bytes) <= SHARED_BYTES
+        {
+            self.kept += bytes;
+            self.tables.insert((u.variant, u.mode), (0..self.sources[v].len()).map(|_| None).collect());
+        }
+        // The statistics and the search's table on this thread while the pool builds
+        // the columns.
+        let (model, schema) = (&self.models[v], &self.schemas[v]);
+        let table = self.tables.get_mut(&(u.variant, u.mode));
+        let (batch, stats) = rayon::join(
+            || poses.then(|| schema.batch(u.mode, rows, &results)),
+            || {
+                let mut stats = CustomStats::new(model.kinds.len(), model.groups.len());
+                for r in &results {
+                    stats.push(r);
+                }
+                stats.flush();
+                if let Some(table) = table {
+                    for (i, r) in u.range.clone().zip(&results) {
+                        table[i as usize] = Some(Sampled::of(model, r));
+                    }
+                }
+                stats
+            },
         );
-        if let Some(seconds) = written {
-            stages.writing += seconds?;
-        }
-        stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-        for (u, results) in w.units.iter().zip(shared) {
-            let v = u.variant as usize;
-            let pose_pass = Instant::now();
-            let bytes = sources[v].len().saturating_mul(table_entry(&models[v]));
-            if opts.search && !tables.contains_key(&(u.variant, u.mode)) && kept.saturating_add(bytes) <= SHARED_BYTES {
-                kept += bytes;
-                tables.insert((u.variant, u.mode), (0..sources[v].len()).map(|_| None).collect());
-            }
-            // The statistics and the search's table on this thread while the pool
-            // builds the columns.
-            let table = tables.get_mut(&(u.variant, u.mode));
-            let (batch, stats) = rayon::join(
-                || opts.poses.then(|| schemas[v].batch(u.mode, &rows, &results)),
-                || {
-                    let mut stats = CustomStats::new(models[v].kinds.len(), models[v].groups.len());
-                    for r in &results {
-                        stats.push(r);
-                    }
-                    stats.flush();
-                    if let Some(table) = table {
-                        for (i, r) in u.range.clone().zip(&results) {
-                            table[i as usize] = Some(Sampled::of(&models[v], r));
-                        }
-                    }
-                    stats
-                },
-            );
-            // Each result holds a few vectors: freed on the pool, not on this thread.
-            results.into_par_iter().with_min_len(RUN as usize).for_each(drop);
-            stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-            let writing = Instant::now();
-            let (part, stats_path) =
-                (layout.part(u.variant, u.mode, u.chunk), layout.stats(u.variant, u.mode, u.chunk));
-            for dir in [part.parent().filter(|_| opts.poses), stats_path.parent()].into_iter().flatten() {
-                std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
-            }
-            write_bytes(&stats_path, &serde_json::to_vec(&stats).expect("statistics are plain numbers"), &write_opts)?;
-            stages.writing += writing.elapsed().as_secs_f64();
-            let next = batch.map(|batch| Pending { part, batch, meta: part_metadata(&variants[v]) });
-            if let Some(p) = std::mem::replace(&mut pending, next) {
-                stages.writing += write_part(p)?;
-            }
-            done += u.range.end - u.range.start;
-            progress.advance(u.range.end - u.range.start, done);
-        }
+        // Each result holds a few vectors: freed on the pool, not on this thread.
+        results.into_par_iter().with_min_len(RUN as usize).for_each(drop);
+        (batch, serde_json::to_vec(&stats).expect("statistics are plain numbers"))
     }
-    // Without shards the run is complete once its last part is written: the search,
-    // which reads the tables the pass kept (or solves), runs while it is.
-    let tables: HashMap<(u64, Mode), Vec<Sampled>> = tables
-        .into_iter()
-        .filter_map(|(key, t)| t.into_iter().collect::<Option<Vec<Sampled>>>().map(|t| (key, t)))
-        .collect();
-    let early = opts.shard.is_none() && opts.search && pending.is_some();
-    let mut tables = Some(tables);
-    let (last, searched) = rayon::join(
-        || pending.take().map(write_part),
-        || early.then(|| searches(job, &variants, &groups, &models, &sources, tables.take().unwrap_or_default())),
-    );
-    if let Some(seconds) = last {
-        stages.writing += seconds?;
+
+    fn searches(&mut self) -> (Self::Found, f64) {
+        // Only the complete tables: a table with samples this run did not compute
+        // (a resumed or sharded run) is solved by the search.
+        let tables: HashMap<(u64, Mode), Vec<Sampled>> = std::mem::take(&mut self.tables)
+            .into_iter()
+            .filter_map(|(key, t)| t.into_iter().collect::<Option<Vec<Sampled>>>().map(|t| (key, t)))
+            .collect();
+        searches(self.job, self.variants, self.groups, &self.models, &self.sources, tables)
     }
-    progress.finish();
-    let syncing = Instant::now();
-    sync_units(layout, &mine, &[])?;
-    stages.writing += syncing.elapsed().as_secs_f64();
-    let complete = mark_shard_done(layout, opts)?;
-    if complete {
-        progress.searching();
-        let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        // Searched here where it did not run beside the last write (shards, resumed runs
-        // with nothing left to compute); not at all without `RunOptions::search`.
-        let (found, seconds) = searched.unwrap_or_else(|| {
-            if opts.search {
-                searches(job, &variants, &groups, &models, &sources, tables.take().unwrap_or_default())
-            } else {
-                (HashMap::new(), 0.0)
-            }
-        });
-        stages.search += seconds;
-        finalize(layout, job, &variants, &models, &all, &durable, found, &mut stages)?;
-        write_marker(&layout.success())?;
+
+    fn finalize(
+        &self,
+        layout: &Layout,
+        all: &[Unit],
+        write_opts: &WriteOptions,
+        found: Self::Found,
+        stages: &mut StageTimes,
+    ) -> Result<()> {
+        finalize(layout, self.job, self.variants, &self.models, all, write_opts, found, stages)
     }
-    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
 }
 
 /// The switches of each (variant, mode), searched group by group, and the seconds it took.

@@ -41,6 +41,7 @@ mod progress;
 mod run;
 mod solve;
 mod status;
+mod units;
 mod ups;
 
 pub use allocate::{

@@ -187,8 +187,8 @@ pub(crate) fn part_complete(path: &Path) -> bool {
     check().unwrap_or(false)
 }
 
-/// The statistics file of a part, parsed.
-fn read_stats(path: &Path) -> Result<SummaryStats> {
+/// The statistics file of a part, parsed (each kind of mechanism has its statistics).
+pub(crate) fn read_stats<S: serde::de::DeserializeOwned>(path: &Path) -> Result<S> {
     let text = std::fs::read(path).map_err(|source| EngineError::MissingStats { path: path.to_path_buf(), source })?;
     serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
 }
@@ -196,9 +196,10 @@ fn read_stats(path: &Path) -> Result<SummaryStats> {
 /// Whether `--resume` can keep a unit: its part is whole and its statistics file
 /// (written before it, and like it synced only at the end) parses. A missing trace
 /// is rebuilt at the end instead.
-fn unit_complete(layout: &Layout, u: &Unit, poses: bool) -> bool {
+/// `S`: the kind's statistics.
+pub(crate) fn unit_complete<S: serde::de::DeserializeOwned>(layout: &Layout, u: &Unit, poses: bool) -> bool {
     (!poses || part_complete(&layout.part(u.variant, u.mode, u.chunk)))
-        && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
+        && read_stats::<S>(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
 }
 
 /// Flushes the files of `units` (those that exist), the `others`, and their
@@ -1475,7 +1476,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
         return crate::ups::run_ups(job, job_file, opts);
     }
     let Setup { variants, groups, layout, all, mine, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
-        prepare_run(job, job_file, opts, unit_complete)?;
+        prepare_run(job, job_file, opts, unit_complete::<SummaryStats>)?;
     let layout = &layout;
     // Without pose files (`--columns none`) the pages hold the fewest columns, and
     // are not written: the statistics come from the poses' results.

@@ -1,5 +1,6 @@
 //! A 6-UPS run (docs/model.md §10.3): the same plan, directory, shards and resume as
-//! the 3-limb kinds ([`run`](crate::run())), with the six-input samples, the
+//! the 3-limb kinds ([`run`](crate::run())), and the run loop of every mechanism
+//! solved as record batches ([`run_units`]), with the six-input samples, the
 //! legs-eliminated 6 × 6 solve of [`solve_ups_par`] and the kind's own tables.
 //!
 //! A unit (variant, mode, chunk) is solved whole on the pool and written as one part
@@ -13,7 +14,6 @@
 //! from the load vectors, directions read where the magnitude has risen back to
 //! twice the minimum, located between samples.
 
-use std::path::Path;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
@@ -22,7 +22,7 @@ use clearance_grid::SampleSource;
 use clearance_model::{InputSpec, JobSpec, Mode, RangeSpec, SamplesSpec, Variant};
 use clearance_parquet::{
     ColumnSet, UPS_INPUTS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch, WriteOptions,
-    ups_discontinuity_batch, ups_summary_batch, write_bytes, write_parquet,
+    ups_discontinuity_batch, ups_summary_batch, write_parquet,
 };
 use clearance_solver::Status;
 use clearance_solver::ups::{
@@ -33,10 +33,8 @@ use rayon::prelude::*;
 use crate::error::EngineError;
 use crate::groups::{Group, membership};
 use crate::layout::Layout;
-use crate::run::{
-    RunOptions, RunReport, Setup, StageTimes, Unit, mark_shard_done, part_complete, part_metadata, prepare_run,
-    sync_units, write_marker,
-};
+use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_stats, unit_complete};
+use crate::units::{UnitRun, run_units};
 
 type Result<T, E = EngineError> = std::result::Result<T, E>;
 
@@ -90,151 +88,107 @@ pub(crate) fn solve_ups(
     Ok(out)
 }
 
-fn read_stats(path: &Path) -> Result<UpsStats> {
-    let text = std::fs::read(path).map_err(|source| EngineError::MissingStats { path: path.to_path_buf(), source })?;
-    serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
-}
-
-fn unit_complete(layout: &Layout, u: &Unit, poses: bool) -> bool {
-    (!poses || part_complete(&layout.part(u.variant, u.mode, u.chunk)))
-        && read_stats(&layout.stats(u.variant, u.mode, u.chunk)).is_ok()
-}
-
 /// Runs a 6-UPS `job` into `opts.out` (see [`run`](crate::run())).
 pub(crate) fn run_ups(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport> {
-    let Setup { variants, groups, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } =
-        prepare_run(job, job_file, opts, unit_complete)?;
-    let layout = &layout;
-    let schema = UpsSchema::new(opts.columns, job.analysis.exact);
+    let setup = prepare_run(job, job_file, opts, unit_complete::<UpsStats>)?;
     // Per group, the job it is solved as.
-    let models: Vec<(UpsModel, SampleSource)> = groups
+    let models: Vec<(UpsModel, SampleSource)> = setup
+        .groups
         .iter()
         .map(|g| {
-            let job = g.job(&variants);
+            let job = g.job(&setup.variants);
             (UpsModel::from_job(&job), SampleSource::new(&job))
         })
         .collect();
+    let mut r = UpsRun {
+        job,
+        variants: &setup.variants,
+        groups: &setup.groups,
+        models,
+        schema: UpsSchema::new(opts.columns, job.analysis.exact),
+        known: KnownSamples::default(),
+    };
+    run_units(&mut r, opts, &setup)
+}
 
-    let progress = opts.progress.get();
-    progress.start(mine_poses, mine_poses - todo_poses);
-    let start = Instant::now();
-    let mut done = mine_poses - todo_poses;
-    let mut stages = StageTimes::default();
-    let mut known = KnownSamples::default();
-    // A unit's part file and statistics, written by `write_unit` (which returns its
-    // poses and the seconds it took, for `written`): the last unit of each work item
-    // is written while the pool solves the next item's poses, so that writing a part,
-    // partly serial (the file, its footer), does not leave cores idle.
-    struct Written {
-        part: std::path::PathBuf,
-        stats_path: std::path::PathBuf,
-        stats: UpsStats,
-        batch: Option<RecordBatch>,
-        meta: Vec<(String, String)>,
-        poses: u64,
-    }
-    let write_unit = |w: Written| -> Result<(u64, f64)> {
-        let writing = Instant::now();
-        for dir in [w.part.parent().filter(|_| w.batch.is_some()), w.stats_path.parent()].into_iter().flatten() {
-            std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
-        }
-        write_bytes(&w.stats_path, &serde_json::to_vec(&w.stats).expect("statistics are plain numbers"), &write_opts)?;
-        if let Some(batch) = &w.batch {
-            crate::run::write_part_batch(opts.writer, opts.precision, &w.part, batch, &write_opts, &w.meta)?;
-        }
-        Ok((w.poses, writing.elapsed().as_secs_f64()))
-    };
-    let written = |stages: &mut StageTimes, done: &mut u64, (poses, secs): (u64, f64)| {
-        stages.writing += secs;
-        *done += poses;
-        progress.advance(poses, *done);
-    };
-    let mut pending: Option<Written> = None;
-    // The results of the work item before, to solve the next one's into.
-    let mut spare: Vec<UpsResult> = Vec::new();
-    for w in &todo_work {
+/// A 6-UPS run's part in [`run_units`]: a work is its group's samples, solved once and
+/// scaled to each member's magnitudes.
+struct UpsRun<'a> {
+    job: &'a JobSpec,
+    variants: &'a [Variant],
+    groups: &'a [Group],
+    /// Per group, its model and samples.
+    models: Vec<(UpsModel, SampleSource)>,
+    schema: UpsSchema,
+    known: KnownSamples,
+}
+
+impl UnitRun for UpsRun<'_> {
+    /// The work's rows and their results with the group's magnitudes.
+    type Solved = (Vec<UpsRow>, Vec<UpsResult>);
+    type Found = Found;
+
+    fn solve(&self, w: &Work, spare: Option<Self::Solved>) -> Self::Solved {
         let u0 = &w.units[0];
-        progress.stage(&format!("variant {} {}", u0.variant, u0.mode.name()));
-        let pose_pass = Instant::now();
-        let (group, (model, source)) = (&groups[w.group], &models[w.group]);
+        let (model, source) = &self.models[w.group];
         let (rows, samples) = samples(source, u0.range.clone());
-        let earlier = pending.take();
-        let reused = std::mem::take(&mut spare);
-        let (solved, earlier) =
-            rayon::join(|| solve_rows(model, &samples, u0.mode, reused), || earlier.map(write_unit));
-        if let Some(earlier) = earlier {
-            written(&mut stages, &mut done, earlier?);
-        }
-        known.keep(w.group, u0.mode, source.len(), u0.range.start, &solved);
-        stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-        for (k, u) in w.units.iter().enumerate() {
-            let pose_pass = Instant::now();
-            let scaled: Vec<UpsResult>;
-            let results = if group.alone() {
-                &solved
-            } else {
-                let [s0, s1, s2, _] = group.scales[group.member(u.variant)];
-                scaled = solved.par_iter().map(|r| r.scaled(&[s0, s1, s2])).collect();
-                &scaled
-            };
-            // The statistics on this thread while the pool builds the columns.
-            let (batch, stats) = rayon::join(
-                || opts.poses.then(|| schema.batch(u.mode, &rows, results)),
-                || {
-                    let mut stats = UpsStats::default();
-                    for r in results {
-                        stats.push(r);
-                    }
-                    stats.flush();
-                    stats
-                },
-            );
-            stages.pose_pass += pose_pass.elapsed().as_secs_f64();
-            let unit = Written {
-                part: layout.part(u.variant, u.mode, u.chunk),
-                stats_path: layout.stats(u.variant, u.mode, u.chunk),
-                stats,
-                batch,
-                meta: part_metadata(&variants[u.variant as usize]),
-                poses: u.range.end - u.range.start,
-            };
-            if k + 1 < w.units.len() {
-                written(&mut stages, &mut done, write_unit(unit)?);
-            } else {
-                pending = Some(unit);
-            }
-        }
-        spare = solved;
+        (rows, solve_rows(model, &samples, u0.mode, spare.map(|(_, results)| results).unwrap_or_default()))
     }
-    // Without shards the run is complete once its last unit is written: the search,
-    // which reads the samples the pass kept rather than the files, runs while it is
-    // (writing a part is partly serial: its file, its footer).
-    let early = opts.shard.is_none() && opts.search && pending.is_some();
-    let (last, searched) = rayon::join(
-        || pending.take().map(write_unit),
-        || early.then(|| searches(job, &variants, &groups, &models, &known)),
-    );
-    if let Some(last) = last {
-        written(&mut stages, &mut done, last?);
+
+    fn solved(&mut self, w: &Work, (_, solved): &Self::Solved) {
+        let u0 = &w.units[0];
+        self.known.keep(w.group, u0.mode, self.models[w.group].1.len(), u0.range.start, solved);
     }
-    progress.finish();
-    let syncing = Instant::now();
-    sync_units(layout, &mine, &[])?;
-    stages.writing += syncing.elapsed().as_secs_f64();
-    let complete = mark_shard_done(layout, opts)?;
-    if complete {
-        progress.searching();
-        let durable = WriteOptions { durable: true, ..write_opts.clone() };
-        // Searched here where it did not run beside the last write (shards, resumed
-        // runs with nothing left to compute); not at all without `RunOptions::search`.
-        let (found, seconds) = searched.unwrap_or_else(|| {
-            if opts.search { searches(job, &variants, &groups, &models, &known) } else { (Found::new(), 0.0) }
-        });
-        stages.search += seconds;
-        finalize(layout, job, &variants, &groups, &all, &durable, &found, &mut stages)?;
-        write_marker(&layout.success())?;
+
+    fn unit(
+        &mut self,
+        w: &Work,
+        k: usize,
+        (rows, solved): &mut Self::Solved,
+        poses: bool,
+    ) -> (Option<RecordBatch>, Vec<u8>) {
+        let (u, group) = (&w.units[k], &self.groups[w.group]);
+        let scaled: Vec<UpsResult>;
+        let results = if group.alone() {
+            &*solved
+        } else {
+            let [s0, s1, s2, _] = group.scales[group.member(u.variant)];
+            scaled = solved.par_iter().map(|r| r.scaled(&[s0, s1, s2])).collect();
+            &scaled
+        };
+        // The statistics on this thread while the pool builds the columns.
+        let (batch, stats) = rayon::join(
+            || poses.then(|| self.schema.batch(u.mode, rows, results)),
+            || {
+                let mut stats = UpsStats::default();
+                for r in results {
+                    stats.push(r);
+                }
+                stats.flush();
+                stats
+            },
+        );
+        (batch, serde_json::to_vec(&stats).expect("statistics are plain numbers"))
     }
-    Ok(RunReport { computed: todo_poses, total, seconds: start.elapsed().as_secs_f64(), complete, stages })
+
+    fn done(&mut self, solved: Self::Solved) -> Option<Self::Solved> {
+        Some(solved)
+    }
+
+    fn searches(&mut self) -> (Found, f64) {
+        searches(self.job, self.variants, self.groups, &self.models, &self.known)
+    }
+
+    fn finalize(
+        &self,
+        layout: &Layout,
+        all: &[Unit],
+        write_opts: &WriteOptions,
+        found: Found,
+        stages: &mut StageTimes,
+    ) -> Result<()> {
+        finalize(layout, self.job, self.variants, self.groups, all, write_opts, &found, stages)
+    }
 }
 
 /// The switches of each (group, mode), keyed so: every group searched once, with its
