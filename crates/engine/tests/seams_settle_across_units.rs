@@ -4,7 +4,8 @@
 //! seam): a Z-line of a 3-D grid, which crosses a seam at every other node or so, then
 //! has its candidates settled as if the whole grid were one unit. That spares solves,
 //! never a switch: whatever the size of the units (one for the whole grid, units
-//! shorter than a Z-plane, units that do not divide it), the same switches, bit for bit.
+//! shorter than a Z-plane, units that do not divide it, on any number of threads), the
+//! same switches, bit for bit.
 
 mod common;
 
@@ -38,13 +39,16 @@ fn units_of_any_size_give_the_same_switches() {
     let job = JobSpec::from_toml_str(GRID_3D, "t.toml").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let mut whole = None;
-    for chunk in [1 << 16, 2000, 899, 500, 97] {
-        let out = dir.path().join(format!("units_of_{chunk}"));
-        run(&job, "t.toml", &RunOptions { chunk_size: chunk, ..common::options(&out) }).unwrap();
+    // On 12 and 24 threads the run writes with three and four writer threads, and the
+    // search's batches spread over more threads.
+    for (chunk, threads) in [(1 << 16, 2), (2000, 2), (899, 2), (500, 2), (97, 2), (899, 12), (97, 12), (500, 24)] {
+        let out = dir.path().join(format!("units_of_{chunk}_on_{threads}"));
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| run(&job, "t.toml", &RunOptions { chunk_size: chunk, ..common::options(&out) })).unwrap();
         let found = read(&out.join("discontinuities.parquet"));
         match &whole {
             None => whole = Some(found),
-            Some(whole) => assert_eq!(whole, &found, "units of {chunk} samples"),
+            Some(whole) => assert_eq!(whole, &found, "units of {chunk} samples on {threads} threads"),
         }
     }
     let whole = whole.unwrap();
