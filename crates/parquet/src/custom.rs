@@ -8,7 +8,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use arrow::array::{ArrayRef, Float64Array, StringArray, UInt32Array, UInt64Array};
+use arrow::array::{ArrayRef, Float64Array, StringArray, UInt64Array};
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use arrow::record_batch::RecordBatch;
 use clearance_model::Mode;
@@ -18,8 +18,8 @@ use clearance_solver::custom::{CustomModel, CustomResult};
 use serde::{Deserialize, Serialize};
 
 use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_columns};
-use crate::summary::{Series, SummaryTable, field};
-use crate::ups::INPUT_UNITS;
+use crate::summary::{Series, SummaryTable};
+use crate::ups::{INPUT_UNITS, SixSwitchRow, six_coordinate_switch_batch};
 
 /// One sample's identity: its index and its time (trajectories).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -356,31 +356,19 @@ pub struct CustomSwitch {
 /// A custom `discontinuities.parquet`: every platform coordinate, `limb` 1.., `kind`
 /// `<name>_<group>`.
 pub fn custom_discontinuity_batch(model: &CustomModel, rows: &[CustomSwitch]) -> RecordBatch {
-    let mut fields = vec![
-        field("variant", DataType::UInt64, false, "1"),
-        field("mode", DataType::Utf8, false, ""),
-        field("limb", DataType::UInt32, false, "1"),
-        field("kind", DataType::Utf8, false, ""),
-        field("along", DataType::Utf8, false, ""),
-        field("t", DataType::Float64, true, "s"),
-    ];
-    let mut cols: Vec<ArrayRef> = vec![
-        Arc::new(UInt64Array::from_iter_values(rows.iter().map(|d| d.variant))),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.mode.name()))),
-        Arc::new(UInt32Array::from_iter_values(rows.iter().map(|d| d.limb as u32))),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| model.kinds[d.kind].as_str()))),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.along))),
-        Arc::new(Float64Array::from_iter(rows.iter().map(|d| d.t))),
-    ];
-    for (i, (name, unit)) in COORDINATES.iter().zip(INPUT_UNITS).enumerate() {
-        fields.push(field(name, DataType::Float64, true, unit));
-        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.coords[i]).filter(|v| v.is_finite())))));
-    }
-    fields.push(field("margin", DataType::Float64, true, "N or N*m"));
-    cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.margin).filter(|m| m.is_finite())))));
-    for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
-        fields.push(field(&format!("jump_{c}"), DataType::Float64, true, unit));
-        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.jump[i]).filter(|v| v.is_finite())))));
-    }
-    RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).expect("columns match the schema")
+    let rows: Vec<SixSwitchRow> = rows
+        .iter()
+        .map(|d| SixSwitchRow {
+            variant: d.variant,
+            mode: d.mode,
+            limb: d.limb,
+            kind: model.kinds[d.kind].as_str(),
+            along: d.along,
+            t: d.t,
+            coords: d.coords,
+            margin: d.margin,
+            jump: d.jump,
+        })
+        .collect();
+    six_coordinate_switch_batch(&rows, true, "N or N*m")
 }

@@ -343,9 +343,49 @@ pub struct UpsSwitch {
 
 /// A 6-UPS `discontinuities.parquet`: every input of the kind, `limb` 1..6.
 pub fn ups_discontinuity_batch(rows: &[UpsSwitch]) -> RecordBatch {
-    let f64s = |get: &dyn Fn(&UpsSwitch) -> f64| -> ArrayRef {
-        Arc::new(Float64Array::from_iter_values(rows.iter().map(get)))
-    };
+    let rows: Vec<SixSwitchRow> = rows
+        .iter()
+        .map(|d| SixSwitchRow {
+            variant: d.variant,
+            mode: d.mode,
+            limb: d.limb,
+            kind: UPS_SWITCH_KINDS[d.kind],
+            along: d.along,
+            t: d.t,
+            coords: d.inputs,
+            margin: d.margin,
+            jump: d.jump,
+        })
+        .collect();
+    six_coordinate_switch_batch(&rows, false, "N")
+}
+
+/// A switch located by the six platform coordinates (a 6-UPS's inputs, a custom
+/// mechanism's coordinates), as a row of its `discontinuities.parquet`.
+pub(crate) struct SixSwitchRow<'a> {
+    pub variant: u64,
+    pub mode: Mode,
+    /// 1.. .
+    pub limb: usize,
+    pub kind: &'a str,
+    pub along: &'static str,
+    pub t: Option<f64>,
+    pub coords: [f64; 6],
+    pub margin: f64,
+    pub jump: [f64; 6],
+}
+
+/// The `discontinuities.parquet` of switches located by six coordinates, for the
+/// 6-UPS and every custom mechanism: `variant, mode, limb, kind, along, t`, the
+/// coordinates `x … theta` (null where not finite when `coords_nullable`, else a
+/// non-nullable column), `margin` (in `margin_unit`) and `jump_x … jump_rz`, null
+/// where not finite (a side of the switch with that kind indeterminate).
+pub(crate) fn six_coordinate_switch_batch(
+    rows: &[SixSwitchRow],
+    coords_nullable: bool,
+    margin_unit: &str,
+) -> RecordBatch {
+    let finite = |v: f64| Some(v).filter(|v| v.is_finite());
     let mut fields = vec![
         field("variant", DataType::UInt64, false, "1"),
         field("mode", DataType::Utf8, false, ""),
@@ -358,22 +398,23 @@ pub fn ups_discontinuity_batch(rows: &[UpsSwitch]) -> RecordBatch {
         Arc::new(UInt64Array::from_iter_values(rows.iter().map(|d| d.variant))),
         Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.mode.name()))),
         Arc::new(UInt32Array::from_iter_values(rows.iter().map(|d| d.limb as u32))),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| UPS_SWITCH_KINDS[d.kind]))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.kind))),
         Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.along))),
         Arc::new(Float64Array::from_iter(rows.iter().map(|d| d.t))),
     ];
     for (i, (name, unit)) in UPS_INPUTS.iter().zip(INPUT_UNITS).enumerate() {
-        fields.push(field(name, DataType::Float64, false, unit));
-        cols.push(f64s(&move |d| d.inputs[i]));
+        fields.push(field(name, DataType::Float64, coords_nullable, unit));
+        cols.push(if coords_nullable {
+            Arc::new(Float64Array::from_iter(rows.iter().map(|d| finite(d.coords[i]))))
+        } else {
+            Arc::new(Float64Array::from_iter_values(rows.iter().map(|d| d.coords[i])))
+        });
     }
-    fields.push(field("margin", DataType::Float64, true, "N"));
-    cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.margin).filter(|m| m.is_finite())))));
-    for (i, (c, unit)) in
-        [("x", "m"), ("y", "m"), ("z", "m"), ("rx", "rad"), ("ry", "rad"), ("rz", "rad")].into_iter().enumerate()
-    {
-        // Null where a side of the switch has that kind indeterminate.
+    fields.push(field("margin", DataType::Float64, true, margin_unit));
+    cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| finite(d.margin)))));
+    for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
         fields.push(field(&format!("jump_{c}"), DataType::Float64, true, unit));
-        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| Some(d.jump[i]).filter(|v| v.is_finite())))));
+        cols.push(Arc::new(Float64Array::from_iter(rows.iter().map(|d| finite(d.jump[i])))));
     }
     RecordBatch::try_new(Arc::new(Schema::new(fields)), cols).expect("columns match the schema")
 }
