@@ -558,7 +558,7 @@ fn search(
                                 kind,
                                 along: path.along,
                                 t,
-                                inputs: s.map(|v| v[0]),
+                                coords: s.map(|v| v[0]),
                                 margin: found.margin,
                                 jump,
                             });

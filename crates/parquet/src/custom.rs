@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_columns};
 use crate::summary::{Series, SummaryTable};
-use crate::ups::{INPUT_UNITS, SixSwitchRow, six_coordinate_switch_batch};
+use crate::ups::{INPUT_UNITS, SixSwitch, six_coordinate_switch_batch};
 
 /// One sample's identity: its index and its time (trajectories).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -333,42 +333,13 @@ pub fn custom_summary_batch(model: &CustomModel, param_names: &[String], rows: &
     t.finish()
 }
 
-/// One refined switch of a joint group's take-up.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CustomSwitch {
-    pub variant: u64,
-    pub mode: Mode,
-    /// 1.. .
-    pub limb: usize,
-    /// An index into `CustomModel::kinds`.
-    pub kind: usize,
-    /// The input the path varies (`t` along a trajectory).
-    pub along: &'static str,
-    pub t: Option<f64>,
-    /// The six platform coordinates there.
-    pub coords: [f64; 6],
-    /// The deciding load there (N or N·m).
-    pub margin: f64,
-    /// That kind's ΔΓ after minus before, as `[Δp; Δα]`.
-    pub jump: [f64; 6],
-}
+/// One refined switch of a joint group's take-up (`kind` an index into
+/// `CustomModel::kinds`, `limb` 1..).
+pub type CustomSwitch = SixSwitch;
 
 /// A custom `discontinuities.parquet`: every platform coordinate, `limb` 1.., `kind`
 /// `<name>_<group>`.
 pub fn custom_discontinuity_batch(model: &CustomModel, rows: &[CustomSwitch]) -> RecordBatch {
-    let rows: Vec<SixSwitchRow> = rows
-        .iter()
-        .map(|d| SixSwitchRow {
-            variant: d.variant,
-            mode: d.mode,
-            limb: d.limb,
-            kind: model.kinds[d.kind].as_str(),
-            along: d.along,
-            t: d.t,
-            coords: d.coords,
-            margin: d.margin,
-            jump: d.jump,
-        })
-        .collect();
-    six_coordinate_switch_batch(&rows, true, "N or N*m")
+    let kinds: Vec<&str> = model.kinds.iter().map(String::as_str).collect();
+    six_coordinate_switch_batch(rows, &kinds, true, "N or N*m")
 }

@@ -51,8 +51,8 @@ pub use stock::{Writer, arrow_properties, write_batch_arrow};
 pub use summary::{Series, SummaryRow, SummaryStats, summary_batch};
 pub use tables::discontinuity_batch;
 pub use ups::{
-    UPS_INPUTS, UPS_SWITCH_KINDS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch, ups_discontinuity_batch,
-    ups_summary_batch,
+    SixSwitch, UPS_INPUTS, UPS_SWITCH_KINDS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch,
+    ups_discontinuity_batch, ups_summary_batch,
 };
 pub use writer::{Codec, ParquetError, WriteOptions, key_values, write_bytes, write_parquet, write_part};
 

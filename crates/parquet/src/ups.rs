@@ -322,66 +322,45 @@ pub fn ups_summary_batch(param_names: &[String], rows: &[UpsSummaryRow]) -> Reco
     t.finish()
 }
 
-/// One refined switch of a 6-UPS joint's take-up.
+/// One refined switch of a joint's take-up, located by the six platform coordinates:
+/// a 6-UPS's (its inputs) and a custom mechanism's.
 #[derive(Clone, Debug, PartialEq)]
-pub struct UpsSwitch {
+pub struct SixSwitch {
     pub variant: u64,
     pub mode: Mode,
-    /// 1..6.
+    /// 1.. (1..6 for a 6-UPS).
     pub limb: usize,
-    /// An index into [`UPS_SWITCH_KINDS`].
+    /// An index into the kind's switch kinds ([`UPS_SWITCH_KINDS`], a custom model's
+    /// `kinds`).
     pub kind: usize,
     /// The input the path varies (`t` along a trajectory).
     pub along: &'static str,
     pub t: Option<f64>,
-    pub inputs: [f64; 6],
-    /// The deciding load there (N).
+    /// The six platform coordinates there (`x, y, z, phi, psi, theta`).
+    pub coords: [f64; 6],
+    /// The deciding load there (N, or N·m for a couple).
     pub margin: f64,
     /// That kind's ΔΓ after minus before, as `[Δp; Δα]`.
     pub jump: [f64; 6],
 }
 
+/// One refined switch of a 6-UPS joint's take-up.
+pub type UpsSwitch = SixSwitch;
+
 /// A 6-UPS `discontinuities.parquet`: every input of the kind, `limb` 1..6.
 pub fn ups_discontinuity_batch(rows: &[UpsSwitch]) -> RecordBatch {
-    let rows: Vec<SixSwitchRow> = rows
-        .iter()
-        .map(|d| SixSwitchRow {
-            variant: d.variant,
-            mode: d.mode,
-            limb: d.limb,
-            kind: UPS_SWITCH_KINDS[d.kind],
-            along: d.along,
-            t: d.t,
-            coords: d.inputs,
-            margin: d.margin,
-            jump: d.jump,
-        })
-        .collect();
-    six_coordinate_switch_batch(&rows, false, "N")
-}
-
-/// A switch located by the six platform coordinates (a 6-UPS's inputs, a custom
-/// mechanism's coordinates), as a row of its `discontinuities.parquet`.
-pub(crate) struct SixSwitchRow<'a> {
-    pub variant: u64,
-    pub mode: Mode,
-    /// 1.. .
-    pub limb: usize,
-    pub kind: &'a str,
-    pub along: &'static str,
-    pub t: Option<f64>,
-    pub coords: [f64; 6],
-    pub margin: f64,
-    pub jump: [f64; 6],
+    six_coordinate_switch_batch(rows, &UPS_SWITCH_KINDS, false, "N")
 }
 
 /// The `discontinuities.parquet` of switches located by six coordinates, for the
-/// 6-UPS and every custom mechanism: `variant, mode, limb, kind, along, t`, the
-/// coordinates `x … theta` (null where not finite when `coords_nullable`, else a
-/// non-nullable column), `margin` (in `margin_unit`) and `jump_x … jump_rz`, null
-/// where not finite (a side of the switch with that kind indeterminate).
+/// 6-UPS and every custom mechanism: `variant, mode, limb, kind` (named by `kinds`),
+/// `along, t`, the coordinates `x … theta` (null where not finite when
+/// `coords_nullable`, else a non-nullable column), `margin` (in `margin_unit`) and
+/// `jump_x … jump_rz`, null where not finite (a side of the switch with that kind
+/// indeterminate).
 pub(crate) fn six_coordinate_switch_batch(
-    rows: &[SixSwitchRow],
+    rows: &[SixSwitch],
+    kinds: &[&str],
     coords_nullable: bool,
     margin_unit: &str,
 ) -> RecordBatch {
@@ -398,7 +377,7 @@ pub(crate) fn six_coordinate_switch_batch(
         Arc::new(UInt64Array::from_iter_values(rows.iter().map(|d| d.variant))),
         Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.mode.name()))),
         Arc::new(UInt32Array::from_iter_values(rows.iter().map(|d| d.limb as u32))),
-        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.kind))),
+        Arc::new(StringArray::from_iter_values(rows.iter().map(|d| kinds[d.kind]))),
         Arc::new(StringArray::from_iter_values(rows.iter().map(|d| d.along))),
         Arc::new(Float64Array::from_iter(rows.iter().map(|d| d.t))),
     ];

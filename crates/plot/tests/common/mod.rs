@@ -96,7 +96,7 @@ pub fn write_ups_switches(dir: &Path, rows: &[(clearance_model::Mode, usize, Opt
             kind,
             along: if t.is_some() { "t" } else { "x" },
             t,
-            inputs,
+            coords: inputs,
             margin: 1.0,
             jump: [1e-5; 6],
         })
