@@ -236,23 +236,30 @@ fn assert_failed_cleanly(o: &Output, out: &Path, failed: &str) {
     assert_eq!(status.status.code(), Some(1), "`clearance status` calls a failed run complete");
 }
 
+/// Writes [`JOB`] to `job` and runs it on `threads` threads into `out`, on a 2 MiB
+/// disk that fills a few parts into the run: the message names one of the files `names` gives for some part
+/// (where it fills depends on the sizes), the run failed cleanly there and never
+/// reached the last part.
+fn fill_mid_run(job: &Path, out: &Path, threads: usize, names: fn(u64) -> Vec<String>) {
+    std::fs::write(job, JOB).unwrap();
+    let o = run_threads(job, out, threads, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    let failed = (0..PARTS)
+        .flat_map(names)
+        .find(|name| err.contains(&out.join(name).display().to_string()))
+        .unwrap_or_else(|| panic!("the message names none of {:?}…: {err}", names(0)));
+    assert_failed_cleanly(&o, out, &failed);
+    assert!(!out.join(part_name(PARTS - 1)).exists());
+}
+
 /// With 16 threads four writer threads write parts at once: the disk fills under
 /// one of them, every writer stops, and the run fails as with one writer (one
 /// message, nothing incomplete under a final name) instead of hanging on a send.
 #[test]
 fn a_full_disk_stops_every_writer() {
     with_small_fs("a_full_disk_stops_every_writer", "2m", |fs| {
-        let job = fs.path().join("job.toml");
-        std::fs::write(&job, JOB).unwrap();
-        let out = fs.path().join("out");
-        let o = run_threads(&job, &out, 16, &[]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        let failed = (0..PARTS)
-            .flat_map(|k| [stats_name(k), trace_name(k), part_name(k)])
-            .find(|name| err.contains(&out.join(name).display().to_string()))
-            .unwrap_or_else(|| panic!("the message names no part, statistics or trace file: {err}"));
-        assert_failed_cleanly(&o, &out, &failed);
-        assert!(!out.join(part_name(PARTS - 1)).exists());
+        let (job, out) = (fs.path().join("job.toml"), fs.path().join("out"));
+        fill_mid_run(&job, &out, 16, |k| vec![stats_name(k), trace_name(k), part_name(k)]);
     });
 }
 
@@ -261,18 +268,9 @@ fn a_full_disk_stops_every_writer() {
 #[test]
 fn a_two_mib_disk_fills_mid_run() {
     with_small_fs("a_two_mib_disk_fills_mid_run", "2m", |fs| {
-        let job = fs.path().join("job.toml");
-        std::fs::write(&job, JOB).unwrap();
-        let out = fs.path().join("out");
-        let o = run(&job, &out, &[]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        // Where it fills depends on the sizes: a part or its statistics.
-        let failed = (0..PARTS)
-            .flat_map(|k| [stats_name(k), part_name(k)])
-            .find(|name| err.contains(&out.join(name).display().to_string()))
-            .unwrap_or_else(|| panic!("the message names no part or statistics file: {err}"));
-        assert_failed_cleanly(&o, &out, &failed);
-        assert!(!out.join(part_name(PARTS - 1)).exists());
+        let (job, out) = (fs.path().join("job.toml"), fs.path().join("out"));
+        // A part or its statistics.
+        fill_mid_run(&job, &out, 2, |k| vec![stats_name(k), part_name(k)]);
 
         fs.resize("64m");
         std::fs::remove_file(&job).unwrap();
