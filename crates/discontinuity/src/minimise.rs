@@ -1,6 +1,6 @@
 //! One-dimensional root and minimum refinement.
 
-use crate::dot;
+use crate::{dot, norm};
 
 /// Bisection of a sign change of `f` in `[a, b]` (`f(a)` and `f(b)` of opposite
 /// signs) until the bracket is at most `tol` wide; returns its midpoint. The
@@ -323,6 +323,11 @@ pub(crate) fn brent_min_below(a: f64, b: f64, xtol: f64, enough: f64, mut f: imp
 /// magnitude alone).
 const VECTOR_STEPS: usize = 24;
 
+/// Values of a load that agree to this, relative to the largest of them, are one
+/// value to round-off (a load that does not change along the path: the legs of a
+/// mechanism that an actuated translation carries unchanged).
+const FLAT: f64 = 1e-12;
+
 /// The minimum of `|f|` on `[a, b]` for a smooth vector `f`, from its values at the
 /// two ends and at a third point (inside or beyond the interval): each step fits
 /// the quadratic through three values, component by component, and evaluates `f`
@@ -334,9 +339,12 @@ const VECTOR_STEPS: usize = 24;
 /// the point, is good to the model's error only: [`vector_polish`] takes it from
 /// there. Where the model puts the minimum at an end before `f` was evaluated
 /// inside, the middle of `[a, b]` is evaluated first, so that a dip the three
-/// values do not show is looked for there too. `None` where `f` has no value (an
-/// unsolvable pose) or the steps do not settle; the caller then falls back to
-/// [`brent_min`].
+/// values do not show is looked for there too. Where the three values, one of them
+/// inside, are one value to round-off ([`FLAT`]), `f` is flat there and has no
+/// minimum to locate: the least of the points on `[a, b]` is returned (the model's
+/// minimum would wander with the round-off, never settling). `None` where `f` has no
+/// value (an unsolvable pose) or the steps do not settle; the caller then falls back
+/// to [`brent_min`].
 pub fn vector_min(
     a: (f64, [f64; 3]),
     b: (f64, [f64; 3]),
@@ -348,6 +356,13 @@ pub fn vector_min(
     let mut points = [a, b, third];
     let mut looked_inside = lo < third.0 && third.0 < hi;
     for _ in 0..VECTOR_STEPS {
+        if looked_inside && flat(&points) {
+            return points
+                .iter()
+                .filter(|p| (lo..=hi).contains(&p.0))
+                .min_by(|p, q| norm(p.1).total_cmp(&norm(q.1)))
+                .copied();
+        }
         let mut s = model_min(&points, lo, hi)?;
         if let Some(p) = points.iter().find(|p| (lo..=hi).contains(&p.0) && (p.0 - s).abs() <= xtol) {
             if looked_inside {
@@ -360,6 +375,12 @@ pub fn vector_min(
         replace_farthest(&mut points, (s, fs));
     }
     None
+}
+
+/// Whether three values of a load are one value to round-off ([`FLAT`]).
+fn flat(points: &[(f64, [f64; 3]); 3]) -> bool {
+    let scale = points.iter().map(|p| norm(p.1)).fold(0.0, f64::max);
+    points.iter().all(|p| (0..3).all(|i| (p.1[i] - points[0].1[i]).abs() <= FLAT * scale))
 }
 
 /// The minimum of `|f|` near `p` (where `f` is `fp`), within `[lo, hi]`: the
@@ -594,6 +615,31 @@ mod tests {
         assert!((p - q).abs() < 1e-6 && (m2 - n2).abs() < 1e-12, "{p} {q} {m2} {n2}");
         // No value (an unsolvable pose): no answer, the caller falls back.
         assert!(vector_min((0.0, g(0.0)), (1.0, g(1.0)), (2.0, g(2.0)), 1e-9, |_| None).is_none());
+    }
+
+    /// A load that does not change along the path (its values differ by round-off
+    /// only: a leg carried unchanged by an actuated translation) has no minimum to
+    /// locate: the least value on the interval comes back after one look inside,
+    /// where the steps used to chase the round-off until they gave up (24
+    /// evaluations, then Brent's). A load that changes by a few parts in 10¹⁰ over
+    /// the interval is not flat: its minimum is located.
+    #[test]
+    fn vector_min_of_a_flat_load_is_its_least_value() {
+        let noise = |s: f64| 4e-15 * (1e3 * s).sin();
+        let f = |s: f64| [2.855 + noise(s), -11.49 - noise(2.0 * s), 32.23 + noise(3.0 * s)];
+        let mut calls = 0;
+        let (p, fp) = vector_min((0.0, f(0.0)), (1.0, f(1.0)), (2.0, f(2.0)), 1e-6, |s| {
+            calls += 1;
+            Some(f(s))
+        })
+        .expect("a flat load has its value");
+        assert_eq!(calls, 1, "one look inside");
+        assert!((0.0..=1.0).contains(&p));
+        let least = [0.0, 0.5, 1.0].map(|s| norm(f(s))).into_iter().fold(f64::MAX, f64::min);
+        assert_eq!(norm(fp), least);
+        let g = |s: f64| [34.0 + 1e-8 * (s - 0.3) * (s - 0.3), 0.0, 0.0];
+        let (p, _) = vector_min((0.0, g(0.0)), (1.0, g(1.0)), (2.0, g(2.0)), 1e-4, |s| Some(g(s))).expect("settles");
+        assert!((p - 0.3).abs() < 1e-4, "{p}");
     }
 
     /// A shallow dip (the load stays 2.4 N) whose values carry round-off of 1e-13:

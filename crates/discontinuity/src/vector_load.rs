@@ -22,7 +22,8 @@
 //!    ([`vector_min`], Brent's minimiser of the magnitude where that does not settle);
 //! 3. [`select`]: the distinct interior minima among them;
 //! 4. [`polish`]: each minimum as the root of `f·df/ds` ([`vector_polish`]); one at or
-//!    above the threshold is not a switch;
+//!    above the threshold is not a switch (one refined to 1.1 times the threshold or
+//!    more is not polished: the polish moves its value by round-off only);
 //! 5. [`readings`]: where the take-up directions are compared. On each side a walk
 //!    ([`walk`]) goes out from the minimum `m` over samples whose magnitude does not
 //!    fall, to the first whose magnitude has risen to `reach = 2·max(m, floor)`; the
@@ -154,6 +155,12 @@ const SCAN_TOL: f64 = 1e-6;
 /// A refined minimum within this of an interval's end sits on that sample.
 const END: f64 = 1e-7;
 
+/// A refined minimum at this many times the threshold or more is not a switch, and
+/// is not polished: the polish moves the point by about `√ε` of the dip's width
+/// ([`vector_polish`]) and the magnitude by far less than a tenth (the refined point
+/// is an evaluated one within [`SCAN_TOL`] of the model's minimum).
+const UNPOLISHED: f64 = 1.1;
+
 fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
@@ -169,6 +176,9 @@ pub fn switches(
     let refined: Vec<Dip> = candidates(loads).into_iter().map(|k| refine(loads, k, &mut at)).collect();
     let mut out = Vec::new();
     for dip in select(&refined, loads) {
+        if dip.margin >= UNPOLISHED * rule.threshold {
+            continue;
+        }
         let (x, m) = polish(&dip, &mut at);
         if m >= rule.threshold {
             continue;
