@@ -181,9 +181,8 @@ impl CustomModel {
         if closure > 1e-9 * model.geom.length {
             return Err(JobError::new(file, "mechanism.home", "the joints do not close at home"));
         }
-        let basis = Basis::new(&p, &model.geom);
-        match basis {
-            Some(b) if b.cond.is_finite() && b.cond < 1e12 => Ok(model),
+        match Basis::new(&p, &model.geom).map(|b| b.cond()) {
+            Some(cond) if cond.is_finite() && cond < 1e12 => Ok(model),
             _ => Err(JobError::new(
                 file,
                 "mechanism.limb",
@@ -233,7 +232,6 @@ struct Basis {
     blocks: Vec<(usize, usize)>,
     /// Each limb's passive columns.
     passive: Vec<Vec<V6>>,
-    cond: f64,
 }
 
 impl Basis {
@@ -275,10 +273,14 @@ impl Basis {
         if at != 6 {
             return None;
         }
-        let s = g.singular_values();
+        Some(Basis { g, blocks, passive })
+    }
+
+    /// The 2-norm condition number of `G` (from its singular values).
+    fn cond(&self) -> f64 {
+        let s = self.g.singular_values();
         let (hi, lo) = (s.max(), s.min());
-        let cond = if lo > 0.0 { hi / lo } else { f64::INFINITY };
-        Some(Basis { g, blocks, passive, cond })
+        if lo > 0.0 { hi / lo } else { f64::INFINITY }
     }
 }
 
@@ -435,7 +437,7 @@ pub fn group_load_near(
     let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else { return (None, None) };
     let configuration = Some((posture.coords, posture.states.clone()));
     let mut out = CustomResult::default();
-    let Some((basis, gi)) = statics(model, &posture, &mut out) else { return (None, configuration) };
+    let Some((basis, gi)) = statics(model, &posture, &mut out, false) else { return (None, configuration) };
     let g = &model.groups[group];
     let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
     let pj = &posture.joints[g.limb][g.joint];
@@ -450,7 +452,7 @@ pub fn group_load_near(
 fn solve_posture(models: &[&CustomModel], posture: &CustomPosture, mut out: CustomResult) -> Vec<CustomResult> {
     out.coords = posture.coords;
     out.q = posture.actuators(&models[0].geom);
-    let statics = statics(models[0], posture, &mut out);
+    let statics = statics(models[0], posture, &mut out, true);
     let mut all = vec![out; models.len()];
     if let Some((basis, gi)) = statics {
         for (model, out) in models.iter().zip(&mut all) {
@@ -465,16 +467,39 @@ fn solve_posture(models: &[&CustomModel], posture: &CustomPosture, mut out: Cust
     all
 }
 
-/// The wrench basis, `G⁻¹` and the reactions (into `out`, with `cond`) at a posture;
-/// `None` where the pose is near-singular (`out.status` says so).
-fn statics(model: &CustomModel, posture: &CustomPosture, out: &mut CustomResult) -> Option<(Basis, Matrix6<f64>)> {
+/// The wrench basis, `G⁻¹` and the reactions (into `out`, with `cond` where `with_cond`)
+/// at a posture; `None` where the pose is near-singular (`out.status` says so).
+///
+/// Without `with_cond` (the switch search, which writes no condition number) the
+/// singular values are computed only where they could decide: `‖G‖_F·‖G⁻¹‖_F` bounds
+/// the 2-norm condition number from above, so a bound within `singular_cond` accepts
+/// the pose as the condition number would, with the same `G⁻¹`; `out.cond` is then
+/// NaN.
+fn statics(
+    model: &CustomModel,
+    posture: &CustomPosture,
+    out: &mut CustomResult,
+    with_cond: bool,
+) -> Option<(Basis, Matrix6<f64>)> {
     let Some(basis) = Basis::new(posture, &model.geom) else {
         out.status = Status::NearSingular;
         out.cond = f64::INFINITY;
         return None;
     };
-    out.cond = basis.cond;
-    let gi = (!basis.cond.is_nan() && basis.cond <= model.singular_cond).then(|| basis.g.try_inverse()).flatten();
+    let bounded = (!with_cond).then(|| basis.g.try_inverse()).flatten().filter(|gi| {
+        let bound = basis.g.norm() * gi.norm();
+        bound.is_finite() && bound <= model.singular_cond
+    });
+    let gi = match bounded {
+        Some(gi) => {
+            out.cond = f64::NAN;
+            Some(gi)
+        }
+        None => {
+            out.cond = basis.cond();
+            (!out.cond.is_nan() && out.cond <= model.singular_cond).then(|| basis.g.try_inverse()).flatten()
+        }
+    };
     let Some(gi) = gi else {
         out.status = Status::NearSingular;
         return None;
