@@ -447,9 +447,10 @@ fn search(
     let found: Vec<Vec<Vec<CustomSwitch>>> = paths
         .par_iter()
         .map(|path| {
-            // Each point the search solves continues from the one solved before it on
-            // this path (the path's own order: the same whatever the threads).
-            let near: std::cell::RefCell<Option<Configuration>> = std::cell::RefCell::new(None);
+            // Each point the search solves continues from the nearest along the path of
+            // those it solved last on this path (the path's own order: the same
+            // whatever the threads).
+            let trail = std::cell::RefCell::new(Trail::default());
             // The path's point `p`, and its inputs' values, rates and accelerations.
             let point = |p: f64| {
                 let (t, s) = path.sample_at(source, trajectory.as_ref(), p);
@@ -458,8 +459,8 @@ fn search(
             };
             let solve_at = |p: f64| {
                 let (t, s, inputs) = point(p);
-                let (r, reached) = solve_inputs(models, &inputs, mode, near.borrow().as_ref());
-                *near.borrow_mut() = reached;
+                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p));
+                trail.borrow_mut().keep(p, reached);
                 (t, s, r)
             };
             // Per member, its samples along the path.
@@ -482,8 +483,8 @@ fn search(
                 let loads: Vec<Option<[f64; 3]>> = samples[0].iter().map(|r| r.loads[g]).collect();
                 let at = |p: f64| {
                     let (.., inputs) = point(p);
-                    let (load, reached) = load_of(model, &inputs, mode, near.borrow().as_ref(), g);
-                    *near.borrow_mut() = reached;
+                    let (load, reached) = load_of(model, &inputs, mode, trail.borrow().nearest(p), g);
+                    trail.borrow_mut().keep(p, reached);
                     load
                 };
                 let found = if model.scalar(g) {
@@ -523,6 +524,37 @@ fn search(
         }
     }
     per_member
+}
+
+/// The configurations a path's search solved last, by path parameter (sample steps):
+/// a point continues from the nearest of them. The search visits a path once per
+/// joint group, and within a group goes back and forth (the refined intervals, then
+/// the polish, the readings): continued from the point solved just before, a point
+/// several samples away often missed the branch and was continued from home.
+#[derive(Default)]
+struct Trail {
+    points: Vec<(f64, Configuration)>,
+    /// The next slot to overwrite once [`TRAIL`] are held.
+    next: usize,
+}
+
+/// Configurations a [`Trail`] holds (a few kB each).
+const TRAIL: usize = 64;
+
+impl Trail {
+    fn nearest(&self, p: f64) -> Option<&Configuration> {
+        self.points.iter().min_by(|a, b| (a.0 - p).abs().total_cmp(&(b.0 - p).abs())).map(|(_, c)| c)
+    }
+
+    fn keep(&mut self, p: f64, reached: Option<Configuration>) {
+        let Some(c) = reached else { return };
+        if self.points.len() < TRAIL {
+            self.points.push((p, c));
+        } else {
+            self.points[self.next] = (p, c);
+            self.next = (self.next + 1) % TRAIL;
+        }
+    }
 }
 
 /// Where a switch's jump is read on one side of it.
