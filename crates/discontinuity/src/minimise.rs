@@ -326,7 +326,7 @@ const VECTOR_STEPS: usize = 24;
 /// Values of a load that agree to this, relative to the largest of them, are one
 /// value to round-off (a load that does not change along the path: the legs of a
 /// mechanism that an actuated translation carries unchanged).
-const FLAT: f64 = 1e-12;
+pub(crate) const FLAT: f64 = 1e-12;
 
 /// The minimum of `|f|` on `[a, b]` for a smooth vector `f`, from its values at the
 /// two ends and at a third point (inside or beyond the interval): each step fits

@@ -14,8 +14,9 @@
 //! over any of them:
 //!
 //! 1. [`candidates`]: the intervals `(k, k + 1)` to refine: both beside each interior
-//!    sampled minimum of the magnitude ([`is_min`]), each on its own (two dips either
-//!    side of one sample are two switches, as a finer sampling would show), and every
+//!    sampled minimum of the magnitude ([`is_min`]: not a flat load's round-off), each
+//!    on its own (two dips either side of one sample are two switches, as a finer
+//!    sampling would show), and every
 //!    interval whose end directions differ by more than 90° (a dip between monotone
 //!    samples);
 //! 2. [`refine`]: each interval's least magnitude, from the load vectors
@@ -45,6 +46,7 @@
 
 use nalgebra::Vector3;
 
+use crate::minimise::FLAT;
 use crate::{brent_min, interpolated_root, vector_min, vector_polish};
 
 /// The load at one sample of a path: its magnitude and its vector, `None` where it is
@@ -193,13 +195,16 @@ pub fn switches(
 
 /// Whether sample `k` is an interior local minimum of the magnitude among
 /// determinate neighbours (strictly below the one before, so that a flat stretch is
-/// not a minimum at every sample).
+/// not a minimum at every sample), and not by round-off alone: where both neighbours
+/// are within [`FLAT`] of its magnitude the load is flat there (a leg that an actuated
+/// translation carries unchanged has the same load, to round-off, at every sample of
+/// the line), which is no more a minimum than a monotone stretch is.
 pub fn is_min(loads: &[SampledLoad], k: usize) -> bool {
     if k == 0 || k + 1 >= loads.len() {
         return false;
     }
     match (loads[k - 1], loads[k], loads[k + 1]) {
-        (Some((a, _)), Some((m, _)), Some((b, _))) => m < a && m <= b,
+        (Some((a, _)), Some((m, _)), Some((b, _))) => m < a && m <= b && !(a - m <= FLAT * a && b - m <= FLAT * b),
         _ => false,
     }
 }
