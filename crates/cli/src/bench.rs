@@ -629,11 +629,14 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
             // The kernel doing what the column set needs: the envelope and the dominant
             // joint but for the minimal set (a 6-UPS's pose pass computes them always).
             let envelope = o.columns.0 >= ColumnSet::Standard || !o.columns.1;
+            // A 6-UPS's or custom job's kernel is its pose pass in memory ([`kernel_of`]):
+            // the 3-limb kernel would pose the prototype's 3-PRS in its place (a custom
+            // job's "kernel" read 9–15 M poses/s).
             let kernel = |job: &JobSpec| -> Result<f64> {
-                if job.mechanism.kind == MechanismKind::Ups6 {
-                    kernel_of(job, o.solver)
-                } else {
+                if job.mechanism.kind.has_general_solver() {
                     Ok(clearance_engine::kernel_rate_with(job, o.solver, envelope))
+                } else {
+                    kernel_of(job, o.solver)
                 }
             };
             let kernels: Vec<f64> = (0..o.repeat).map(|_| kernel(&job)).collect::<Result<_>>()?;
