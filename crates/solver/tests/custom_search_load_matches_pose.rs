@@ -8,26 +8,17 @@
 use clearance_model::{JobSpec, Mode};
 use clearance_solver::custom::{CustomModel, group_load_near, solve_custom};
 
+/// The 3-RRS of `jobs/custom_3rrs_grid.toml` (cranks, knees, spherical joints).
 fn model() -> CustomModel {
-    let z0 = (1.0f64 - 0.18 * 0.18).sqrt();
-    let text = format!(
-        "[mechanism]\nkind = \"custom\"\ninputs = [\"z\", \"psi\", \"theta\"]\nhome = [0.0, 0.0, {z0:?}, 0.0, 0.0, 0.0]\n\
-         [[mechanism.limb]]\nrepeat = 3\njoints = [\n\
-         {{ type = \"P\", at = [0.18, 0.0, 0.0], axis = [0.0, 0.0, 1.0], actuated = true }},\n\
-         {{ type = \"R\", at = [0.18, 0.0, 0.0], axis = [0.0, 1.0, 0.0] }},\n\
-         {{ type = \"S\", at = [0.36, 0.0, {z0:?}] }},\n]\nbodies = [{{ mass = 0.0 }}, {{ mass = 3.0 }}]\n\
-         [mass]\nplatform = 9.8\npoints = [{{ mass = 30.0, at = [0.05, -0.02, 1.0] }}]\n\
-         [clearance]\ns_radial = 1e-4\nr_radial = 2e-4\nr_axial = 1.5e-4\nr_angular = 1e-4\n\
-         [grid]\nz = 2.0\npsi = 0.0\ntheta = 0.0\n"
-    );
-    CustomModel::from_job(&JobSpec::from_toml_str(&text, "c.toml").unwrap(), "c.toml").unwrap()
+    let text = include_str!("../../../jobs/custom_3rrs_grid.toml");
+    CustomModel::from_job(&JobSpec::from_toml_str(text, "custom_3rrs_grid.toml").unwrap(), "c.toml").unwrap()
 }
 
 #[test]
 fn the_search_reads_the_poses_own_load_and_verdict() {
     let mut model = model();
     let poses: Vec<[f64; 3]> =
-        (0..41).flat_map(|i| [-0.3, 0.1, 0.45].map(|t| [2.0, -0.8 + 0.04 * i as f64, t])).collect();
+        (0..41).flat_map(|i| [-0.3, 0.1, 0.45].map(|t| [0.6, -0.8 + 0.04 * i as f64, t])).collect();
     let mut conds: Vec<f64> = poses
         .iter()
         .map(|x| solve_custom(&model, x, None, Mode::Kinetostatic).cond)
