@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Compare two sets of run directories of the same jobs, an engine before and after a change.
 
-    python3 scripts/compare_switches.py OLD NEW [--tol 1e-7] [--jump-rtol 1e-9] [--pose-rtol R]
+    python3 scripts/compare_switches.py OLD NEW [--tol 1e-7] [--jump-rtol 1e-9] [--pose-rtol R] [--margin-atol A]
 
 OLD and NEW are either two run directories (each with `poses/` and
 `discontinuities.parquet`), or two directories holding one run directory per job,
@@ -24,7 +24,7 @@ paired by name. For each job:
   (or `t`). On each line the switches of the two runs are paired in order of
   location within `--tol`; those left over appear (new only) or disappear (old
   only). A pair whose location or margin differs by more than `--tol` (relative
-  to the margin for the margin) has moved. The jump is compared too: the number of
+  to the margin for the margin, or `--margin-atol` if larger) has moved. The jump is compared too: the number of
   pairs whose jump differs by more than `--jump-rtol` of its size is counted per job,
   with the largest difference (a change of where the jump is read moves every jump a
   little; it is not listed switch by switch).
@@ -230,7 +230,13 @@ def finite(x) -> bool:
 
 
 def compare(
-    name: str, old: Path, new: Path, tol: float, jump_rtol: float, pose_rtol: float | None = None
+    name: str,
+    old: Path,
+    new: Path,
+    tol: float,
+    jump_rtol: float,
+    pose_rtol: float | None = None,
+    margin_atol: float = 0.0,
 ) -> tuple[bool, list[str]]:
     lines = []
     ok = True
@@ -269,7 +275,7 @@ def compare(
                 moved = abs(location(a) - location(b)) > tol
                 ma, mb = a["margin"], b["margin"]
                 margin_moved = finite(ma) != finite(mb) or (
-                    finite(ma) and abs(ma - mb) > tol * max(abs(ma), abs(mb), 1e-300)
+                    finite(ma) and abs(ma - mb) > max(tol * max(abs(ma), abs(mb), 1e-300), margin_atol)
                 )
                 if moved or margin_moved:
                     counts["move"] += 1
@@ -306,6 +312,13 @@ def main() -> int:
     ap.add_argument("--tol", type=float, default=1e-7, help="location (and relative margin) tolerance")
     ap.add_argument("--jump-rtol", type=float, default=1e-9, help="relative jump tolerance")
     ap.add_argument(
+        "--margin-atol",
+        type=float,
+        default=0.0,
+        help="absolute margin tolerance (N or N*m): a scalar switch's margin is its load at the zero "
+        "crossing, round-off of 1e-15..1e-12, which --tol alone (relative) calls moved",
+    )
+    ap.add_argument(
         "--pose-rtol",
         type=float,
         default=None,
@@ -322,7 +335,7 @@ def main() -> int:
             print(f"{name}: only in {'NEW' if name in new else 'OLD'}")
             ok = False
             continue
-        good, lines = compare(name, old[name], new[name], args.tol, args.jump_rtol, args.pose_rtol)
+        good, lines = compare(name, old[name], new[name], args.tol, args.jump_rtol, args.pose_rtol, args.margin_atol)
         ok &= good
         print("\n".join(lines), flush=True)
     return 0 if ok else 1
