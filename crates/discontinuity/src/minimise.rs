@@ -340,7 +340,7 @@ pub(crate) const FLAT: f64 = 1e-12;
 /// there. Where the model puts the minimum at an end before `f` was evaluated
 /// inside, the middle of `[a, b]` is evaluated first, so that a dip the three
 /// values do not show is looked for there too. Where the three values, one of them
-/// inside, are one value to round-off ([`FLAT`]), `f` is flat there and has no
+/// inside, are one value to round-off (to 1e-12 of their size), `f` is flat there and has no
 /// minimum to locate: the least of the points on `[a, b]` is returned (the model's
 /// minimum would wander with the round-off, never settling). `None` where `f` has no
 /// value (an unsolvable pose) or the steps do not settle; the caller then falls back

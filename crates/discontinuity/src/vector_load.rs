@@ -196,7 +196,7 @@ pub fn switches(
 /// Whether sample `k` is an interior local minimum of the magnitude among
 /// determinate neighbours (strictly below the one before, so that a flat stretch is
 /// not a minimum at every sample), and not by round-off alone: where both neighbours
-/// are within [`FLAT`] of its magnitude the load is flat there (a leg that an actuated
+/// are within 1e-12 of its magnitude the load is flat there (a leg that an actuated
 /// translation carries unchanged has the same load, to round-off, at every sample of
 /// the line), which is no more a minimum than a monotone stretch is.
 pub fn is_min(loads: &[SampledLoad], k: usize) -> bool {
