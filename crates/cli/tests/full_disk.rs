@@ -237,9 +237,9 @@ fn assert_failed_cleanly(o: &Output, out: &Path, failed: &str) {
 }
 
 /// Writes [`JOB`] to `job` and runs it on `threads` threads into `out`, on a 2 MiB
-/// disk that fills a few parts into the run: the message names one of the files `names` gives for some part
-/// (where it fills depends on the sizes), the run failed cleanly there and never
-/// reached the last part.
+/// disk that fills a few parts into the run: the message names one of the files
+/// `names` gives for some part (where it fills depends on the sizes), the run failed
+/// cleanly there and never reached the last part.
 fn fill_mid_run(job: &Path, out: &Path, threads: usize, names: fn(u64) -> Vec<String>) {
     std::fs::write(job, JOB).unwrap();
     let o = run_threads(job, out, threads, &[]);

@@ -486,19 +486,19 @@ fn statics(
         out.cond = f64::INFINITY;
         return None;
     };
-    let bounded = (!with_cond).then(|| basis.g.try_inverse()).flatten().filter(|gi| {
+    let inverse = (!with_cond).then(|| basis.g.try_inverse()).flatten();
+    let bounded = inverse.as_ref().is_some_and(|gi| {
         let bound = basis.g.norm() * gi.norm();
         bound.is_finite() && bound <= model.singular_cond
     });
-    let gi = match bounded {
-        Some(gi) => {
-            out.cond = f64::NAN;
-            Some(gi)
-        }
-        None => {
-            out.cond = basis.cond();
-            (!out.cond.is_nan() && out.cond <= model.singular_cond).then(|| basis.g.try_inverse()).flatten()
-        }
+    let gi = if bounded {
+        out.cond = f64::NAN;
+        inverse
+    } else {
+        out.cond = basis.cond();
+        (!out.cond.is_nan() && out.cond <= model.singular_cond)
+            .then(|| inverse.or_else(|| basis.g.try_inverse()))
+            .flatten()
     };
     let Some(gi) = gi else {
         out.status = Status::NearSingular;
