@@ -283,9 +283,31 @@ pub struct PosedJoint {
     /// `n = a1 × a2` for a U joint (current), else zero.
     pub normal: V3,
     /// The columns' spatial screws, at the pose.
-    pub columns: Vec<Vector6<f64>>,
-    /// The twist of the body before each column (rates), for the columns' drift.
-    pub before: Vec<Vector6<f64>>,
+    pub columns: Screws,
+}
+
+/// A joint's columns at a pose: one to three spatial screws, held in place.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Screws {
+    s: [Vector6<f64>; 3],
+    n: usize,
+}
+
+impl std::ops::Deref for Screws {
+    type Target = [Vector6<f64>];
+
+    fn deref(&self) -> &[Vector6<f64>] {
+        &self.s[..self.n]
+    }
+}
+
+impl<'a> IntoIterator for &'a Screws {
+    type Item = &'a Vector6<f64>;
+    type IntoIter = std::slice::Iter<'a, Vector6<f64>>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.s[..self.n].iter()
+    }
 }
 
 /// One body at a pose.
@@ -407,8 +429,7 @@ fn chain(limb: &LimbGeom, states: &[JointState]) -> (Vec<Rigid>, Vec<PosedJoint>
             axis: c.axis,
             axis2: c.axis2,
             normal,
-            columns: c.columns[..c.n].to_vec(),
-            before: Vec::new(),
+            columns: Screws { s: c.columns, n: c.n },
         });
         bodies.push(g);
     }
@@ -436,7 +457,8 @@ fn closure(limb: &LimbGeom, states: &[JointState], columns: &mut [Vector6<f64>; 
 /// `J_l = Q_l·[R_l; 0]`, the last `6 − n_l` rows of `Q_lᵀ` eliminate the limb's own
 /// variables, and stacked over the limbs they leave a `k × k` system for the `k`
 /// parasitic coordinates (`Σ(6 − n_l) = k` when the counts of §12.3 hold). Each solve
-/// then costs a few 6 × 6 products instead of a dense `6L × 6L` factorisation.
+/// then costs a few reflections of 6-vectors instead of a dense `6L × 6L`
+/// factorisation; with no parasitic coordinate the limbs are independent.
 struct Factored {
     k: usize,
     limbs: Vec<LimbFactor>,
@@ -444,51 +466,63 @@ struct Factored {
     reduced: Option<nalgebra::LU<f64, nalgebra::U6, nalgebra::U6>>,
 }
 
+/// Per limb: `Q_l` as its reflectors, `R_l` (upper triangle), `Q_lᵀ·(−V_par)`.
+#[derive(Clone, Copy)]
+struct LimbFactor {
+    q: Reflectors,
+    r: Matrix6<f64>,
+    qv: Matrix6<f64>,
+}
+
 impl Factored {
-    /// `None` where a limb's columns are dependent or the counts do not square the system.
-    fn new(k: usize, parasitic: &[Vector6<f64>], columns: &[[Vector6<f64>; 6]], dofs: &[usize]) -> Option<Self> {
-        let mut v = Matrix6::zeros();
-        for (c, s) in parasitic.iter().enumerate() {
-            v.set_column(c, &(-s));
-        }
-        let mut limbs = Vec::with_capacity(columns.len());
+    /// Room for `limbs` limbs and `k` parasitic coordinates, to be [`refactor`](Self::refactor)ed.
+    fn new(k: usize, limbs: usize) -> Self {
+        let empty = LimbFactor { q: Reflectors::default(), r: Matrix6::zeros(), qv: Matrix6::zeros() };
+        Self { k, limbs: vec![empty; limbs], reduced: None }
+    }
+
+    /// Factors the limbs' columns in place; `false` where a limb's columns are
+    /// dependent or the counts do not square the system.
+    fn refactor(&mut self, parasitic: &[Vector6<f64>], columns: &[[Vector6<f64>; 6]], dofs: &[usize]) -> bool {
+        let k = self.k;
         let mut reduced = Matrix6::identity();
         let mut row = 0;
-        for (cols, &n) in columns.iter().zip(dofs) {
-            let mut a = Matrix6::zeros();
+        for ((limb, cols), &n) in self.limbs.iter_mut().zip(columns).zip(dofs) {
+            let a = &mut limb.r;
+            a.fill(0.0);
             for (c, s) in cols[..n].iter().enumerate() {
                 a.set_column(c, s);
             }
-            let qt = householder(&mut a, n)?;
-            let qv = qt * v;
-            if row + 6 - n > k {
-                return None;
+            if !householder_into(a, n, &mut limb.q) || row + 6 - n > k {
+                return false;
+            }
+            for (c, s) in parasitic.iter().enumerate() {
+                limb.qv.set_column(c, &limb.q.apply_qt(&(-s)));
             }
             for r in n..6 {
                 for c in 0..k {
-                    reduced[(row, c)] = qv[(r, c)];
+                    reduced[(row, c)] = limb.qv[(r, c)];
                 }
                 row += 1;
             }
-            limbs.push((n, qt, a, qv));
         }
         if row != k {
-            return None;
+            return false;
         }
-        let reduced = (k > 0).then(|| reduced.lu());
-        Some(Self { k, limbs, reduced })
+        self.reduced = (k > 0).then(|| reduced.lu());
+        true
     }
 
     /// Solves `J_l·θ_l − V_par·x_par = b_l` for every limb l: `out` gets `x_par` then each
     /// limb's `θ_l`, in order. `false` where the system is singular.
     fn solve(&self, b: impl Fn(usize) -> Vector6<f64>, out: &mut [f64]) -> bool {
-        let c: Vec<Vector6<f64>> = self.limbs.iter().enumerate().map(|(l, (_, qt, _, _))| qt * b(l)).collect();
         let mut x = Vector6::zeros();
         if let Some(lu) = &self.reduced {
             let mut y = Vector6::zeros();
             let mut row = 0;
-            for ((n, ..), cl) in self.limbs.iter().zip(&c) {
-                for r in *n..6 {
+            for (l, limb) in self.limbs.iter().enumerate() {
+                let cl = limb.q.apply_qt(&b(l));
+                for r in limb.q.n..6 {
                     y[row] = cl[r];
                     row += 1;
                 }
@@ -500,11 +534,16 @@ impl Factored {
         }
         out[..self.k].copy_from_slice(&x.as_slice()[..self.k]);
         let mut at = self.k;
-        for ((n, _, r, qv), cl) in self.limbs.iter().zip(&c) {
-            let t = cl - qv * x;
-            for i in (0..*n).rev() {
+        for (l, limb) in self.limbs.iter().enumerate() {
+            let n = limb.q.n;
+            let mut t = limb.q.apply_qt(&b(l));
+            if self.k > 0 {
+                t -= limb.qv * x;
+            }
+            let r = &limb.r;
+            for i in (0..n).rev() {
                 let mut s = t[i];
-                for j in i + 1..*n {
+                for j in i + 1..n {
                     s -= r[(i, j)] * out[at + j];
                 }
                 out[at + i] = s / r[(i, i)];
@@ -515,39 +554,74 @@ impl Factored {
     }
 }
 
-/// Per limb: `n_l`, `Q_lᵀ`, `R_l` (upper triangle), `Q_lᵀ·(−V_par)`.
-type LimbFactor = (usize, Matrix6<f64>, Matrix6<f64>, Matrix6<f64>);
+/// The orthogonal factor `Q` of a Householder QR in R⁶, kept as its reflectors
+/// `H_j = I − β_j·v_j·v_jᵀ` (`Q = H_0·H_1 ⋯ H_(n−1)`): applying them to a vector costs
+/// a few dozen products, where forming `Qᵀ` cost hundreds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Reflectors {
+    /// The columns factored.
+    pub n: usize,
+    /// `v_j`, zero above row `j`.
+    v: [Vector6<f64>; 6],
+    beta: [f64; 6],
+}
+
+impl Reflectors {
+    /// `Qᵀ·x`.
+    pub fn apply_qt(&self, x: &Vector6<f64>) -> Vector6<f64> {
+        let mut y = *x;
+        for j in 0..self.n {
+            y.axpy(-self.beta[j] * self.v[j].dot(&y), &self.v[j], 1.0);
+        }
+        y
+    }
+
+    /// `Q·x`.
+    pub fn apply_q(&self, x: &Vector6<f64>) -> Vector6<f64> {
+        let mut y = *x;
+        for j in (0..self.n).rev() {
+            y.axpy(-self.beta[j] * self.v[j].dot(&y), &self.v[j], 1.0);
+        }
+        y
+    }
+
+    /// Row `r` of `Qᵀ` (that is `Q·e_r`); rows `n..6` span the complement of the columns.
+    pub fn qt_row(&self, r: usize) -> Vector6<f64> {
+        self.apply_q(&Vector6::ith(r, 1.0))
+    }
+}
 
 /// Householder QR of the first `n` columns of `a`: `a` becomes `R` (upper triangle),
-/// and the result is `Qᵀ` (6 × 6, orthogonal; its last `6 − n` rows span the
+/// and the result is `Q` as its reflectors (the last `6 − n` rows of `Qᵀ` span the
 /// complement of the columns). `None` where a column is dependent on those before it
 /// (exactly, or not finite).
-pub fn householder(a: &mut Matrix6<f64>, n: usize) -> Option<Matrix6<f64>> {
-    let mut qt = Matrix6::identity();
+pub fn householder(a: &mut Matrix6<f64>, n: usize) -> Option<Reflectors> {
+    let mut q = Reflectors::default();
+    householder_into(a, n, &mut q).then_some(q)
+}
+
+/// [`householder`] into `q`; `false` where a column is dependent.
+fn householder_into(a: &mut Matrix6<f64>, n: usize, q: &mut Reflectors) -> bool {
+    q.n = n;
     for j in 0..n {
-        // Column-major storage: column c is `[6c, 6c + 6)`.
-        let col = &a.as_slice()[6 * j + j..6 * j + 6];
-        let norm = col.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if !(norm > 0.0 && norm.is_finite()) {
-            return None;
+        let mut v: Vector6<f64> = a.column(j).into_owned();
+        for x in v.iter_mut().take(j) {
+            *x = 0.0;
         }
-        let alpha = if col[0] > 0.0 { -norm } else { norm };
-        let mut v = [0.0; 6];
-        v[..6 - j].copy_from_slice(col);
-        v[0] -= alpha;
-        let v = &v[..6 - j];
-        let vv: f64 = v.iter().map(|x| x * x).sum();
-        let reflect = |m: &mut [f64], cols: std::ops::Range<usize>| {
-            for c in cols {
-                let x = &mut m[6 * c + j..6 * c + 6];
-                let f = 2.0 * v.iter().zip(x.iter()).map(|(p, q)| p * q).sum::<f64>() / vv;
-                x.iter_mut().zip(v).for_each(|(q, p)| *q -= f * p);
-            }
-        };
-        reflect(a.as_mut_slice(), j..n);
-        reflect(qt.as_mut_slice(), 0..6);
+        let norm = v.norm();
+        if !(norm > 0.0 && norm.is_finite()) {
+            return false;
+        }
+        v[j] -= if v[j] > 0.0 { -norm } else { norm };
+        let beta = 2.0 / v.norm_squared();
+        for c in j..n {
+            let mut col = a.column_mut(c);
+            let f = beta * v.dot(&col);
+            col.axpy(-f, &v, 1.0);
+        }
+        (q.v[j], q.beta[j]) = (v, beta);
     }
-    Some(qt)
+    true
 }
 
 /// The spatial twists of the platform per unit rate of each coordinate at `c`.
@@ -622,19 +696,28 @@ const MAX_STEP_CHANGE: f64 = 0.25;
 /// Continuation steps at most (halvings included).
 const MAX_STEPS: usize = 200;
 
-/// The factored Newton matrix at `coords` with the limbs' columns.
-fn factor(geom: &CustomGeometry, coords: &[f64; 6], columns: &[[Vector6<f64>; 6]], dofs: &[usize]) -> Option<Factored> {
+/// The parasitic coordinates' screws at `coords`.
+fn parasitic_screws(geom: &CustomGeometry, coords: &[f64; 6]) -> [Vector6<f64>; 6] {
     let screws = coordinate_screws(coords);
     let mut parasitic = [Vector6::zeros(); 6];
     for (i, &c) in geom.parasitic.iter().enumerate() {
         parasitic[i] = screws[c];
     }
-    Factored::new(geom.parasitic.len(), &parasitic[..geom.parasitic.len()], columns, dofs)
+    parasitic
+}
+
+/// The factored Newton matrix at `coords` with the limbs' columns.
+fn factor(geom: &CustomGeometry, coords: &[f64; 6], columns: &[[Vector6<f64>; 6]], dofs: &[usize]) -> Option<Factored> {
+    let k = geom.parasitic.len();
+    let mut f = Factored::new(k, columns.len());
+    f.refactor(&parasitic_screws(geom, coords)[..k], columns, dofs).then_some(f)
 }
 
 /// Solves the closure at `coords` (the inputs set, the parasitic ones a first guess)
 /// by Newton from `states`; returns the increments' largest scaled size.
+pub static NC: [std::sync::atomic::AtomicUsize; 4] = [const { std::sync::atomic::AtomicUsize::new(0) }; 4];
 fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointState>]) -> Option<f64> {
+    NC[0].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let scale = geom.length;
     let mut moved = 0.0f64;
     let home = placement(&geom.home).inverse();
@@ -643,6 +726,8 @@ fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointS
     let mut dofs = vec![0; nl];
     let mut r = vec![Vector6::zeros(); nl];
     let mut dx = vec![0.0; geom.parasitic.len() + geom.limbs.iter().map(LimbGeom::dof).sum::<usize>()];
+    let k = geom.parasitic.len();
+    let mut f = Factored::new(k, nl);
     for _ in 0..NEWTON_STEPS {
         let d = placement(coords).then(&home);
         let mut size = 0.0f64;
@@ -657,7 +742,10 @@ fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointS
         if size < 1e-14 {
             return Some(moved);
         }
-        let f = factor(geom, coords, &columns, &dofs)?;
+        NC[1].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if !f.refactor(&parasitic_screws(geom, coords)[..k], &columns, &dofs) {
+            return None;
+        }
         if !f.solve(|l| -r[l], &mut dx) {
             return None;
         }
@@ -747,6 +835,7 @@ pub fn solve_configuration_near(
 }
 
 fn continue_from_home(geom: &CustomGeometry, target: &[f64]) -> Result<Configuration, Unsolved> {
+    NC[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let mut coords = geom.home;
     let mut states: Vec<Vec<JointState>> =
         geom.limbs.iter().map(|l| l.joints.iter().map(JointState::home).collect()).collect();
@@ -799,12 +888,14 @@ pub fn custom_posture_near(
 }
 
 /// The posture of a solved configuration.
+pub static PC: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 pub fn posture_at(
     geom: &CustomGeometry,
     coords: [f64; 6],
     states: Vec<Vec<JointState>>,
     rates: Option<(&[f64], &[f64])>,
 ) -> CustomPosture {
+    PC.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let mut joints = Vec::with_capacity(geom.limbs.len());
     let mut motions = Vec::with_capacity(geom.limbs.len());
     for (limb, st) in geom.limbs.iter().zip(&states) {
@@ -862,7 +953,7 @@ pub fn posture_at(
         let known: Vector6<f64> =
             geom.inputs.iter().map(|&k| screws[k] * cdd[k]).sum::<Vector6<f64>>() + coordinate_drift(&coords, &cd);
         let drifts: Vec<Vector6<f64>> =
-            joints.iter_mut().enumerate().map(|(l, pj)| column_drift(pj, &rates_of_columns[l]).1).collect();
+            joints.iter().enumerate().map(|(l, pj)| column_drift(pj, &rates_of_columns[l]).1).collect();
         let y = solve(&|l| known - drifts[l]);
         for (i, &k) in geom.parasitic.iter().enumerate() {
             cdd[k] = y[i];
@@ -904,14 +995,13 @@ pub fn posture_at(
     CustomPosture { coords, platform, twist, accel, joints, bodies, states }
 }
 
-/// The twist of the body before each column, and `Σ_k [V_(k−1), ξ_k]·θ̇_k`, for one limb.
-fn column_drift(joints: &mut [PosedJoint], rates: &[f64]) -> (Vector6<f64>, Vector6<f64>) {
+/// The twist of a limb's last body and `Σ_k [V_(k−1), ξ_k]·θ̇_k`, `V_(k−1)` the twist of
+/// the body before column k.
+fn column_drift(joints: &[PosedJoint], rates: &[f64]) -> (Vector6<f64>, Vector6<f64>) {
     let (mut v, mut drift) = (Vector6::zeros(), Vector6::zeros());
     let mut k = 0;
-    for j in joints.iter_mut() {
-        j.before.clear();
+    for j in joints {
         for s in &j.columns {
-            j.before.push(v);
             drift += bracket(&v, s) * rates[k];
             v += s * rates[k];
             k += 1;

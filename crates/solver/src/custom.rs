@@ -20,7 +20,7 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
 
 use clearance_kinematics::custom::{
-    Configuration, CustomGeometry, CustomPosture, JointState, PosedJoint, Rigid, Unsolved, custom_posture,
+    Configuration, CustomGeometry, CustomPosture, JointState, PosedJoint, Reflectors, Rigid, Unsolved, custom_posture,
     custom_posture_near, exp_so3, householder, placement,
 };
 use clearance_model::custom::{Group, JointType};
@@ -228,52 +228,82 @@ impl CustomModel {
 struct Basis {
     /// `[N_1 … N_L]`.
     g: Matrix6<f64>,
-    /// The column where limb i's block starts, and its width.
-    blocks: Vec<(usize, usize)>,
-    /// Each limb's passive columns.
-    passive: Vec<Vec<V6>>,
+    /// Per limb: its passive columns and their QR.
+    limbs: Vec<LimbBasis>,
+}
+
+/// One limb's passive columns `Ξ_i` and the Householder QR of `S·Ξ_i`.
+struct LimbBasis {
+    cols: [V6; 6],
+    n: usize,
+    q: Reflectors,
+    /// `R` of the QR (upper triangle of the first `n` columns).
+    r: Matrix6<f64>,
+    /// The column of `G` where the limb's block `N_i` starts, and its width `6 − n`.
+    start: usize,
+    width: usize,
+}
+
+impl LimbBasis {
+    /// The passive columns.
+    fn passive(&self) -> &[V6] {
+        &self.cols[..self.n]
+    }
+
+    /// The wrench `W0` in the span of `S·Ξ_i` with `(S·ξ_k)ᵀ·W0 = r_k` for each column:
+    /// `Q·[R⁻ᵀ·r; 0]`.
+    fn particular(&self, r: &[f64; 6]) -> V6 {
+        let mut y = V6::zeros();
+        for i in 0..self.n {
+            let mut t = r[i];
+            for j in 0..i {
+                t -= self.r[(j, i)] * y[j];
+            }
+            y[i] = t / self.r[(i, i)];
+        }
+        self.q.apply_q(&y)
+    }
 }
 
 impl Basis {
     fn new(p: &CustomPosture, geom: &CustomGeometry) -> Option<Basis> {
         let mut g = Matrix6::zeros();
-        let mut blocks = Vec::new();
-        let mut passive = Vec::new();
+        let mut limbs = Vec::with_capacity(geom.limbs.len());
         let mut at = 0;
         for (limb, pj) in geom.limbs.iter().zip(&p.joints) {
-            let cols: Vec<V6> = limb
-                .joints
-                .iter()
-                .zip(pj)
-                .filter(|(j, _)| !j.actuated)
-                .flat_map(|(_, pj)| pj.columns.iter().copied())
-                .collect();
-            let n = cols.len();
-            if n > 6 || at + 6 - n > 6 {
+            let mut cols = [V6::zeros(); 6];
+            let mut n = 0;
+            for c in limb.joints.iter().zip(pj).filter(|(j, _)| !j.actuated).flat_map(|(_, pj)| &pj.columns) {
+                if n == 6 {
+                    return None;
+                }
+                cols[n] = *c;
+                n += 1;
+            }
+            if at + 6 - n > 6 {
                 return None;
             }
             // Householder QR of the swapped columns: the last 6 − n rows of Qᵀ are an
             // orthonormal basis of the wrenches that do no work on them.
             let mut m = Matrix6::zeros();
-            for (k, c) in cols.iter().enumerate() {
+            for (k, c) in cols[..n].iter().enumerate() {
                 m.set_column(k, &swap(c));
             }
-            let qt = householder(&mut m, n)?;
+            let q = householder(&mut m, n)?;
             let largest = (0..n).map(|k| m[(k, k)].abs()).fold(1.0, f64::max);
             if (0..n).any(|k| m[(k, k)].abs() <= 1e-12 * largest) {
                 return None; // the limb's own freedoms are dependent: a limb singularity
             }
             for k in 0..6 - n {
-                g.set_column(at + k, &qt.row(n + k).transpose());
+                g.set_column(at + k, &q.qt_row(n + k));
             }
-            blocks.push((at, 6 - n));
+            limbs.push(LimbBasis { cols, n, q, r: m, start: at, width: 6 - n });
             at += 6 - n;
-            passive.push(cols);
         }
         if at != 6 {
             return None;
         }
-        Some(Basis { g, blocks, passive })
+        Some(Basis { g, limbs })
     }
 
     /// The 2-norm condition number of `G` (from its singular values).
@@ -417,8 +447,8 @@ pub fn solve_members_near(
             return (vec![out; models.len()], None);
         }
     };
-    let configuration = Some((posture.coords, posture.states.clone()));
-    (solve_posture(models, &posture, out), configuration)
+    let solved = solve_posture(models, &posture, out);
+    (solved, Some((posture.coords, posture.states)))
 }
 
 /// Group `group`'s deciding load at a pose where the pose has loads and the group can
@@ -435,16 +465,17 @@ pub fn group_load_near(
 ) -> (Option<[f64; 3]>, Option<Configuration>) {
     let rates = if mode == Mode::Dynamic { rates } else { None };
     let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else { return (None, None) };
-    let configuration = Some((posture.coords, posture.states.clone()));
     let mut out = CustomResult::default();
-    let Some((basis, gi)) = statics(model, &posture, &mut out, false) else { return (None, configuration) };
-    let g = &model.groups[group];
-    let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
-    let pj = &posture.joints[g.limb][g.joint];
-    let (f, m) = out.reactions[g.limb][g.joint];
-    let (load, ..) = deciding_load(joint, g.group, &pj.axis, &pj.normal, &f, &m);
-    let (.., unit_p, _) = unit_reach(&basis, &gi, g, pj, &posture.platform.t, joint);
-    ((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]), configuration)
+    let load = statics(model, &posture, &mut out, false).and_then(|(basis, gi)| {
+        let g = &model.groups[group];
+        let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
+        let pj = &posture.joints[g.limb][g.joint];
+        let (f, m) = out.reactions[g.limb][g.joint];
+        let (load, ..) = deciding_load(joint, g.group, &pj.axis, &pj.normal, &f, &m);
+        let (.., unit_p, _) = unit_reach(&basis, &gi, g, pj, &posture.platform.t, joint);
+        (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
+    });
+    (load, Some((posture.coords, posture.states)))
 }
 
 /// The reactions (once: the models differ only in their clearances), then each
@@ -553,28 +584,18 @@ fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6
             c[j] = beyond + body;
         }
         // (S ξ_k)ᵀ (W0 + C_J(k)) = 0 for each passive column k.
-        let mut cols = Vec::new();
-        let mut r = Vec::new();
+        let mut r = [0.0; 6];
+        let mut k = 0;
         for (j, (joint, pj)) in limb.joints.iter().zip(&p.joints[l]).enumerate() {
             if joint.actuated {
                 continue;
             }
             for s in &pj.columns {
-                cols.push(swap(s));
-                r.push(-swap(s).dot(&c[j]));
+                r[k] = -swap(s).dot(&c[j]);
+                k += 1;
             }
         }
-        let k = cols.len();
-        let x = DMatrix::from_fn(6, k, |row, col| cols[col][row]);
-        let gram = x.transpose() * &x;
-        let rv = nalgebra::DVector::from_vec(r);
-        let w0 = match gram.lu().solve(&rv) {
-            Some(y) => {
-                let v = &x * y;
-                V6::from_iterator(v.iter().copied())
-            }
-            None => V6::zeros(),
-        };
+        let w0 = basis.limbs[l].particular(&r);
         rhs -= w0;
         w0s.push(w0);
         carried.push(c);
@@ -583,7 +604,7 @@ fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6
     out.reactions = Vec::with_capacity(geom.limbs.len());
     out.tau.clear();
     for (l, limb) in geom.limbs.iter().enumerate() {
-        let (start, width) = basis.blocks[l];
+        let LimbBasis { start, width, .. } = basis.limbs[l];
         let mut wl = w0s[l];
         for k in 0..width {
             wl += basis.g.column(start + k) * lambda[start + k];
@@ -646,7 +667,7 @@ enum Shape {
 
 /// `ΔΓ` at P of a displacement twist `zeta` of limb `l`: `S·G⁻ᵀ·[N_lᵀ·S·ζ]`.
 fn response(basis: &Basis, gi: &Matrix6<f64>, l: usize, zeta: &V6, pos: &V3) -> [f64; 6] {
-    let (start, width) = basis.blocks[l];
+    let LimbBasis { start, width, .. } = basis.limbs[l];
     let sz = swap(zeta);
     let mut b = V6::zeros();
     for k in 0..width {
@@ -862,12 +883,13 @@ fn exact_error(
         e.1 += v(&t.twist) - c.cross(&w(&t.twist));
     }
     let mut delta = Rigid::IDENTITY;
-    let mut q: Vec<Vec<f64>> = basis.passive.iter().map(|c| vec![0.0; c.len()]).collect();
+    let mut q: Vec<Vec<f64>> = basis.limbs.iter().map(|b| vec![0.0; b.n]).collect();
     let scale = geom.length;
     let pinv: Vec<Option<DMatrix<f64>>> = basis
-        .passive
+        .limbs
         .iter()
-        .map(|cols| {
+        .map(|b| {
+            let cols = b.passive();
             let x = DMatrix::from_fn(6, cols.len(), |r, c| cols[c][r]);
             (x.transpose() * &x).try_inverse().map(|gram| gram * x.transpose())
         })
@@ -907,7 +929,7 @@ fn exact_error(
             let e = g.then(&delta.inverse());
             let r = six(skew_axial(&e.r), e.t);
             size = size.max(w(&r).amax()).max(v(&r).amax() / scale);
-            let (start, width) = basis.blocks[l];
+            let LimbBasis { start, width, .. } = basis.limbs[l];
             let sr = swap(&r);
             for kk in 0..width {
                 b[start + kk] = basis.g.column(start + kk).dot(&sr);
