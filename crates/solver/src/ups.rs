@@ -638,10 +638,12 @@ fn inverse6(g: &SMatrix<f64, 6, 6>) -> Option<SMatrix<f64, 6, 6>> {
             if r != col {
                 let f = row[col];
                 // Columns up to `col` are never read again (the pivots to come are
-                // further right, the inverse is the right half): left as they are.
+                // further right, the inverse is the right half): updated all the same,
+                // the whole row at once, which vectorises (the other columns' values
+                // are those of updating them alone).
                 if f != 0.0 {
-                    for c in col + 1..12 {
-                        row[c] -= f * pivot_row[c];
+                    for (x, p) in row.iter_mut().zip(&pivot_row) {
+                        *x -= f * p;
                     }
                 }
             }
