@@ -458,7 +458,8 @@ fn closure(limb: &LimbGeom, states: &[JointState], columns: &mut [Vector6<f64>; 
 /// variables, and stacked over the limbs they leave a `k × k` system for the `k`
 /// parasitic coordinates (`Σ(6 − n_l) = k` when the counts of §12.3 hold). Each solve
 /// then costs a few reflections of 6-vectors instead of a dense `6L × 6L`
-/// factorisation; with no parasitic coordinate the limbs are independent.
+/// factorisation. With no parasitic coordinate the limbs are independent, each `J_l`
+/// square: it is LU-factored instead (half the work of the QR).
 struct Factored {
     k: usize,
     limbs: Vec<LimbFactor>,
@@ -472,12 +473,74 @@ struct LimbFactor {
     q: Reflectors,
     r: Matrix6<f64>,
     qv: Matrix6<f64>,
+    /// With no parasitic coordinate: the limb's square `J_l`, LU-factored instead.
+    lu: Lu6,
+}
+
+/// A 6 × 6 matrix factored by Gaussian elimination with partial pivoting, `P·A = L·U`
+/// (rows, in place: `L` below the diagonal with a unit diagonal, `U` on and above).
+#[derive(Clone, Copy, Debug, Default)]
+struct Lu6 {
+    m: [[f64; 6]; 6],
+    perm: [usize; 6],
+}
+
+impl Lu6 {
+    /// Factors the matrix of columns `cols`; `false` where a pivot is zero or not finite.
+    fn factor(&mut self, cols: &[Vector6<f64>; 6]) -> bool {
+        let m = &mut self.m;
+        for (c, col) in cols.iter().enumerate() {
+            for r in 0..6 {
+                m[r][c] = col[r];
+            }
+        }
+        self.perm = [0, 1, 2, 3, 4, 5];
+        for c in 0..6 {
+            let p = (c..6).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs())).unwrap_or(c);
+            m.swap(c, p);
+            self.perm.swap(c, p);
+            let pivot = m[c][c];
+            if pivot == 0.0 || !pivot.is_finite() {
+                return false;
+            }
+            let row = m[c];
+            for r in m.iter_mut().skip(c + 1) {
+                let f = r[c] / pivot;
+                r[c] = f;
+                for k in c + 1..6 {
+                    r[k] -= f * row[k];
+                }
+            }
+        }
+        true
+    }
+
+    /// `A⁻¹·b` into `x`.
+    fn solve(&self, b: &Vector6<f64>, x: &mut [f64]) {
+        let m = &self.m;
+        let mut y = [0.0; 6];
+        for i in 0..6 {
+            let mut t = b[self.perm[i]];
+            for j in 0..i {
+                t -= m[i][j] * y[j];
+            }
+            y[i] = t;
+        }
+        for i in (0..6).rev() {
+            let mut t = y[i];
+            for j in i + 1..6 {
+                t -= m[i][j] * x[j];
+            }
+            x[i] = t / m[i][i];
+        }
+    }
 }
 
 impl Factored {
     /// Room for `limbs` limbs and `k` parasitic coordinates, to be [`refactor`](Self::refactor)ed.
     fn new(k: usize, limbs: usize) -> Self {
-        let empty = LimbFactor { q: Reflectors::default(), r: Matrix6::zeros(), qv: Matrix6::zeros() };
+        let empty =
+            LimbFactor { q: Reflectors::default(), r: Matrix6::zeros(), qv: Matrix6::zeros(), lu: Lu6::default() };
         Self { k, limbs: vec![empty; limbs], reduced: None }
     }
 
@@ -485,6 +548,15 @@ impl Factored {
     /// dependent or the counts do not square the system.
     fn refactor(&mut self, parasitic: &[Vector6<f64>], columns: &[[Vector6<f64>; 6]], dofs: &[usize]) -> bool {
         let k = self.k;
+        if k == 0 {
+            // Every limb square (the counts of §12.3): each solved alone.
+            return self
+                .limbs
+                .iter_mut()
+                .zip(columns)
+                .zip(dofs)
+                .all(|((limb, cols), &n)| n == 6 && limb.lu.factor(cols));
+        }
         let mut reduced = Matrix6::identity();
         let mut row = 0;
         for ((limb, cols), &n) in self.limbs.iter_mut().zip(columns).zip(dofs) {
@@ -516,6 +588,12 @@ impl Factored {
     /// Solves `J_l·θ_l − V_par·x_par = b_l` for every limb l: `out` gets `x_par` then each
     /// limb's `θ_l`, in order. `false` where the system is singular.
     fn solve(&self, b: impl Fn(usize) -> Vector6<f64>, out: &mut [f64]) -> bool {
+        if self.k == 0 {
+            for (l, (limb, x)) in self.limbs.iter().zip(out.chunks_exact_mut(6)).enumerate() {
+                limb.lu.solve(&b(l), x);
+            }
+            return out.iter().all(|v| v.is_finite());
+        }
         let mut x = Vector6::zeros();
         if let Some(lu) = &self.reduced {
             let mut y = Vector6::zeros();
