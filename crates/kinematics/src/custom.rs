@@ -581,7 +581,7 @@ impl Factored {
         if row != k {
             return false;
         }
-        self.reduced = (k > 0).then(|| reduced.lu());
+        self.reduced = Some(reduced.lu());
         true
     }
 
@@ -614,10 +614,7 @@ impl Factored {
         let mut at = self.k;
         for (l, limb) in self.limbs.iter().enumerate() {
             let n = limb.q.n;
-            let mut t = limb.q.apply_qt(&b(l));
-            if self.k > 0 {
-                t -= limb.qv * x;
-            }
+            let t = limb.q.apply_qt(&b(l)) - limb.qv * x;
             let r = &limb.r;
             for i in (0..n).rev() {
                 let mut s = t[i];
@@ -793,9 +790,7 @@ fn factor(geom: &CustomGeometry, coords: &[f64; 6], columns: &[[Vector6<f64>; 6]
 
 /// Solves the closure at `coords` (the inputs set, the parasitic ones a first guess)
 /// by Newton from `states`; returns the increments' largest scaled size.
-pub static NC: [std::sync::atomic::AtomicUsize; 4] = [const { std::sync::atomic::AtomicUsize::new(0) }; 4];
 fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointState>]) -> Option<f64> {
-    NC[0].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let scale = geom.length;
     let mut moved = 0.0f64;
     let home = placement(&geom.home).inverse();
@@ -820,7 +815,6 @@ fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointS
         if size < 1e-14 {
             return Some(moved);
         }
-        NC[1].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         if !f.refactor(&parasitic_screws(geom, coords)[..k], &columns, &dofs) {
             return None;
         }
@@ -913,7 +907,6 @@ pub fn solve_configuration_near(
 }
 
 fn continue_from_home(geom: &CustomGeometry, target: &[f64]) -> Result<Configuration, Unsolved> {
-    NC[2].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let mut coords = geom.home;
     let mut states: Vec<Vec<JointState>> =
         geom.limbs.iter().map(|l| l.joints.iter().map(JointState::home).collect()).collect();
@@ -966,14 +959,12 @@ pub fn custom_posture_near(
 }
 
 /// The posture of a solved configuration.
-pub static PC: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 pub fn posture_at(
     geom: &CustomGeometry,
     coords: [f64; 6],
     states: Vec<Vec<JointState>>,
     rates: Option<(&[f64], &[f64])>,
 ) -> CustomPosture {
-    PC.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let mut joints = Vec::with_capacity(geom.limbs.len());
     let mut motions = Vec::with_capacity(geom.limbs.len());
     for (limb, st) in geom.limbs.iter().zip(&states) {
@@ -1031,7 +1022,7 @@ pub fn posture_at(
         let known: Vector6<f64> =
             geom.inputs.iter().map(|&k| screws[k] * cdd[k]).sum::<Vector6<f64>>() + coordinate_drift(&coords, &cd);
         let drifts: Vec<Vector6<f64>> =
-            joints.iter().enumerate().map(|(l, pj)| column_drift(pj, &rates_of_columns[l]).1).collect();
+            joints.iter().enumerate().map(|(l, pj)| column_drift(pj, &rates_of_columns[l])).collect();
         let y = solve(&|l| known - drifts[l]);
         for (i, &k) in geom.parasitic.iter().enumerate() {
             cdd[k] = y[i];
@@ -1073,9 +1064,9 @@ pub fn posture_at(
     CustomPosture { coords, platform, twist, accel, joints, bodies, states }
 }
 
-/// The twist of a limb's last body and `Σ_k [V_(k−1), ξ_k]·θ̇_k`, `V_(k−1)` the twist of
-/// the body before column k.
-fn column_drift(joints: &[PosedJoint], rates: &[f64]) -> (Vector6<f64>, Vector6<f64>) {
+/// `Σ_k [V_(k−1), ξ_k]·θ̇_k` for one limb, `V_(k−1)` the twist of the body before
+/// column k.
+fn column_drift(joints: &[PosedJoint], rates: &[f64]) -> Vector6<f64> {
     let (mut v, mut drift) = (Vector6::zeros(), Vector6::zeros());
     let mut k = 0;
     for j in joints {
@@ -1085,5 +1076,5 @@ fn column_drift(joints: &[PosedJoint], rates: &[f64]) -> (Vector6<f64>, Vector6<
             k += 1;
         }
     }
-    (v, drift)
+    drift
 }
