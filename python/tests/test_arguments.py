@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import clearance
+from conftest import cli_command
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
@@ -161,7 +162,7 @@ def test_a_nan_in_a_dict_job_is_refused_as_in_a_job_file(tmp_path):
     job = tmp_path / "nan.toml"
     job.write_text("[grid]\nz = nan\npsi = 0.0\ntheta = 0.0\n")
     cli = subprocess.run(
-        ["cargo", "run", "-q", "-p", "clearance-cli", "--", "check", str(job), "--no-timing"],
+        cli_command("check", str(job), "--no-timing"),
         cwd=REPO,
         capture_output=True,
         text=True,

@@ -11,6 +11,7 @@ import pyarrow.dataset as ds
 import pytest
 
 import clearance
+from conftest import cli_command
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
@@ -243,7 +244,7 @@ def test_bad_job_raises_the_clis_message(tmp_path):
     with pytest.raises(clearance.JobError) as e:
         clearance.check(str(bad))
     cli = subprocess.run(
-        ["cargo", "run", "-q", "-p", "clearance-cli", "--", "check", str(bad), "--no-timing"],
+        cli_command("check", str(bad), "--no-timing"),
         cwd=REPO,
         capture_output=True,
         text=True,
@@ -320,22 +321,7 @@ def test_allocate_equals_the_cli_and_meets_the_budget(tmp_path):
     path = tmp_path / "job.toml"
     path.write_text(clearance._clearance.dict_toml(job))
     cli = subprocess.run(
-        [
-            "cargo",
-            "run",
-            "-q",
-            "--manifest-path",
-            str(REPO / "Cargo.toml"),
-            "-p",
-            "clearance-cli",
-            "--",
-            "allocate",
-            str(path),
-            "--max-dp",
-            "1e-4",
-            "--json",
-            "-q",
-        ],
+        cli_command("allocate", str(path), "--max-dp", "1e-4", "--json", "-q"),
         cwd=tmp_path,
         capture_output=True,
         text=True,
