@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Independent NumPy reference of ``[mechanism] kind = "custom"`` (MODEL.md section 12).
+"""Independent NumPy reference of ``[mechanism] kind = "custom"`` (docs/model.md section 12).
 
-Written from MODEL.md sections 1-8 and 12, INTERFACE.md (the custom job keys) and
+Written from docs/model.md sections 1-8 and 12, docs/interface.md (the custom job keys) and
 docs/conventions.md (sampling, statuses, nulls), not from the Rust engine.  It is
 deliberately the *slow, assembled* formulation: every system is the full dense one,
 
@@ -35,7 +35,7 @@ Usage::
 
     rc.preset_description(builtin_job)              # 3-PRS / 3-RPS / 6-UPS job -> custom job
 
-Choices where MODEL.md section 12 leaves room are listed in CHOICES (and in the
+Choices where docs/model.md section 12 leaves room are listed in CHOICES (and in the
 report of the branch that added this file); each is a line to revisit if the engine
 differs.
 """
@@ -578,7 +578,7 @@ def _check(M):
 
 
 def check_description(job: dict) -> Mech:
-    """Refuse what MODEL.md 12.3 and INTERFACE.md refuse (ValueError with the counts, the
+    """Refuse what docs/model.md 12.3 and docs/interface.md refuse (ValueError with the counts, the
     word overconstrained / not rigid, or the limb and the hint of an idle freedom)."""
     return normalize_job(job, check=True)
 
@@ -1408,11 +1408,20 @@ def evaluate(M, c_in, mode="kinetostatic", cd=None, cdd=None):
         else:
             Z[:, 6 * i + 3:6 * i + 6, ki] += d
     with np.errstate(all="ignore"):
-        per = _solve(Emat, Z)[:, 0:6, 0:K]                                   # (N,6,K) [da; dp]
+        sol = _solve(Emat, Z)                                    # (N,6+nf,K) [da; dp; dq]
+        kappa_e = np.linalg.cond(Emat)
+    per = sol[:, 0:6, 0:K]                                                   # (N,6,K) [da; dp]
+    # The size of each kind's whole solution in metres: the platform's [da; dp] and the
+    # passive motions dq that go with it (rotations times Lchar), which are of the
+    # take-up's size even where they cancel it and the error is zero.
+    rot = np.concatenate([np.linalg.norm(t[0, 0:3, :], axis=0) > 0 for t in T]) if T else np.zeros(0, bool)
+    scale = np.concatenate([np.full(3, M.Lchar), np.ones(3), np.where(rot, M.Lchar, 1.0)])
+    with np.errstate(all="ignore"):
+        sol_len = np.abs(sol * scale[None, :, None]).max(axis=1)             # (N,K)
     return {"c_in": c_in, "st": st, "sts": sts, "conv": conv, "reach": reach, "c": c, "geo": geo, "rt": rt,
             "A": A, "b": b, "w": w, "layout": layout, "react": react, "jload": jload, "jgeo": jgeo,
             "T": T, "Emat": Emat, "H": H, "kappa_g": kg, "kappa_limb": kl, "singular": singular,
-            "groups": G, "per": per, "p": p, "R": Rp}
+            "groups": G, "per": per, "p": p, "R": Rp, "kappa_e": kappa_e, "sol_len": sol_len}
 
 
 def column_names(M, columns="full"):
@@ -1513,6 +1522,9 @@ def _rows(M, res, mode, t, sample0, extras=False):
         cols["kappa_limb"] = np.where(reach, res["kappa_limb"], nan)
         for name, gd in G.items():
             cols[f"dp_{name}"] = np.where(ok, np.linalg.norm(gd["contrib"][:, 3:6], axis=-1), nan)
+        cols["kappa_e"] = np.where(full, res["kappa_e"], nan)
+        for ki, k in enumerate(M.kinds):
+            cols[f"sol_len_{k}"] = np.where(full, res["sol_len"][:, ki], nan)
     if M.exact:
         ex = np.full((N, 6), nan)
         if np.any(ok):
@@ -1547,9 +1559,13 @@ def _rows(M, res, mode, t, sample0, extras=False):
 
 def extra_column_names(M):
     """Reference-only columns of compute(..., extras=True): kappa_g, kappa_limb (the
-    near_singular measures of CHOICES 7, reachable rows) and dp_<group> (|dp| of each
-    group's own take-up, ok rows: judges near ties of `dominant`)."""
-    return ["kappa_g", "kappa_limb"] + [f"dp_{g.name}" for g in M.groups]
+    near_singular measures of CHOICES 7, reachable rows), dp_<group> (|dp| of each
+    group's own take-up, ok rows: judges near ties of `dominant`), and for the
+    round-off of the error system (ok and indeterminate rows): kappa_e, its 2-norm
+    condition number, and sol_len_<kind>, the largest entry of that kind's solution
+    [da; dp; dq] in metres (rotations times Lchar)."""
+    return (["kappa_g", "kappa_limb"] + [f"dp_{g.name}" for g in M.groups] + ["kappa_e"]
+            + [f"sol_len_{k}" for k in M.kinds])
 
 
 def compute(job, columns="full", chunk=512, extras=False) -> dict:
@@ -1586,7 +1602,7 @@ def group_loads(M, c_in, mode="kinetostatic", cd=None, cdd=None):
 # the presets as descriptions (12.9)
 # --------------------------------------------------------------------------
 def preset_description(job: dict, home_inputs=None) -> dict:
-    """The custom job equivalent to a built-in 3-PRS / 3-RPS / 6-UPS job (MODEL.md 12.9).
+    """The custom job equivalent to a built-in 3-PRS / 3-RPS / 6-UPS job (docs/model.md 12.9).
 
     home_inputs: the built-in's inputs at which the joints are given (3-limb kinds:
     (z, psi, theta), default (a mid-height level pose); 6-UPS: the six coordinates,

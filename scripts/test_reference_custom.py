@@ -1,4 +1,4 @@
-"""Self-tests of scripts/reference_custom.py (kind = "custom", MODEL.md section 12).
+"""Self-tests of scripts/reference_custom.py (kind = "custom", docs/model.md section 12).
 
     python3 -m pytest scripts/test_reference_custom.py -q
 
@@ -8,7 +8,7 @@ the platform's points), finite differences of positions along trajectories, virt
 work from finite-difference virtual motions, the exact nonlinear closure (second-order
 agreement), the reciprocal 6 x 6 form of the error system, and the built-in references
 (reference_model.py for the 3-PRS and 3-RPS, reference_ups.py for the 6-UPS) through
-the presets' custom descriptions (MODEL.md 12.9).  The refusals of 12.3 and the
+the presets' custom descriptions (docs/model.md 12.9).  The refusals of 12.3 and the
 cross-check script's comparison (on an output written from the reference itself) are
 tested too.
 """
@@ -197,7 +197,7 @@ def test_continuation_does_not_depend_on_the_batch():
 
 
 def test_preset_3prs_parasitic_equals_closed_forms():
-    """On the prototype's description the solved parasitic motions equal MODEL.md
+    """On the prototype's description the solved parasitic motions equal docs/model.md
     section 2's closed forms (written here again) to 1e-13."""
     job = rc.preset_description({"mechanism": {}, "grid": {"z": 2.0}})
     M = rc.normalize_job(job)
