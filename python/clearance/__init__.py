@@ -257,6 +257,8 @@ def run(
     chunk_size: int = 65536,
     progress: Union[bool, Callable[[int, int], Any], None] = None,
     precision: str = "double",
+    solver: str = "fast",
+    writer: str = "engine",
 ) -> dict:
     """Runs ``job`` into the directory ``out``: the same dataset as
     ``clearance run JOB --out OUT`` (docs/interface.md §4).
@@ -287,6 +289,12 @@ def run(
       columns of the pose files stored as float32 (each value rounded, a relative
       change of at most 6e-8); inputs, parasitic motions, actuator positions,
       reactions and the summary stay float64.
+    - ``solver``: ``"fast"`` (the 6 × 6 reduced systems) or ``"general"`` (the
+      assembled 24 × 24 and 12 × 12 systems); ``"general"`` is for the 3-limb kinds, a
+      6-UPS or custom job refuses it (``ValueError``, nothing written), as
+      ``clearance run`` does.
+    - ``writer``: the encoder of the part files, ``"engine"`` (its own pages) or
+      ``"arrow"`` (parquet's ``ArrowWriter``): the same table either way.
     """
     kind, value = _job(job)
     out = _folder("out", out)
@@ -308,6 +316,8 @@ def run(
     columns = _name("columns", columns, ("none", "minimal", "standard", "full"))
     compression = _name("compression", compression, ("none", "lz4", "zstd"))
     precision = _name("precision", precision, ("double", "single"))
+    solver = _name("solver", solver, ("fast", "general"))
+    writer = _name("writer", writer, ("engine", "arrow"))
     chunk_size = _int("chunk_size", chunk_size, "a positive int")
     if not 1 <= chunk_size < 2**64:
         raise ValueError(f"chunk_size must be a positive int (below 2**64), got {chunk_size}")
@@ -327,6 +337,8 @@ def run(
             chunk_size=chunk_size,
             direct_io="CLEARANCE_BUFFERED_IO" not in os.environ,
             progress=callback,
+            solver_name=solver,
+            writer_name=writer,
         )
     finally:
         close()

@@ -66,6 +66,8 @@ def run(
     chunk_size: int = 65536,
     progress: Progress = None,
     precision: str = "double",
+    solver: str = "fast",
+    writer: str = "engine",
 ) -> RunReport:
     """Runs ``job`` into ``out``: the dataset of ``clearance run``.
 
@@ -74,7 +76,9 @@ def run(
     cores) or an int from 1 to 4096; ``shard``: None or ``(i, n)`` with
     ``0 <= i < n``; ``columns``: minimal, standard or full; ``compression``: none,
     lz4 or zstd; ``chunk_size``: a positive int; ``precision``: double, or single
-    (the error, envelope and margin columns of the pose files as float32).
+    (the error, envelope and margin columns of the pose files as float32);
+    ``solver``: fast or general (the 3-limb kinds only); ``writer``: engine or arrow
+    (the part files' encoder, the same table).
     """
 
 def check(job: Job) -> dict[str, Any]:

@@ -37,6 +37,8 @@ def run(
     chunk_size: int = 65536,
     direct_io: bool = True,
     progress: Optional[Callable[[int, int], Any]] = None,
+    solver_name: str = "fast",
+    writer_name: str = "engine",
 ) -> Tuple[int, int, float, bool]: ...
 def check(kind: str, value: str) -> str: ...
 def allocate(

@@ -371,7 +371,7 @@ fn solve<'py>(
 }
 
 #[pyfunction]
-#[pyo3(signature = (kind, value, out, threads=None, shard=None, resume=false, overwrite=false, columns_name="standard", compression="zstd", precision="double", chunk_size=65536, direct_io=true, progress=None))]
+#[pyo3(signature = (kind, value, out, threads=None, shard=None, resume=false, overwrite=false, columns_name="standard", compression="zstd", precision="double", chunk_size=65536, direct_io=true, progress=None, solver_name="fast", writer_name="engine"))]
 #[allow(clippy::too_many_arguments)]
 fn run(
     py: Python<'_>,
@@ -388,8 +388,13 @@ fn run(
     chunk_size: u64,
     direct_io: bool,
     progress: Option<Py<PyAny>>,
+    solver_name: &str,
+    writer_name: &str,
 ) -> PyResult<(u64, u64, f64, bool)> {
     let job = load_job(kind, value)?;
+    let writer = Writer::parse(writer_name).ok_or_else(|| {
+        PyValueError::new_err(format!("writer must be {}, got '{writer_name}'", one_of(&Writer::NAMES)))
+    })?;
     let precision = Precision::parse(precision).ok_or_else(|| {
         PyValueError::new_err(format!("precision must be {}, got '{precision}'", one_of(&Precision::NAMES)))
     })?;
@@ -410,11 +415,11 @@ fn run(
         resume,
         overwrite,
         chunk_size,
-        solver: SolverKind::Fast,
+        solver: solver(solver_name)?,
         compression: Codec::parse(compression).ok_or_else(|| {
             PyValueError::new_err(format!("compression must be {}, got '{compression}'", one_of(&Codec::NAMES)))
         })?,
-        writer: Writer::Engine,
+        writer,
         precision,
         progress: PyProgress::reporter(progress),
         direct_io,

@@ -194,6 +194,10 @@ RUN_CASES = [
     ("chunk-size-negative", ValueError, "chunk_size", dict(chunk_size=-5)),
     ("chunk-size-type", TypeError, "chunk_size", dict(chunk_size=1.5)),
     ("progress", TypeError, "progress", dict(progress=1)),
+    ("solver-name", ValueError, "solver", dict(solver="dense")),
+    ("solver-type", TypeError, "solver", dict(solver=None)),
+    ("writer-name", ValueError, "writer", dict(writer="stock")),
+    ("writer-type", TypeError, "writer", dict(writer=1)),
 ]
 
 

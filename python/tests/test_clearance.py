@@ -133,6 +133,46 @@ def test_single_precision_stores_the_double_values_rounded(job, tmp_path):
     assert narrowed > 30
 
 
+@pytest.mark.parametrize("job", [GRID, CUSTOM], ids=["grid", "custom"])
+def test_the_arrow_writer_writes_the_same_table(job, tmp_path):
+    """writer="arrow" (parquet's ArrowWriter) against the default engine encoder: the
+    same rows, values and nulls, column for column."""
+    clearance.run(job, tmp_path / "engine", threads=2, chunk_size=100)
+    clearance.run(job, tmp_path / "arrow", threads=2, chunk_size=100, writer="arrow")
+    order = [(k, "ascending") for k in ["variant", "mode", "sample"]]
+    engine = read_run(tmp_path / "engine").sort_by(order)
+    arrow = read_run(tmp_path / "arrow").sort_by(order)
+    assert engine.column_names == arrow.column_names
+    for name in engine.column_names:
+        assert engine.column(name).combine_chunks().equals(arrow.column(name).combine_chunks()), name
+    # In other bytes: the argument reached the writer.
+    parts = [sorted((tmp_path / w / "poses").rglob("*.parquet")) for w in ("engine", "arrow")]
+    assert [p.name for p in parts[0]] == [p.name for p in parts[1]]
+    assert any(a.read_bytes() != b.read_bytes() for a, b in zip(*parts))
+
+
+def test_run_with_the_general_solver_agrees_with_the_fast_one(tmp_path):
+    """solver="general" (the assembled systems, faer LU) reaches run as it reaches solve:
+    the same statuses, errors equal to the fast solver's to round-off; refused, with
+    nothing written, where it does not apply."""
+    clearance.run(GRID, tmp_path / "fast", threads=2)
+    clearance.run(GRID, tmp_path / "general", threads=2, solver="general")
+    order = [(k, "ascending") for k in ["variant", "mode", "sample"]]
+    fast = read_run(tmp_path / "fast").sort_by(order)
+    general = read_run(tmp_path / "general").sort_by(order)
+    assert fast.column("status").equals(general.column("status"))
+    for name in ["err_x", "err_y", "err_z", "err_rx", "err_ry", "err_rz"]:
+        a = np.asarray(fast.column(name).to_numpy(zero_copy_only=False), float)
+        b = np.asarray(general.column(name).to_numpy(zero_copy_only=False), float)
+        scale = np.nanmax(np.abs(a))
+        assert np.nanmax(np.abs(a - b)) <= 1e-9 * scale, name
+    # Not bit for bit: the argument reached the solver.
+    assert any(not fast.column(n).equals(general.column(n)) for n in ["err_x", "err_y", "err_z"])
+    with pytest.raises(ValueError, match="3-limb kinds.*a custom job"):
+        clearance.run(CUSTOM, tmp_path / "custom", solver="general")
+    assert not (tmp_path / "custom").exists() or not any((tmp_path / "custom").iterdir())
+
+
 def test_custom_columns_come_from_the_description():
     t = clearance.solve(CUSTOM)
     for name in ["q1", "tau3", "err_knee_axial_z", "err_crank_backlash_rx", "margin_crank2_backlash", "x", "phi"]:
