@@ -216,7 +216,7 @@ def solve(
     - ``x``, ``y``, ``z``, ``phi``, ``psi``, ``theta``: poses (m, rad) in place of
       the job's grid or trajectory: the coordinates the job takes, all of them
       (``z``, ``psi`` and ``theta`` for the 3-limb kinds; a custom mechanism's
-      ``inputs``; a 6-UPS takes none), each a real number or a 1-d array of them,
+      ``inputs``; a 6-UPS all six), each a real number or a 1-d array of them,
       the arrays of equal length, a number broadcast to that length. Every value
       must be finite: a NaN or an infinity raises ``ValueError`` naming the
       argument and the first such index; a coordinate missing or one the job does

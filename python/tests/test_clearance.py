@@ -219,6 +219,23 @@ def test_a_custom_mechanism_refuses_poses_it_does_not_take(kwargs, named):
         clearance.solve(job, **kwargs)
 
 
+def test_a_6ups_takes_all_six_coordinates_as_poses():
+    job = {
+        "mechanism": {"kind": "6-UPS"},
+        "clearance": {"s_radial": 1e-4, "u_radial": 1e-4},
+        "grid": {"x": {"start": -0.05, "stop": 0.05, "n": 3}, "y": 0.01, "z": 0.8, "phi": 0.05,
+                 "psi": {"start": -0.2, "stop": 0.2, "n": 5}, "theta": 0.1},
+    }
+    grid = clearance.solve(job)
+    coords = {n: grid.column(n).to_numpy() for n in ["x", "y", "z", "phi", "psi", "theta"]}
+    poses = clearance.solve(job, **coords)
+    assert poses.num_rows == grid.num_rows == 15
+    for name in grid.column_names:
+        assert poses.column(name).equals(grid.column(name)), name
+    with pytest.raises(ValueError, match="phi missing: give all of x, y, z, phi, psi and theta"):
+        clearance.solve(job, **{n: v for n, v in coords.items() if n != "phi"})
+
+
 def test_explicit_poses_equal_the_grid():
     job = {
         "clearance": {"r_radial": 1e-4, "r_axial": 1e-4},

@@ -16,7 +16,7 @@ use crate::progress::Reporter;
 
 /// Poses given in place of the job's grid or trajectory, as values of the platform's
 /// coordinates `x, y, z, φ, ψ, θ` (m, rad), each given or not: a 3-limb job takes
-/// `z, ψ, θ` ([`Poses::new`]), a custom mechanism exactly its inputs. Sample `i` has no
+/// `z, ψ, θ` ([`Poses::new`]), a 6-UPS all six, a custom mechanism exactly its inputs. Sample `i` has no
 /// time and no rates, so only kinetostatics can solve them. [`solve`] refuses arrays of
 /// different lengths, values that are not finite and coordinates the job does not take.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -73,11 +73,7 @@ impl Poses {
                 let d = job.description(file).ok_or_else(|| EngineError::Samples("not a custom job".into()))??;
                 (d.inputs.clone(), "this custom mechanism's inputs".into())
             }
-            MechanismKind::Ups6 => {
-                return Err(EngineError::Samples(
-                    "a 6-UPS job takes its poses (x, y, z, phi, psi, theta) from its [grid] or [trajectory]".into(),
-                ));
-            }
+            MechanismKind::Ups6 => ((0..6).collect(), "a 6-UPS's poses".into()),
             _ => (vec![2, 4, 5], "the poses of a 3-limb kind".into()),
         };
         if let Some(&k) = given.iter().find(|k| !wanted.contains(k)) {
@@ -249,7 +245,7 @@ pub(crate) fn solve_range(
         return crate::custom::solve_custom_job(job, file, opts.columns, range, opts.poses.as_ref());
     }
     if job.mechanism.kind == clearance_model::MechanismKind::Ups6 {
-        return crate::ups::solve_ups(job, file, opts.columns, range);
+        return crate::ups::solve_ups(job, file, opts.columns, range, opts.poses.as_ref());
     }
     let variants = job.variants(file)?;
     let n = opts.poses.as_ref().map_or(job.sample_count(), |p| p.len() as u64);

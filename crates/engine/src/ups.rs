@@ -34,6 +34,7 @@ use crate::error::EngineError;
 use crate::groups::{Group, membership};
 use crate::layout::Layout;
 use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_stats, unit_complete};
+use crate::solve::Poses;
 use crate::units::{UnitRun, run_units};
 
 type Result<T, E = EngineError> = std::result::Result<T, E>;
@@ -44,6 +45,15 @@ const BLOCK: usize = 64;
 /// The samples `range` of a 6-UPS source: their rows (identity and inputs) and the
 /// solver's samples (inputs with rates).
 fn samples(source: &SampleSource, range: std::ops::Range<u64>) -> (Vec<UpsRow>, Vec<UpsSample>) {
+    samples_of(|i| source.sample6(i), range)
+}
+
+/// [`samples`] of any source of samples: `sample6(i)` is sample i's time and six inputs
+/// with their rates.
+fn samples_of(
+    sample6: impl Fn(u64) -> (Option<f64>, UpsSample) + Sync,
+    range: std::ops::Range<u64>,
+) -> (Vec<UpsRow>, Vec<UpsSample>) {
     // On the pool: a unit's samples are some 13 MB, serial time the other cores spent idle.
     let first = range.start;
     (0..(range.end - first) as usize)
@@ -51,7 +61,7 @@ fn samples(source: &SampleSource, range: std::ops::Range<u64>) -> (Vec<UpsRow>, 
         .with_min_len(BLOCK)
         .map(|k| {
             let i = first + k as u64;
-            let (t, s) = source.sample6(i);
+            let (t, s) = sample6(i);
             (UpsRow { sample: i, t, inputs: s.map(|v| v[0]) }, s)
         })
         .unzip()
@@ -67,19 +77,25 @@ fn solve_rows(model: &UpsModel, samples: &[UpsSample], mode: Mode, mut out: Vec<
 
 /// The poses of a 6-UPS job as record batches, one per (variant, mode), in memory:
 /// a `variant` column, then the columns of a run's part files.
-/// `range` (default: every sample) limits each variant to those samples.
+/// `range` (default: every sample) limits each variant to those samples; `poses`, where
+/// given (all six coordinates, checked by the caller), replace the job's grid or
+/// trajectory.
 pub(crate) fn solve_ups(
     job: &JobSpec,
     file: &str,
     columns: ColumnSet,
     range: Option<std::ops::Range<u64>>,
+    poses: Option<&Poses>,
 ) -> Result<Vec<RecordBatch>> {
     let schema = UpsSchema::new(columns, job.analysis.exact);
     let mut out = Vec::new();
     for v in job.variants(file)? {
         let model = UpsModel::from_job(&v.job);
         let source = SampleSource::new(&v.job);
-        let (rows, samples) = samples(&source, range.clone().unwrap_or(0..source.len()));
+        let (rows, samples) = match poses {
+            Some(p) => samples_of(|i| p.sample6(i), range.clone().unwrap_or(0..p.len() as u64)),
+            None => samples(&source, range.clone().unwrap_or(0..source.len())),
+        };
         for &mode in &v.job.analysis.modes {
             let batch = schema.batch(mode, &rows, &solve_rows(&model, &samples, mode, Vec::new()));
             out.push(crate::solve::with_variant(&batch, v.index));

@@ -160,3 +160,27 @@ theta = -0.1
     assert_eq!(switches, read(&b.discontinuities()));
     assert_eq!(read(&a.summary()), read(&b.summary()));
 }
+
+/// A 6-UPS takes poses in place of its grid, all six coordinates: given the grid's own
+/// inputs back, `solve` returns the grid's rows bit for bit (the exact errors too); five
+/// of the six are refused, naming the one missing.
+#[test]
+fn the_grids_poses_given_back_give_its_rows() {
+    use clearance_engine::{EngineError, Poses};
+    let job = JobSpec::from_toml_str(JOB, "ups.toml").unwrap();
+    let grid = solve(&job, "ups.toml", &SolveOptions::default()).unwrap().remove(0);
+    assert_eq!(grid.num_rows(), 30);
+    let coords = ["x", "y", "z", "phi", "psi", "theta"].map(|n| Some(column(&grid, n).values().to_vec()));
+    let given = SolveOptions { poses: Some(Poses { coords: coords.clone() }), ..SolveOptions::default() };
+    let poses = solve(&job, "ups.toml", &given).unwrap().remove(0);
+    assert_eq!(poses.schema(), grid.schema());
+    for (i, field) in grid.schema().fields().iter().enumerate() {
+        assert_eq!(poses.column(i).to_data(), grid.column(i).to_data(), "{}", field.name());
+    }
+    let mut five = coords;
+    five[3] = None;
+    let e = solve(&job, "ups.toml", &SolveOptions { poses: Some(Poses { coords: five }), ..SolveOptions::default() })
+        .expect_err("phi missing");
+    assert!(matches!(e, EngineError::Samples(_)), "{e:?}");
+    assert!(e.to_string().starts_with("phi missing: give all of x, y, z, phi, psi and theta"), "{e}");
+}
