@@ -39,9 +39,9 @@ positions near Lchar, against at least 1e-6 Lchar: its own round-off is ~1e-15 L
 The error and envelope columns are allowed, per row, the round-off of the error system
 first: |a - b| - n eps kappa_e F <= tol * S_c (the forward-error bound of a backward-stable
 solve), n = 6 L the system's equations, kappa_e its condition number and F the size of its
-solution for the column's kind (every kind's for the totals), the
-platform's error with the passive motions, in the column's unit (the reference's extra
-columns kappa_e and sol_len_<kind>). A play that the passive joints cancel, such as the
+solution for the column's kind (every kind's for the totals), the platform's error with
+the passive motions, in the column's unit (the reference's extra columns kappa_e and
+sol_len_<kind>). A play that the passive joints cancel, such as the
 radial play of a P joint between a U and an S, moves nothing, yet its error carries the
 round-off of passive motions of its own size: 1e-17 rad against errors of 1e-6 rad in
 the other kinds, beyond a hundredth of the group's scale times 1e-9.
@@ -732,9 +732,9 @@ def roundoff(M, ref, col, group):
     """Per row, the round-off allowed an error or envelope column (None for the others):
     n * eps * kappa_e * F, the forward-error bound of a backward-stable solve of the
     row's error system (n = 6 * limbs equations, kappa_e its condition number), F the
-    size of the solution the value comes from (the column's kind's, or
-    every kind's for the totals): the platform's error and the passive motions that go
-    with it, in the column's unit. A take-up that the passive joints cancel (a P joint's
+    size of the solution the value comes from (the column's kind's, or every kind's for
+    the totals): the platform's error and the passive motions that go with it, in the
+    column's unit. A take-up that the passive joints cancel (a P joint's
     radial play in a leg between a U and an S) has a zero error but passive motions of its
     own size: its error carries their round-off, not the error's."""
     if group not in ("err_len", "err_ang", "env_len", "env_ang") or "kappa_e" not in ref:

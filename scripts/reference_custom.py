@@ -1409,7 +1409,6 @@ def evaluate(M, c_in, mode="kinetostatic", cd=None, cdd=None):
             Z[:, 6 * i + 3:6 * i + 6, ki] += d
     with np.errstate(all="ignore"):
         sol = _solve(Emat, Z)                                    # (N,6+nf,K) [da; dp; dq]
-        kappa_e = np.linalg.cond(Emat)
     per = sol[:, 0:6, 0:K]                                                   # (N,6,K) [da; dp]
     # The size of each kind's whole solution in metres: the platform's [da; dp] and the
     # passive motions dq that go with it (rotations times Lchar), which are of the
@@ -1421,7 +1420,7 @@ def evaluate(M, c_in, mode="kinetostatic", cd=None, cdd=None):
     return {"c_in": c_in, "st": st, "sts": sts, "conv": conv, "reach": reach, "c": c, "geo": geo, "rt": rt,
             "A": A, "b": b, "w": w, "layout": layout, "react": react, "jload": jload, "jgeo": jgeo,
             "T": T, "Emat": Emat, "H": H, "kappa_g": kg, "kappa_limb": kl, "singular": singular,
-            "groups": G, "per": per, "p": p, "R": Rp, "kappa_e": kappa_e, "sol_len": sol_len}
+            "groups": G, "per": per, "p": p, "R": Rp, "sol_len": sol_len}
 
 
 def column_names(M, columns="full"):
@@ -1522,7 +1521,9 @@ def _rows(M, res, mode, t, sample0, extras=False):
         cols["kappa_limb"] = np.where(reach, res["kappa_limb"], nan)
         for name, gd in G.items():
             cols[f"dp_{name}"] = np.where(ok, np.linalg.norm(gd["contrib"][:, 3:6], axis=-1), nan)
-        cols["kappa_e"] = np.where(full, res["kappa_e"], nan)
+        with np.errstate(all="ignore"):
+            kappa_e = np.linalg.cond(res["Emat"])
+        cols["kappa_e"] = np.where(full, kappa_e, nan)
         for ki, k in enumerate(M.kinds):
             cols[f"sol_len_{k}"] = np.where(full, res["sol_len"][:, ki], nan)
     if M.exact:

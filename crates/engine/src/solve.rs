@@ -16,9 +16,10 @@ use crate::progress::Reporter;
 
 /// Poses given in place of the job's grid or trajectory, as values of the platform's
 /// coordinates `x, y, z, φ, ψ, θ` (m, rad), each given or not: a 3-limb job takes
-/// `z, ψ, θ` ([`Poses::new`]), a 6-UPS all six, a custom mechanism exactly its inputs. Sample `i` has no
-/// time and no rates, so only kinetostatics can solve them. [`solve`] refuses arrays of
-/// different lengths, values that are not finite and coordinates the job does not take.
+/// `z, ψ, θ` ([`Poses::new`]), a 6-UPS all six, a custom mechanism exactly its inputs.
+/// Sample `i` has no time and no rates, so only kinetostatics can solve them. [`solve`]
+/// refuses arrays of different lengths, values that are not finite and coordinates the
+/// job does not take.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Poses {
     pub coords: [Option<Vec<f64>>; 6],

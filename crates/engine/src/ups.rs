@@ -91,10 +91,12 @@ pub(crate) fn solve_ups(
     let mut out = Vec::new();
     for v in job.variants(file)? {
         let model = UpsModel::from_job(&v.job);
-        let source = SampleSource::new(&v.job);
         let (rows, samples) = match poses {
             Some(p) => samples_of(|i| p.sample6(i), range.clone().unwrap_or(0..p.len() as u64)),
-            None => samples(&source, range.clone().unwrap_or(0..source.len())),
+            None => {
+                let source = SampleSource::new(&v.job);
+                samples(&source, range.clone().unwrap_or(0..source.len()))
+            }
         };
         for &mode in &v.job.analysis.modes {
             let batch = schema.batch(mode, &rows, &solve_rows(&model, &samples, mode, Vec::new()));
