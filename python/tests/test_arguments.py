@@ -11,9 +11,8 @@ import numpy as np
 import pytest
 
 import clearance
-from conftest import cli_command
+from conftest import REPO, cli_command
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 JOB = {
     "clearance": {"r_radial": 1e-4, "r_axial": 1e-4},

@@ -11,9 +11,8 @@ import pyarrow.dataset as ds
 import pytest
 
 import clearance
-from conftest import cli_command
+from conftest import REPO, cli_command
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 GRID = """
 name = "grid"
@@ -64,6 +63,14 @@ def read_run(out: pathlib.Path) -> pa.Table:
     return plain(t)
 
 
+ROW_ORDER = [(k, "ascending") for k in ["variant", "mode", "sample"]]
+
+
+def read_sorted(out: pathlib.Path) -> pa.Table:
+    """A run's rows read back in (variant, mode, sample) order, to compare two runs."""
+    return read_run(out).sort_by(ROW_ORDER)
+
+
 # A mechanism described by its joints (a 3-RRS wrist), along a trajectory in both modes.
 CUSTOM = """
 [mechanism]
@@ -101,10 +108,8 @@ def test_solve_equals_run_read_back(job, tmp_path):
     solved = plain(clearance.solve(job))
     written = read_run(out)
     assert written.num_rows == solved.num_rows
-    keys = ["variant", "mode", "sample"]
-    order = [(k, "ascending") for k in keys]
-    written = written.sort_by(order)
-    solved = solved.sort_by(order)
+    written = written.sort_by(ROW_ORDER)
+    solved = solved.sort_by(ROW_ORDER)
     written_cols = [c for c in written.column_names]
     assert sorted(written_cols) == sorted(solved.column_names)
     for name in solved.column_names:
@@ -118,9 +123,8 @@ def test_single_precision_stores_the_double_values_rounded(job, tmp_path):
     double run's rounded to float32; every other column the same."""
     clearance.run(job, tmp_path / "double", threads=2, chunk_size=100)
     clearance.run(job, tmp_path / "single", threads=2, chunk_size=100, precision="single")
-    order = [(k, "ascending") for k in ["variant", "mode", "sample"]]
-    double = read_run(tmp_path / "double").sort_by(order)
-    single = read_run(tmp_path / "single").sort_by(order)
+    double = read_sorted(tmp_path / "double")
+    single = read_sorted(tmp_path / "single")
     narrowed = 0
     for name in double.column_names:
         a, b = double.column(name).combine_chunks(), single.column(name).combine_chunks()
@@ -139,9 +143,8 @@ def test_the_arrow_writer_writes_the_same_table(job, tmp_path):
     same rows, values and nulls, column for column."""
     clearance.run(job, tmp_path / "engine", threads=2, chunk_size=100)
     clearance.run(job, tmp_path / "arrow", threads=2, chunk_size=100, writer="arrow")
-    order = [(k, "ascending") for k in ["variant", "mode", "sample"]]
-    engine = read_run(tmp_path / "engine").sort_by(order)
-    arrow = read_run(tmp_path / "arrow").sort_by(order)
+    engine = read_sorted(tmp_path / "engine")
+    arrow = read_sorted(tmp_path / "arrow")
     assert engine.column_names == arrow.column_names
     for name in engine.column_names:
         assert engine.column(name).combine_chunks().equals(arrow.column(name).combine_chunks()), name
@@ -157,9 +160,8 @@ def test_run_with_the_general_solver_agrees_with_the_fast_one(tmp_path):
     nothing written, where it does not apply."""
     clearance.run(GRID, tmp_path / "fast", threads=2)
     clearance.run(GRID, tmp_path / "general", threads=2, solver="general")
-    order = [(k, "ascending") for k in ["variant", "mode", "sample"]]
-    fast = read_run(tmp_path / "fast").sort_by(order)
-    general = read_run(tmp_path / "general").sort_by(order)
+    fast = read_sorted(tmp_path / "fast")
+    general = read_sorted(tmp_path / "general")
     assert fast.column("status").equals(general.column("status"))
     for name in ["err_x", "err_y", "err_z", "err_rx", "err_ry", "err_rz"]:
         a = np.asarray(fast.column(name).to_numpy(zero_copy_only=False), float)
@@ -188,7 +190,7 @@ def test_the_general_solver_is_refused_for_a_custom_mechanism():
 
 
 # A 6-PUS-like custom mechanism whose inputs are all six coordinates, on a small grid.
-SIX = (pathlib.Path(__file__).resolve().parents[2] / "jobs" / "custom_6pus_grid.toml").read_text()
+SIX = (REPO / "jobs" / "custom_6pus_grid.toml").read_text()
 
 
 def test_a_custom_mechanisms_explicit_poses_equal_its_grid():
