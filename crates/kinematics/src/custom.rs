@@ -788,19 +788,66 @@ fn factor(geom: &CustomGeometry, coords: &[f64; 6], columns: &[[Vector6<f64>; 6]
     f.refactor(&parasitic_screws(geom, coords)[..k], columns, dofs).then_some(f)
 }
 
+/// Newton's buffers for one geometry's counts, kept per thread: a pose solves its closure
+/// a few times, and a grid has millions of poses.
+struct NewtonWork {
+    columns: Vec<[Vector6<f64>; 6]>,
+    dofs: Vec<usize>,
+    r: Vec<Vector6<f64>>,
+    dx: Vec<f64>,
+    f: Factored,
+}
+
+impl NewtonWork {
+    fn new(k: usize, limbs: usize, unknowns: usize) -> Self {
+        Self {
+            columns: vec![[Vector6::zeros(); 6]; limbs],
+            dofs: vec![0; limbs],
+            r: vec![Vector6::zeros(); limbs],
+            dx: vec![0.0; unknowns],
+            f: Factored::new(k, limbs),
+        }
+    }
+
+    /// Whether these buffers are sized for the counts (else fresh ones are: a factor's
+    /// unused columns must be zero).
+    fn fits(&self, k: usize, limbs: usize, unknowns: usize) -> bool {
+        self.f.k == k && self.f.limbs.len() == limbs && self.dx.len() == unknowns
+    }
+}
+
+thread_local! {
+    static NEWTON_WORK: std::cell::RefCell<Option<NewtonWork>> = const { std::cell::RefCell::new(None) };
+}
+
 /// Solves the closure at `coords` (the inputs set, the parasitic ones a first guess)
 /// by Newton from `states`; returns the increments' largest scaled size.
 fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointState>]) -> Option<f64> {
+    let nl = geom.limbs.len();
+    let k = geom.parasitic.len();
+    let unknowns = k + geom.limbs.iter().map(LimbGeom::dof).sum::<usize>();
+    NEWTON_WORK.with(|cell| {
+        let mut cell = cell.borrow_mut();
+        let work = match cell.take() {
+            Some(w) if w.fits(k, nl, unknowns) => w,
+            _ => NewtonWork::new(k, nl, unknowns),
+        };
+        let work = cell.insert(work);
+        newton_in(geom, coords, states, work)
+    })
+}
+
+fn newton_in(
+    geom: &CustomGeometry,
+    coords: &mut [f64; 6],
+    states: &mut [Vec<JointState>],
+    work: &mut NewtonWork,
+) -> Option<f64> {
     let scale = geom.length;
     let mut moved = 0.0f64;
     let home = placement(&geom.home).inverse();
-    let nl = geom.limbs.len();
-    let mut columns = vec![[Vector6::zeros(); 6]; nl];
-    let mut dofs = vec![0; nl];
-    let mut r = vec![Vector6::zeros(); nl];
-    let mut dx = vec![0.0; geom.parasitic.len() + geom.limbs.iter().map(LimbGeom::dof).sum::<usize>()];
     let k = geom.parasitic.len();
-    let mut f = Factored::new(k, nl);
+    let NewtonWork { columns, dofs, r, dx, f } = work;
     for _ in 0..NEWTON_STEPS {
         let d = placement(coords).then(&home);
         let mut size = 0.0f64;
@@ -815,10 +862,10 @@ fn newton(geom: &CustomGeometry, coords: &mut [f64; 6], states: &mut [Vec<JointS
         if size < 1e-14 {
             return Some(moved);
         }
-        if !f.refactor(&parasitic_screws(geom, coords)[..k], &columns, &dofs) {
+        if !f.refactor(&parasitic_screws(geom, coords)[..k], columns, dofs) {
             return None;
         }
-        if !f.solve(|l| -r[l], &mut dx) {
+        if !f.solve(|l| -r[l], dx) {
             return None;
         }
         let mut i = 0;

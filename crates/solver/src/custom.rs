@@ -628,9 +628,10 @@ fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6
     }
 }
 
-/// Unit displacement twists spanning a group's admissible set at the pose, whether
-/// they are rotations, and the set's shape (for the envelope).
-fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3) -> (Vec<V6>, Shape) {
+/// Unit displacement twists spanning a group's admissible set at the pose (at most
+/// three, held in place), whether they are rotations, and the set's shape (for the
+/// envelope).
+fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3) -> (Units<V6>, Shape) {
     let trans = |d: V3| six(V3::zeros(), d);
     let rot = |d: V3| six(d, centre.cross(&d));
     let perp = |a: &V3| {
@@ -642,19 +643,51 @@ fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3)
     match (joint, group) {
         (JointType::R | JointType::P, Group::Radial) => {
             let (u, w) = perp(axis);
-            (vec![trans(u), trans(w)], Shape::Disc)
+            (Units::of(&[trans(u), trans(w)]), Shape::Disc)
         }
-        (JointType::R, Group::Axial) => (vec![trans(*axis)], Shape::Segment),
+        (JointType::R, Group::Axial) => (Units::of(&[trans(*axis)]), Shape::Segment),
         (JointType::R, Group::Angular) => {
             let (u, w) = perp(axis);
-            (vec![rot(u), rot(w)], Shape::Disc)
+            (Units::of(&[rot(u), rot(w)]), Shape::Disc)
         }
-        (JointType::P, Group::Angular) => (axes.iter().map(|a| rot(*a)).collect(), Shape::Ball),
-        (JointType::U | JointType::S, Group::Radial) => (axes.iter().map(|a| trans(*a)).collect(), Shape::Ball),
-        (JointType::U, Group::Angular) => (vec![rot(*normal)], Shape::Segment),
-        (JointType::R, Group::Backlash) => (vec![rot(*axis)], Shape::Segment),
-        (JointType::P, Group::Backlash) => (vec![trans(*axis)], Shape::Segment),
-        _ => (Vec::new(), Shape::Segment),
+        (JointType::P, Group::Angular) => (Units::of(&axes.map(rot)), Shape::Ball),
+        (JointType::U | JointType::S, Group::Radial) => (Units::of(&axes.map(trans)), Shape::Ball),
+        (JointType::U, Group::Angular) => (Units::of(&[rot(*normal)]), Shape::Segment),
+        (JointType::R, Group::Backlash) => (Units::of(&[rot(*axis)]), Shape::Segment),
+        (JointType::P, Group::Backlash) => (Units::of(&[trans(*axis)]), Shape::Segment),
+        _ => (Units::of(&[]), Shape::Segment),
+    }
+}
+
+/// At most three items of a group's admissible set, in place (a pose's take-up asks for
+/// them group by group: no allocation).
+#[derive(Clone, Copy, Debug)]
+struct Units<T> {
+    items: [T; 3],
+    n: usize,
+}
+
+impl<T: Copy + Default> Units<T> {
+    fn of(items: &[T]) -> Self {
+        let mut out = Self { items: [T::default(); 3], n: items.len() };
+        out.items[..items.len()].copy_from_slice(items);
+        out
+    }
+
+    fn map<U: Copy + Default>(&self, f: impl Fn(&T) -> U) -> Units<U> {
+        let mut out = Units { items: [U::default(); 3], n: self.n };
+        for (o, i) in out.items.iter_mut().zip(self.iter()) {
+            *o = f(i);
+        }
+        out
+    }
+}
+
+impl<T> std::ops::Deref for Units<T> {
+    type Target = [T];
+
+    fn deref(&self) -> &[T] {
+        &self.items[..self.n]
     }
 }
 
@@ -741,9 +774,9 @@ fn unit_reach(
     pj: &PosedJoint,
     pos: &V3,
     joint: JointType,
-) -> (Vec<[f64; 6]>, Shape, f64, f64) {
+) -> (Units<[f64; 6]>, Shape, f64, f64) {
     let (set, shape) = unit_set(joint, g.group, &pj.centre, &pj.axis, &pj.normal);
-    let responses: Vec<[f64; 6]> = set.iter().map(|z| response(basis, gi, g.limb, z, pos)).collect();
+    let responses = set.map(|z| response(basis, gi, g.limb, z, pos));
     let block = |rows: std::ops::Range<usize>| -> f64 {
         let m = SMatrix::<f64, 3, 3>::from_fn(|r, c| responses.get(c).map_or(0.0, |x| x[rows.start + r]));
         match shape {
