@@ -170,23 +170,47 @@ fn norm(v: [f64; 3]) -> f64 {
 /// The switches of one load along one path: every step of the rule (module
 /// documentation), in order of the refined intervals. `at` evaluates the load at any
 /// path parameter (sample steps); `loads` are its samples.
+///
+/// An interval between two solvable samples where the load cannot be solved at some
+/// point (the path leaves the workspace between the samples: a joint passes its range
+/// and comes back) is cut there, as an unsolvable sample cuts the path: no dip refined,
+/// polished or read in it is a switch. Its least magnitude would lie at the edge of the
+/// unsolvable stretch, a minimum of where the path can be followed, not of the load.
 pub fn switches(
     loads: &[SampledLoad],
     rule: &VectorRule,
     mut at: impl FnMut(f64) -> Option<[f64; 3]>,
 ) -> Vec<VectorSwitch> {
-    let refined: Vec<Dip> = candidates(loads).into_iter().map(|k| refine(loads, k, &mut at)).collect();
+    // The points where the load could not be solved, to cut their intervals.
+    let unsolved = std::cell::RefCell::new(Vec::new());
+    let mut at = |p: f64| {
+        let f = at(p);
+        if f.is_none() {
+            unsolved.borrow_mut().push(p);
+        }
+        f
+    };
+    let cut = |k: usize| unsolved.borrow().iter().any(|&p| p > k as f64 && p < (k + 1) as f64);
+    // A dip in a cut interval, or at a sample beside one (the end of a piece, as a sample
+    // beside an unsolvable one is: not an interior minimum).
+    let touches_cut = |d: &Dip| {
+        let e = d.at.round();
+        cut(d.interval) || ((d.at - e).abs() < END && ((e >= 1.0 && cut(e as usize - 1)) || cut(e as usize)))
+    };
+    let mut refined: Vec<Dip> = candidates(loads).into_iter().map(|k| refine(loads, k, &mut at)).collect();
+    refined.retain(|d| !touches_cut(d));
     let mut out = Vec::new();
     for dip in select(&refined, loads) {
         if dip.margin >= UNPOLISHED * rule.threshold {
             continue;
         }
         let (x, m) = polish(&dip, &mut at);
-        if m >= rule.threshold {
+        if m >= rule.threshold || touches_cut(&dip) {
             continue;
         }
         let Some((before, after)) = readings(loads, x, m, rule.reach(m), &mut at) else { continue };
-        if turns(&before, &after) {
+        // The readings may have met the cut too, locating a direction in the interval.
+        if turns(&before, &after) && !touches_cut(&dip) {
             out.push(VectorSwitch { at: x, margin: m, before, after });
         }
     }

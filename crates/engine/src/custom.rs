@@ -589,7 +589,20 @@ fn scalar_switches(
         if a.signum() == b.signum() {
             continue;
         }
-        let x = brent_root(k as f64, (k + 1) as f64, a, b, LOCATE_TOL, |p| at(p).map_or(0.0, |v| v[0]));
+        // A point between the samples that cannot be solved cuts the path there (the
+        // path leaves the workspace and comes back), as an unsolvable sample does: the
+        // sign change is across the cut, not a switch.
+        let mut unsolved = false;
+        let x = brent_root(k as f64, (k + 1) as f64, a, b, LOCATE_TOL, |p| match at(p) {
+            Some(v) => v[0],
+            None => {
+                unsolved = true;
+                0.0
+            }
+        });
+        if unsolved {
+            continue;
+        }
         let (t, s, r) = solve_at(x);
         // |load| of the pose just solved (a scalar load sits in its first component).
         let margin = group_load(&r[0], group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
