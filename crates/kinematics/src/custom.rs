@@ -287,26 +287,49 @@ pub struct PosedJoint {
 }
 
 /// A joint's columns at a pose: one to three spatial screws, held in place.
+pub type Screws = Few<Vector6<f64>>;
+
+/// At most three items held in place (a joint's columns; a joint group's admissible set
+/// and its responses, `clearance_solver::custom`): a pose asks for them joint by joint
+/// and group by group, without allocating.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Screws {
-    s: [Vector6<f64>; 3],
+pub struct Few<T> {
+    items: [T; 3],
     n: usize,
 }
 
-impl std::ops::Deref for Screws {
-    type Target = [Vector6<f64>];
+impl<T: Copy + Default> Few<T> {
+    /// The items of `items` (at most three).
+    pub fn of(items: &[T]) -> Self {
+        let mut out = Self { items: [T::default(); 3], n: items.len() };
+        out.items[..items.len()].copy_from_slice(items);
+        out
+    }
 
-    fn deref(&self) -> &[Vector6<f64>] {
-        &self.s[..self.n]
+    /// `f` of each item, in order.
+    pub fn map<U: Copy + Default>(&self, f: impl Fn(&T) -> U) -> Few<U> {
+        let mut out = Few { items: [U::default(); 3], n: self.n };
+        for (o, i) in out.items.iter_mut().zip(self.iter()) {
+            *o = f(i);
+        }
+        out
     }
 }
 
-impl<'a> IntoIterator for &'a Screws {
-    type Item = &'a Vector6<f64>;
-    type IntoIter = std::slice::Iter<'a, Vector6<f64>>;
+impl<T> std::ops::Deref for Few<T> {
+    type Target = [T];
+
+    fn deref(&self) -> &[T] {
+        &self.items[..self.n]
+    }
+}
+
+impl<'a, T> IntoIterator for &'a Few<T> {
+    type Item = &'a T;
+    type IntoIter = std::slice::Iter<'a, T>;
 
     fn into_iter(self) -> Self::IntoIter {
-        self.s[..self.n].iter()
+        self.items[..self.n].iter()
     }
 }
 
@@ -429,7 +452,7 @@ fn chain(limb: &LimbGeom, states: &[JointState]) -> (Vec<Rigid>, Vec<PosedJoint>
             axis: c.axis,
             axis2: c.axis2,
             normal,
-            columns: Screws { s: c.columns, n: c.n },
+            columns: Screws::of(&c.columns[..c.n]),
         });
         bodies.push(g);
     }

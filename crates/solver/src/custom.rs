@@ -20,8 +20,8 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
 
 use clearance_kinematics::custom::{
-    Configuration, CustomGeometry, CustomPosture, JointState, PosedJoint, Reflectors, Rigid, Unsolved, custom_posture,
-    custom_posture_near, exp_so3, householder, placement,
+    Configuration, CustomGeometry, CustomPosture, Few, JointState, PosedJoint, Reflectors, Rigid, Unsolved,
+    custom_posture, custom_posture_near, exp_so3, householder, placement,
 };
 use clearance_model::custom::{Group, JointType};
 use clearance_model::{JobError, JobSpec, Mode};
@@ -631,7 +631,7 @@ fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6
 /// Unit displacement twists spanning a group's admissible set at the pose (at most
 /// three, held in place), whether they are rotations, and the set's shape (for the
 /// envelope).
-fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3) -> (Units<V6>, Shape) {
+fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3) -> (Few<V6>, Shape) {
     let trans = |d: V3| six(V3::zeros(), d);
     let rot = |d: V3| six(d, centre.cross(&d));
     let perp = |a: &V3| {
@@ -643,51 +643,19 @@ fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3)
     match (joint, group) {
         (JointType::R | JointType::P, Group::Radial) => {
             let (u, w) = perp(axis);
-            (Units::of(&[trans(u), trans(w)]), Shape::Disc)
+            (Few::of(&[trans(u), trans(w)]), Shape::Disc)
         }
-        (JointType::R, Group::Axial) => (Units::of(&[trans(*axis)]), Shape::Segment),
+        (JointType::R, Group::Axial) => (Few::of(&[trans(*axis)]), Shape::Segment),
         (JointType::R, Group::Angular) => {
             let (u, w) = perp(axis);
-            (Units::of(&[rot(u), rot(w)]), Shape::Disc)
+            (Few::of(&[rot(u), rot(w)]), Shape::Disc)
         }
-        (JointType::P, Group::Angular) => (Units::of(&axes.map(rot)), Shape::Ball),
-        (JointType::U | JointType::S, Group::Radial) => (Units::of(&axes.map(trans)), Shape::Ball),
-        (JointType::U, Group::Angular) => (Units::of(&[rot(*normal)]), Shape::Segment),
-        (JointType::R, Group::Backlash) => (Units::of(&[rot(*axis)]), Shape::Segment),
-        (JointType::P, Group::Backlash) => (Units::of(&[trans(*axis)]), Shape::Segment),
-        _ => (Units::of(&[]), Shape::Segment),
-    }
-}
-
-/// At most three items of a group's admissible set, in place (a pose's take-up asks for
-/// them group by group: no allocation).
-#[derive(Clone, Copy, Debug)]
-struct Units<T> {
-    items: [T; 3],
-    n: usize,
-}
-
-impl<T: Copy + Default> Units<T> {
-    fn of(items: &[T]) -> Self {
-        let mut out = Self { items: [T::default(); 3], n: items.len() };
-        out.items[..items.len()].copy_from_slice(items);
-        out
-    }
-
-    fn map<U: Copy + Default>(&self, f: impl Fn(&T) -> U) -> Units<U> {
-        let mut out = Units { items: [U::default(); 3], n: self.n };
-        for (o, i) in out.items.iter_mut().zip(self.iter()) {
-            *o = f(i);
-        }
-        out
-    }
-}
-
-impl<T> std::ops::Deref for Units<T> {
-    type Target = [T];
-
-    fn deref(&self) -> &[T] {
-        &self.items[..self.n]
+        (JointType::P, Group::Angular) => (Few::of(&axes.map(rot)), Shape::Ball),
+        (JointType::U | JointType::S, Group::Radial) => (Few::of(&axes.map(trans)), Shape::Ball),
+        (JointType::U, Group::Angular) => (Few::of(&[rot(*normal)]), Shape::Segment),
+        (JointType::R, Group::Backlash) => (Few::of(&[rot(*axis)]), Shape::Segment),
+        (JointType::P, Group::Backlash) => (Few::of(&[trans(*axis)]), Shape::Segment),
+        _ => (Few::of(&[]), Shape::Segment),
     }
 }
 
@@ -774,7 +742,7 @@ fn unit_reach(
     pj: &PosedJoint,
     pos: &V3,
     joint: JointType,
-) -> (Units<[f64; 6]>, Shape, f64, f64) {
+) -> (Few<[f64; 6]>, Shape, f64, f64) {
     let (set, shape) = unit_set(joint, g.group, &pj.centre, &pj.axis, &pj.normal);
     let responses = set.map(|z| response(basis, gi, g.limb, z, pos));
     let block = |rows: std::ops::Range<usize>| -> f64 {
