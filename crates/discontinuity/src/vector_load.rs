@@ -205,11 +205,11 @@ pub fn switches(
             continue;
         }
         let (x, m) = polish(&dip, &mut at);
-        if m >= rule.threshold || touches_cut(&dip) {
+        if m >= rule.threshold {
             continue;
         }
         let Some((before, after)) = readings(loads, x, m, rule.reach(m), &mut at) else { continue };
-        // The readings may have met the cut too, locating a direction in the interval.
+        // The polish and the readings may have met a cut too, solving in the interval.
         if turns(&before, &after) && !touches_cut(&dip) {
             out.push(VectorSwitch { at: x, margin: m, before, after });
         }
