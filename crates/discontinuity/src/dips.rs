@@ -43,6 +43,7 @@ pub(crate) fn switches(
 ) {
     let ev = solved.ev;
     let (model, kind) = (ev.model, d.kind());
+    let mark = ev.unsolved_mark();
     let load = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| vector(solved.forces(k, ws), model, kind, j);
     let mag = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| crate::norm(load(solved, k, ws));
     let at = |p: f64, ws: &mut Workspace| ev.reactions_at(p, ws).map(|r| vector(&r, model, kind, j));
@@ -117,6 +118,7 @@ pub(crate) fn switches(
     dips.sort_by(|x, y| x.p.total_cmp(&y.p));
 
     let floor = model.indeterminate_floor;
+    let mut found = Vec::new();
     for dip in &dips {
         if dip.m >= ev.opts.dip_threshold {
             continue;
@@ -166,15 +168,24 @@ pub(crate) fn switches(
         let vector =
             at(dip.p, ws).and_then(|fp| vector_polish(dip.p, fp, width.max(DIFF_STEP), (lo, hi), |p| at(p, ws)));
         let (before, after) = (left.errors(solved, ws), right.errors(solved, ws));
-        out.push(match vector {
-            // The load at the point from the polish's model: no solve of its own.
-            Some((p, fp)) => ev.record_margin(kind, j, p, crate::norm(fp), &before, &after),
-            None => {
-                let p = polish(dip.p, lo, hi, width, |p| squared(p, ws));
-                ev.record(kind, j, p, ev.reactions_at(p, ws), &before, &after)
-            }
-        });
+        found.push((
+            dip,
+            match vector {
+                // The load at the point from the polish's model: no solve of its own.
+                Some((p, fp)) => ev.record_margin(kind, j, p, crate::norm(fp), &before, &after),
+                None => {
+                    let p = polish(dip.p, lo, hi, width, |p| squared(p, ws));
+                    ev.record(kind, j, p, ev.reactions_at(p, ws), &before, &after)
+                }
+            },
+        ));
     }
+    // A dip between samples where any step of the rule met a point it could not solve
+    // (a dip at a sample: on either side of it) is no switch: the path is cut there, as
+    // by an unsolvable sample (docs/model.md §8). Its least magnitude may be the edge of
+    // the stretch the robot cannot follow, not a minimum of the load.
+    let cut = |dip: &Dip| ev.cut_since(mark, ev.param(dip.lo), ev.param(dip.hi));
+    out.extend(found.into_iter().filter(|(dip, _)| !cut(dip)).map(|(_, s)| s));
 }
 
 /// The first of `side` (not empty) where `stops(i, the one after i)`, and the one

@@ -32,7 +32,8 @@ pub(crate) fn crossings(
     let ev = solved.ev;
     let (model, floor) = (ev.model, ev.model.indeterminate_floor);
     let f = |solved: &mut Solved<'_>, k: usize, ws: &mut Workspace| axial(solved.forces(k, ws), model, j);
-    // An unsolvable point between samples reads zero: the root is where it starts.
+    // An unsolvable point between samples reads zero for the root finder; a zero whose
+    // search met one is dropped, as the interval is cut there (docs/model.md §8).
     let f_at = |p: f64, ws: &mut Workspace| ev.reactions_at(p, ws).map_or(0.0, |r| axial(&r, model, j));
     let negative = |k: usize| segment.has(k, neg_bit(j));
     let mut out = Vec::new();
@@ -47,9 +48,13 @@ pub(crate) fn crossings(
                 n += 1;
             }
             let guess = inverse_interpolation(&points[..n]);
+            let mark = ev.unsolved_mark();
             let p = interpolated_root_from(ev.param(a), ev.param(b), fa, fb, guess, LOCATE_TOL, |p| f_at(p, ws));
             // Mostly the point the root finder evaluated last, so solved already.
             let reactions = ev.reactions_at(p, ws);
+            if ev.cut_since(mark, ev.param(a), ev.param(b)) {
+                continue;
+            }
             out.push(Crossing { p, reactions, before: Side::Sample(a), after: Side::Sample(b) });
         }
     }
@@ -70,6 +75,7 @@ pub(crate) fn crossings(
             }
             let (plo, phi) = (ev.param(lo), ev.param(hi));
             let mid = 0.5 * (plo + phi);
+            let mark = ev.unsolved_mark();
             let at_mid = ev.reactions_at(mid, ws).map(|r| sign * axial(&r, model, j));
             if MIDPOINT.on() && at_mid.is_some_and(|y| stays_clear(samples, (plo, phi), (mid, y))) {
                 continue;
@@ -98,6 +104,9 @@ pub(crate) fn crossings(
             let at_first = ev.reactions_at(first, ws);
             let second = interpolated_root(pm, phi, fm, fhi, LOCATE_TOL, |p| f_at(p, ws));
             let at_second = ev.reactions_at(second, ws);
+            if ev.cut_since(mark, plo, phi) {
+                continue;
+            }
             out.push(Crossing { p: first, reactions: at_first, before: Side::Sample(lo), after: Side::At(pm) });
             out.push(Crossing { p: second, reactions: at_second, before: Side::At(pm), after: Side::Sample(hi) });
         }

@@ -67,6 +67,9 @@ pub(crate) struct Evaluator<'a> {
     /// switch it locates then carries (for its margin, under each kind it decides:
     /// `r_axial` and `r_angular` share theirs).
     recent: RefCell<Recent>,
+    /// Every point between samples found unsolvable, in the order met (repeats too):
+    /// an interval holding one is cut (docs/model.md §8).
+    unsolved: RefCell<Vec<f64>>,
 }
 
 /// A ring of the last [`RECENT`] points [`Evaluator::reactions_at`] solved.
@@ -86,7 +89,7 @@ impl<'a> Evaluator<'a> {
         mode: Mode,
         opts: &'a SearchOptions,
     ) -> Self {
-        Self { model, source, path, mode, opts, recent: RefCell::default() }
+        Self { model, source, path, mode, opts, recent: RefCell::default(), unsolved: RefCell::default() }
     }
 
     /// The `k`-th sample of the path.
@@ -106,15 +109,35 @@ impl<'a> Evaluator<'a> {
     pub fn reactions_at(&self, p: f64, ws: &mut Workspace) -> Option<JointReactions> {
         let key = p.to_bits();
         let mut recent = self.recent.borrow_mut();
-        if let Some((_, r)) = recent.at.iter().flatten().find(|(k, _)| *k == key) {
-            return *r;
+        let r = match recent.at.iter().flatten().find(|(k, _)| *k == key) {
+            Some((_, r)) => *r,
+            None => {
+                let s = self.path.sample_at(self.source, p);
+                let r = solve_reactions_if_solvable(self.model, &s, self.mode, ws);
+                let next = recent.next;
+                recent.at[next] = Some((key, r));
+                recent.next = (next + 1) % RECENT;
+                r
+            }
+        };
+        if r.is_none() {
+            self.unsolved.borrow_mut().push(p);
         }
-        let s = self.path.sample_at(self.source, p);
-        let r = solve_reactions_if_solvable(self.model, &s, self.mode, ws);
-        let next = recent.next;
-        recent.at[next] = Some((key, r));
-        recent.next = (next + 1) % RECENT;
         r
+    }
+
+    /// A mark of the unsolvable points met so far, for [`Evaluator::cut_since`].
+    pub fn unsolved_mark(&self) -> usize {
+        self.unsolved.borrow().len()
+    }
+
+    /// Whether a point met since `mark` ([`Evaluator::unsolved_mark`]) that could not
+    /// be solved lies strictly between path parameters `a` and `b`: the path leaves the
+    /// workspace there and comes back, which cuts it as an unsolvable sample does
+    /// (docs/model.md §8).
+    pub fn cut_since(&self, mark: usize, a: f64, b: f64) -> bool {
+        let (lo, hi) = (a.min(b), a.max(b));
+        self.unsolved.borrow()[mark..].iter().any(|&p| p > lo && p < hi)
     }
 
     /// The per-kind errors at path parameter `p` (for the jump across a switch).
