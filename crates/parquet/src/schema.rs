@@ -427,8 +427,18 @@ pub(crate) fn finite_columns<F: Sync>(
     fills: &[F],
     value: impl Fn(&F, usize) -> Option<f64> + Sync,
 ) -> Vec<ArrayRef> {
+    finite_rows(len, fills.len(), |row, out| {
+        for (o, f) in out.iter_mut().zip(fills) {
+            *o = value(f, row).unwrap_or(f64::NAN);
+        }
+    })
+}
+
+/// [`finite_columns`] from a function that writes every column's value of a row at
+/// once (`row`, and a slice of `columns` values: NaN, or any value that is not finite,
+/// for a null). For tables whose columns share work within a row.
+pub(crate) fn finite_rows(len: usize, columns: usize, fill: impl Fn(usize, &mut [f64]) + Sync) -> Vec<ArrayRef> {
     const BLOCK: usize = 1024;
-    let columns = fills.len();
     if columns == 0 {
         return Vec::new();
     }
@@ -439,9 +449,11 @@ pub(crate) fn finite_columns<F: Sync>(
             let rows = b * BLOCK..len.min((b + 1) * BLOCK);
             let m = rows.len();
             let (mut values, mut valid) = (vec![0.0; columns * m], vec![false; columns * m]);
+            let mut row_values = vec![0.0; columns];
             for (i, row) in rows.enumerate() {
-                for (c, f) in fills.iter().enumerate() {
-                    if let Some(v) = value(f, row).filter(|v| v.is_finite()) {
+                fill(row, &mut row_values);
+                for (c, &v) in row_values.iter().enumerate() {
+                    if v.is_finite() {
                         (values[c * m + i], valid[c * m + i]) = (v, true);
                     }
                 }

@@ -18,7 +18,7 @@ use clearance_solver::ups::{UPS_KINDS, UpsResult};
 use clearance_solver::{PoseError, Status};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_columns};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_rows};
 use crate::summary::{Series, SummaryTable, field};
 
 /// The six inputs, in the grid's row-major order.
@@ -34,13 +34,13 @@ pub struct UpsRow {
     pub inputs: [f64; 6],
 }
 
-/// What fills one float column from a row.
-type Fill = Box<dyn Fn(&UpsRow, &UpsResult) -> Option<f64> + Send + Sync>;
-
 /// The `poses` columns of a 6-UPS run for one column set.
 pub struct UpsSchema {
     schema: SchemaRef,
-    floats: Vec<Fill>,
+    set: ColumnSet,
+    exact: bool,
+    /// How many float columns [`visit`] gives for `set` and `exact`.
+    floats: usize,
     /// The `dominant` column's values, by `6·kind + limb`, when the set has the column
     /// (after `status`).
     dominant: Option<Vec<String>>,
@@ -64,86 +64,122 @@ fn loaded(r: &UpsResult) -> bool {
     matches!(r.status, Status::Ok | Status::IndeterminateContact)
 }
 
+/// What [`visit`] gives each float column to: its name and unit (built only where they
+/// are wanted), and its value on a row (`None`, or a value that is not finite: null).
+trait Columns {
+    fn column(
+        &mut self,
+        name: impl FnOnce() -> String,
+        unit: &'static str,
+        value: impl FnOnce(&UpsRow, &UpsResult) -> Option<f64>,
+    );
+}
+
+/// Every float column of `set` (plus the exact error's with `exact`), in order. One
+/// walk gives the schema's names and each row's values, so that the two agree; a
+/// row's values are written in one pass over its result, with no call through a
+/// pointer per value (a fifth of a 6-UPS run's CPU when each column had its closure).
+fn visit(set: ColumnSet, exact: bool, c: &mut impl Columns) {
+    for (i, (name, unit)) in UPS_INPUTS.iter().zip(INPUT_UNITS).enumerate() {
+        c.column(|| name.to_string(), unit, |s, _| Some(s.inputs[i]));
+    }
+    for (i, (p, unit)) in ERR_PARTS.iter().enumerate() {
+        c.column(|| format!("err_{p}"), unit, |_, r| (r.status == Status::Ok).then(|| error_part(&r.total, i)));
+    }
+    if set >= ColumnSet::Standard {
+        for (k, kind) in UPS_KINDS.iter().enumerate() {
+            for (i, (p, unit)) in ERR_PARTS.iter().enumerate() {
+                c.column(
+                    || format!("err_{kind}_{p}"),
+                    unit,
+                    |_, r| (loaded(r) && r.kind_ok[k]).then(|| error_part(&r.errors[k], i)),
+                );
+            }
+        }
+        for l in 0..6 {
+            c.column(|| format!("q{}", l + 1), "m", |_, r| (r.status != Status::Unreachable).then_some(r.q[l]));
+        }
+        for l in 0..6 {
+            let n = l + 1;
+            // margins: [s_radial, u_radial, u_angular] by kind, then limb.
+            for (name, k, unit) in [("radial", 1, "N"), ("angular", 2, "N*m"), ("", 0, "N")] {
+                let name = || if k == 0 { format!("margin_s{n}") } else { format!("margin_u{n}_{name}") };
+                c.column(name, unit, |_, r| loaded(r).then_some(r.margins[k][l]));
+            }
+        }
+        // The envelope of all kinds, then of each kind (NaN outside loaded rows).
+        for (p, (part, unit)) in ENVELOPE_PARTS.iter().enumerate() {
+            c.column(|| format!("env_{part}"), unit, |_, r| Some(r.envelope_total()[p]));
+        }
+        for (k, kind) in UPS_KINDS.iter().enumerate() {
+            for (p, (part, unit)) in ENVELOPE_PARTS.iter().enumerate() {
+                c.column(|| format!("env_{kind}_{part}"), unit, |_, r| Some(r.envelope[k][p]));
+            }
+        }
+    }
+    if set >= ColumnSet::Full {
+        for l in 0..6 {
+            let n = l + 1;
+            for (a, x) in ["x", "y", "z"].into_iter().enumerate() {
+                c.column(|| format!("f_u{n}_{x}"), "N", |_, r| loaded(r).then_some(r.f_u[l][a]));
+            }
+            c.column(|| format!("m_u{n}"), "N*m", |_, r| loaded(r).then_some(r.mu[l]));
+            for (a, x) in ["x", "y", "z"].into_iter().enumerate() {
+                c.column(|| format!("f_s{n}_{x}"), "N", |_, r| loaded(r).then_some(r.f_s[l][a]));
+            }
+        }
+        c.column(|| "cond_a".into(), "1", |_, r| (r.status != Status::Unreachable).then_some(r.cond_a));
+        c.column(|| "cond_jp".into(), "1", |_, r| (r.status != Status::Unreachable).then_some(r.cond_jp));
+    }
+    if exact {
+        // The stored exact error is [Δα; Δp]; columns follow the err_* order (Δp first).
+        for (i, (p, unit)) in ERR_PARTS[..6].iter().enumerate() {
+            let at = if i < 3 { i + 3 } else { i - 3 };
+            c.column(|| format!("exact_err_{p}"), unit, |_, r| r.exact.map(|e| e[at]));
+        }
+    }
+}
+
+/// The names and units of the float columns.
+struct Names(Vec<(String, &'static str)>);
+
+impl Columns for Names {
+    fn column(
+        &mut self,
+        name: impl FnOnce() -> String,
+        unit: &'static str,
+        _: impl FnOnce(&UpsRow, &UpsResult) -> Option<f64>,
+    ) {
+        self.0.push((name(), unit));
+    }
+}
+
+/// One row's values, NaN for a null.
+struct Values<'a> {
+    row: &'a UpsRow,
+    result: &'a UpsResult,
+    out: &'a mut [f64],
+    next: usize,
+}
+
+impl Columns for Values<'_> {
+    #[inline(always)]
+    fn column(
+        &mut self,
+        _: impl FnOnce() -> String,
+        _: &'static str,
+        value: impl FnOnce(&UpsRow, &UpsResult) -> Option<f64>,
+    ) {
+        self.out[self.next] = value(self.row, self.result).unwrap_or(f64::NAN);
+        self.next += 1;
+    }
+}
+
 impl UpsSchema {
     /// The columns of `set`, plus the exact-error columns when `exact` is on.
     pub fn new(set: ColumnSet, exact: bool) -> Self {
-        let mut names: Vec<(String, &'static str)> = Vec::new();
-        let mut floats: Vec<Fill> = Vec::new();
-        let mut push = |name: String, unit: &'static str, f: Fill| {
-            names.push((name, unit));
-            floats.push(f);
-        };
-        for (i, (name, unit)) in UPS_INPUTS.iter().zip(INPUT_UNITS).enumerate() {
-            push(name.to_string(), unit, Box::new(move |s, _| Some(s.inputs[i])));
-        }
-        for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-            push(
-                format!("err_{c}"),
-                unit,
-                Box::new(move |_, r| (r.status == Status::Ok).then(|| error_part(&r.total, i))),
-            );
-        }
-        if set >= ColumnSet::Standard {
-            for (k, kind) in UPS_KINDS.iter().enumerate() {
-                for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-                    push(
-                        format!("err_{kind}_{c}"),
-                        unit,
-                        Box::new(move |_, r| (loaded(r) && r.kind_ok[k]).then(|| error_part(&r.errors[k], i))),
-                    );
-                }
-            }
-            for l in 0..6 {
-                push(
-                    format!("q{}", l + 1),
-                    "m",
-                    Box::new(move |_, r| (r.status != Status::Unreachable).then_some(r.q[l])),
-                );
-            }
-            for l in 0..6 {
-                let n = l + 1;
-                // margins: [s_radial, u_radial, u_angular] by kind, then limb.
-                for (name, k, unit) in [
-                    (format!("margin_u{n}_radial"), 1, "N"),
-                    (format!("margin_u{n}_angular"), 2, "N*m"),
-                    (format!("margin_s{n}"), 0, "N"),
-                ] {
-                    push(name, unit, Box::new(move |_, r| loaded(r).then_some(r.margins[k][l])));
-                }
-            }
-            // The envelope of all kinds, then of each kind (NaN outside loaded rows).
-            let kinds = std::iter::once(None).chain(UPS_KINDS.iter().enumerate().map(Some));
-            for kind in kinds {
-                for (c, (part, unit)) in ENVELOPE_PARTS.iter().enumerate() {
-                    let (name, f): (String, Fill) = match kind {
-                        None => (format!("env_{part}"), Box::new(move |_, r| Some(r.envelope_total()[c]))),
-                        Some((k, kind)) => (format!("env_{kind}_{part}"), Box::new(move |_, r| Some(r.envelope[k][c]))),
-                    };
-                    push(name, unit, f);
-                }
-            }
-        }
-        if set >= ColumnSet::Full {
-            for l in 0..6 {
-                let n = l + 1;
-                for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
-                    push(format!("f_u{n}_{c}"), "N", Box::new(move |_, r| loaded(r).then_some(r.f_u[l][a])));
-                }
-                push(format!("m_u{n}"), "N*m", Box::new(move |_, r| loaded(r).then_some(r.mu[l])));
-                for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
-                    push(format!("f_s{n}_{c}"), "N", Box::new(move |_, r| loaded(r).then_some(r.f_s[l][a])));
-                }
-            }
-            push("cond_a".into(), "1", Box::new(|_, r| (r.status != Status::Unreachable).then_some(r.cond_a)));
-            push("cond_jp".into(), "1", Box::new(|_, r| (r.status != Status::Unreachable).then_some(r.cond_jp)));
-        }
-        if exact {
-            // The stored exact error is [Δα; Δp]; columns follow the err_* order (Δp first).
-            for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
-                let at = if i < 3 { i + 3 } else { i - 3 };
-                push(format!("exact_err_{c}"), unit, Box::new(move |_, r| r.exact.map(|e| e[at])));
-            }
-        }
+        let mut names = Names(Vec::new());
+        visit(set, exact, &mut names);
         let unit = |u: &str| HashMap::from([("unit".to_string(), u.to_string())]);
         let mut fields = vec![
             Field::new("mode", DataType::Utf8, false).with_metadata(unit("")),
@@ -155,8 +191,8 @@ impl UpsSchema {
         if dominant.is_some() {
             fields.push(Field::new("dominant", DataType::Utf8, true).with_metadata(unit("")));
         }
-        fields.extend(names.iter().map(|(n, u)| Field::new(n, DataType::Float64, true).with_metadata(unit(u))));
-        Self { schema: Arc::new(Schema::new(fields)), floats, dominant }
+        fields.extend(names.0.iter().map(|(n, u)| Field::new(n, DataType::Float64, true).with_metadata(unit(u))));
+        Self { schema: Arc::new(Schema::new(fields)), set, exact, floats: names.0.len(), dominant }
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -183,7 +219,10 @@ impl UpsSchema {
                 results.iter().map(|r| r.dominant.map(|(k, l)| names[6 * k + l].as_str())),
             )));
         }
-        out.extend(finite_columns(rows.len(), &self.floats, |f, i| f(&rows[i], &results[i])));
+        out.extend(finite_rows(rows.len(), self.floats, |i, values| {
+            let mut v = Values { row: &rows[i], result: &results[i], out: values, next: 0 };
+            visit(self.set, self.exact, &mut v);
+        }));
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
 }
