@@ -27,7 +27,9 @@
 //!   unsolvable or the interpolation does not settle.
 //!
 //! Samples whose deciding load is within the noise floor are indeterminate and left
-//! out; unreachable and near-singular samples cut a path into separate segments.
+//! out; unreachable and near-singular samples cut a path into separate segments. So
+//! does a point between two samples that the search finds it cannot solve: no switch
+//! is kept in that interval (nor, for a minimum at a sample, beside it).
 //! The Z-lines of a 3-PRS with vertical rails carry the same loads at every height
 //! and are not searched.
 //! Locations are refined to [`LOCATE_TOL`] in the path parameter, so the result does
