@@ -11,7 +11,9 @@
 
 mod common;
 
-use arrow::array::{Array, Float64Array, RecordBatch, StringArray, UInt32Array};
+use common::{column, replaced};
+
+use arrow::array::{Float64Array, StringArray, UInt32Array};
 use clearance_engine::{JobSpec, Layout, SolveOptions, run, solve};
 
 /// The cut interval of `t`, between the samples 0 and 0.8.
@@ -20,20 +22,12 @@ const CUT: (f64, f64) = (0.0, 0.8);
 /// The job with its times, with or without the limit.
 fn job_at(stroke_limit: bool, time: &str) -> String {
     let text = include_str!("../../../jobs/rps_trajectory.toml");
-    let replace = |text: &str, from: &str, to: &str| {
-        assert!(text.contains(from), "the job has `{from}`");
-        text.replace(from, to)
-    };
-    let text = replace(text, "time = { start = 0.0, stop = 4.0, n = 4001 }", &format!("time = {time}"));
-    if stroke_limit { replace(&text, "kind = \"3-RPS\"", "kind = \"3-RPS\"\nmax_length = 1.35") } else { text }
+    let text = replaced(text, "time = { start = 0.0, stop = 4.0, n = 4001 }", &format!("time = {time}"));
+    if stroke_limit { replaced(&text, "kind = \"3-RPS\"", "kind = \"3-RPS\"\nmax_length = 1.35") } else { text }
 }
 
 fn job(stroke_limit: bool) -> String {
     job_at(stroke_limit, "{ start = 0.0, stop = 4.0, n = 6 }")
-}
-
-fn column<'a, T: 'static>(b: &'a RecordBatch, name: &str) -> &'a T {
-    b.column_by_name(name).unwrap_or_else(|| panic!("no {name}")).as_any().downcast_ref().unwrap()
 }
 
 /// One switch: mode, limb, kind, t, margin.

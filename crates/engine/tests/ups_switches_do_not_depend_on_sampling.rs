@@ -15,27 +15,21 @@
 
 mod common;
 
-use arrow::array::{Array, Float64Array, RecordBatch, StringArray, UInt32Array};
+use common::{column, replaced};
+
+use arrow::array::{Float64Array, StringArray, UInt32Array};
 use clearance_engine::{ColumnSet, JobSpec, Layout, SolveOptions, run, solve};
 
 fn job(theta_samples: usize) -> String {
     let text = include_str!("../../../jobs/ups_orientation_grid.toml");
-    let replace = |text: &str, from: &str, to: &str| {
-        assert!(text.contains(from), "the job has `{from}`");
-        text.replace(from, to)
-    };
-    let text = replace(text, "kind = \"6-UPS\"", "kind = \"6-UPS\"\nplatform_radius = 0.2");
+    let text = replaced(text, "kind = \"6-UPS\"", "kind = \"6-UPS\"\nplatform_radius = 0.2");
     let text =
-        replace(&text, "psi = { start = -0.3, stop = 0.3, n = 61 }", "psi = { start = 0.16, stop = 0.25, n = 2 }");
-    replace(
+        replaced(&text, "psi = { start = -0.3, stop = 0.3, n = 61 }", "psi = { start = 0.16, stop = 0.25, n = 2 }");
+    replaced(
         &text,
         "theta = { start = -0.3, stop = 0.3, n = 61 }",
         &format!("theta = {{ start = -0.3, stop = 0.3, n = {theta_samples} }}"),
     )
-}
-
-fn column<'a, T: 'static>(b: &'a RecordBatch, name: &str) -> &'a T {
-    b.column_by_name(name).unwrap_or_else(|| panic!("no {name}")).as_any().downcast_ref().unwrap()
 }
 
 /// One switch along Θ: limb, kind, Ψ, Θ, margin, jump.

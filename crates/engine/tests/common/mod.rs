@@ -1,12 +1,12 @@
-//! What the engine's integration tests share: run options and reading a run's
-//! Parquet files back with the `parquet` crate's Arrow reader. Each test file uses
-//! some of it.
+//! What the engine's integration tests share: run options, a job of `jobs/` edited,
+//! and reading a run's Parquet files back with the `parquet` crate's Arrow reader.
+//! Each test file uses some of it.
 #![allow(dead_code)]
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
-use arrow::array::RecordBatch;
+use arrow::array::{Array, RecordBatch};
 use arrow::compute::concat_batches;
 use clearance_engine::{Codec, ColumnSet, Reporter, RunOptions, SolverKind, Writer};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -44,4 +44,16 @@ pub fn read(path: &Path) -> RecordBatch {
 pub fn read_parts(paths: impl IntoIterator<Item = PathBuf>) -> RecordBatch {
     let batches: Vec<RecordBatch> = paths.into_iter().map(|p| read(&p)).collect();
     concat_batches(&batches[0].schema(), &batches).unwrap()
+}
+
+/// `text` with `from` replaced by `to`; `from` must be in it (a job of `jobs/` edited
+/// for a test fails loudly when the job changes under it).
+pub fn replaced(text: &str, from: &str, to: &str) -> String {
+    assert!(text.contains(from), "the job has `{from}`");
+    text.replace(from, to)
+}
+
+/// Column `name` of `b` as its array type.
+pub fn column<'a, T: 'static>(b: &'a RecordBatch, name: &str) -> &'a T {
+    b.column_by_name(name).unwrap_or_else(|| panic!("no {name}")).as_any().downcast_ref().unwrap()
 }
