@@ -1396,6 +1396,7 @@ pub(crate) fn prepare_run(
         codec: opts.compression,
         durable: false,
         direct_io: opts.direct_io,
+        landing: None,
     };
     Ok(Setup { variants, groups, layout, all, mine, todo_work, mine_poses, todo_poses, total, write_opts })
 }

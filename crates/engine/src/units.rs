@@ -14,7 +14,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_parquet::{WriteOptions, write_bytes};
+use clearance_parquet::{Landing, ParquetError, WriteOptions, write_bytes};
+use std::sync::Arc;
 
 use crate::error::EngineError;
 use crate::layout::Layout;
@@ -75,6 +76,17 @@ struct Written {
     poses: u64,
 }
 
+/// Waits for a run's background files when it ends, on every path: nothing is
+/// written after the run returns (their failures are reported where the run waits
+/// for them first, before it syncs them).
+struct Landed<'a>(&'a Landing);
+
+impl Drop for Landed<'_> {
+    fn drop(&mut self) {
+        let _ = self.0.wait();
+    }
+}
+
 /// Runs the plan of `setup` (from [`crate::run::prepare_run`]) with `r`.
 pub(crate) fn run_units<R: UnitRun + Send + Sync>(r: &mut R, opts: &RunOptions, setup: &Setup) -> Result<RunReport> {
     let Setup { variants, layout, mine, all, todo_work, mine_poses, todo_poses, total, write_opts, .. } = setup;
@@ -83,7 +95,13 @@ pub(crate) fn run_units<R: UnitRun + Send + Sync>(r: &mut R, opts: &RunOptions, 
     let start = Instant::now();
     let mut done = mine_poses - todo_poses;
     let mut stages = StageTimes::default();
-    // Returns the unit's poses and the seconds it took.
+    // The part files go to the disk on threads of their own: a pool worker that
+    // waited on a direct write computed nothing meanwhile. They are all in place
+    // before the run syncs them, and before it returns, whatever it returns.
+    let landing = Landing::new();
+    let _landed = Landed(&landing);
+    let write_opts = &WriteOptions { landing: Some(Arc::clone(&landing)), ..write_opts.clone() };
+    // Returns the unit's poses and the seconds it took (its copy, not its disk time).
     let write_unit = |w: Written| -> Result<(u64, f64)> {
         let writing = Instant::now();
         for dir in [w.part.parent().filter(|_| w.batch.is_some()), w.stats_path.parent()].into_iter().flatten() {
@@ -141,6 +159,7 @@ pub(crate) fn run_units<R: UnitRun + Send + Sync>(r: &mut R, opts: &RunOptions, 
     }
     progress.finish();
     let syncing = Instant::now();
+    landing.wait().map_err(|(path, source)| ParquetError::Io { path, source })?;
     sync_units(layout, mine, &[])?;
     stages.writing += syncing.elapsed().as_secs_f64();
     let complete = mark_shard_done(layout, opts)?;

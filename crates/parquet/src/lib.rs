@@ -44,6 +44,7 @@ pub use custom::{
     CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, custom_discontinuity_batch,
     custom_summary_batch,
 };
+pub use output::Landing;
 pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
 pub use precision::{Precision, stored_single, with_precision};
 pub use schema::{BlockSink, ColumnSet, PageBuffer, PageWriter, PartPages, PoseSchema, UnitColumns};

@@ -22,9 +22,8 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
 use parquet::schema::types::ColumnPath;
 
-use crate::output::Output;
 use crate::pages::PAGE_ROWS;
-use crate::writer::{Codec, ParquetError, WriteOptions, atomically, finish_file};
+use crate::writer::{Codec, ParquetError, WriteOptions, atomically};
 
 /// Which encoder writes the `poses` part files of a run (`--writer`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -91,18 +90,16 @@ pub fn write_batch_arrow(
     opts: &WriteOptions,
     extra: &[(String, String)],
 ) -> Result<(), ParquetError> {
-    atomically(path, |tmp| {
+    atomically(path, opts, |tmp| {
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
         let enc = |e| ParquetError::from_parquet(path, e);
-        let file = Output::create(tmp, opts.direct_io).map_err(io)?;
+        let file = opts.output(tmp).map_err(io)?;
         let schema = batch.schema();
         let props = arrow_properties(&schema, opts, extra);
         let mut writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(enc)?;
         writer.write(batch).map_err(enc)?;
         // `finish`, not `into_inner`: the footer is written and the I/O error kept.
         writer.finish().map_err(enc)?;
-        let out = writer.inner_mut();
-        out.finish().map_err(io)?;
-        finish_file(out, opts.durable).map_err(io)
+        Ok(writer.inner_mut().take())
     })
 }

@@ -1,6 +1,6 @@
 //! Parquet files that appear under their final name only when complete.
 
-use crate::output::Output;
+use crate::output::{Landing, Output};
 use crate::pages::{self, DoubleChunk};
 use std::path::{Path, PathBuf};
 
@@ -69,6 +69,11 @@ pub struct WriteOptions {
     /// cache costs a run's CPU (benches/README.md). The binary turns it off when
     /// `CLEARANCE_BUFFERED_IO` is set.
     pub direct_io: bool,
+    /// Where files that are not `durable` are written in the background: a direct
+    /// file's writes, its tail and its rename on a thread of its own, so that the
+    /// caller does not wait on the disk. The run waits with [`Landing::wait`] before it
+    /// syncs or reads them. `None`: every file is in place when its call returns.
+    pub landing: Option<Arc<Landing>>,
 }
 
 impl Default for WriteOptions {
@@ -79,6 +84,7 @@ impl Default for WriteOptions {
             codec: Codec::default(),
             durable: true,
             direct_io: true,
+            landing: None,
         }
     }
 }
@@ -289,20 +295,6 @@ fn append_row_group<W: std::io::Write + Send>(
     Ok(())
 }
 
-/// Asks the kernel to start writing the file's dirty pages now, without waiting.
-fn start_writeback(file: &std::fs::File) {
-    #[cfg(target_os = "linux")]
-    {
-        use std::os::fd::AsRawFd;
-        // SAFETY: a valid descriptor; the call only schedules I/O on it.
-        unsafe {
-            libc::sync_file_range(file.as_raw_fd(), 0, 0, libc::SYNC_FILE_RANGE_WRITE);
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = file;
-}
-
 /// Writes `batches` to `path` via a temporary sibling and an atomic rename.
 /// `extra` metadata is added to the run-wide metadata for this file only.
 pub fn write_parquet(
@@ -397,46 +389,45 @@ pub fn key_values(path: &Path) -> Option<Vec<(String, String)>> {
 
 /// Writes `bytes` to `path` via a temporary sibling and an atomic rename, past the
 /// page cache where the file system allows it (as Parquet files are), and, when
-/// `opts.durable`, on the disk before this returns. For a run's side files (statistics,
-/// traces): through the page cache, their copy cost a run 2 % of its CPU (`perf`).
+/// `opts.durable`, on the disk before this returns (with `opts.landing` and not
+/// durable, a file of a megabyte or more is put in place in the background). For a
+/// run's side files (statistics, traces): through the page cache, their copy cost a
+/// run 2 % of its CPU (`perf`).
 pub fn write_bytes(path: &Path, bytes: &[u8], opts: &WriteOptions) -> Result<(), ParquetError> {
-    atomically(path, |tmp| {
+    atomically(path, opts, |tmp| {
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
-        let mut out = Output::create(tmp, opts.direct_io).map_err(io)?;
+        let mut out = opts.output(tmp).map_err(io)?;
         std::io::Write::write_all(&mut out, bytes).map_err(io)?;
-        out.finish().map_err(io)?;
-        finish_file(&out, opts.durable).map_err(io)
+        Ok(out)
     })
 }
 
-/// Runs `write` on the temporary sibling of `path`, then renames it to `path`;
-/// removes it on any failure.
+impl WriteOptions {
+    /// The file to write at `tmp`: direct where these options and the file system
+    /// allow it, in the background with the landing where the file is not durable.
+    pub(crate) fn output(&self, tmp: &Path) -> std::io::Result<Output> {
+        let landing = self.landing.as_ref().filter(|_| !self.durable);
+        Ok(Output::create(tmp, self.direct_io)?.in_background(landing))
+    }
+}
+
+/// Runs `write` on the temporary sibling of `path`, then completes the file it
+/// returns and renames it to `path` ([`Output::complete`]; in the background where
+/// `opts` say so); removes it on any failure seen here.
 pub(crate) fn atomically(
     path: &Path,
-    write: impl FnOnce(&Path) -> Result<(), ParquetError>,
+    opts: &WriteOptions,
+    write: impl FnOnce(&Path) -> Result<Output, ParquetError>,
 ) -> Result<(), ParquetError> {
     let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
-    let result = write(&tmp).and_then(|()| {
-        std::fs::rename(&tmp, path).map_err(|source| ParquetError::Io { path: path.to_path_buf(), source })
+    let result = write(&tmp).and_then(|out| {
+        out.complete(&tmp, path, opts.durable).map_err(|source| ParquetError::Io { path: path.to_path_buf(), source })
     });
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     result
-}
-
-/// Syncs a finished file when `durable`; else, if it went through the page cache,
-/// asks the disk to start taking it.
-pub(crate) fn finish_file(out: &Output, durable: bool) -> std::io::Result<()> {
-    if durable {
-        out.file().sync_all()
-    } else {
-        if !out.is_direct() {
-            start_writeback(out.file());
-        }
-        Ok(())
-    }
 }
 
 /// Creates the temporary sibling of `path`, lets `body` write its row groups, then
@@ -451,10 +442,10 @@ fn write_file(
         &ArrowRowGroupWriterFactory,
     ) -> Result<(), parquet::errors::ParquetError>,
 ) -> Result<(), ParquetError> {
-    atomically(path, |tmp| {
+    atomically(path, opts, |tmp| {
         let io = |source| ParquetError::Io { path: path.to_path_buf(), source };
         let enc = |e| ParquetError::from_parquet(path, e);
-        let file = Output::create(tmp, opts.direct_io).map_err(io)?;
+        let file = opts.output(tmp).map_err(io)?;
         let mut props = properties(schema, opts, extra);
         // What `ArrowWriter` does, so that readers get the Arrow types and units back.
         add_encoded_arrow_schema_to_metadata(schema, &mut props);
@@ -465,10 +456,9 @@ fn write_file(
         let factory = ArrowRowGroupWriterFactory::new(&writer, schema.clone());
         body(&mut writer, &factory).map_err(enc)?;
         // `finish` writes the footer and flushes the buffer with the I/O error
-        // intact (`into_inner` would turn a full disk into a string).
+        // intact (`into_inner` would turn a full disk into a string, and write the
+        // footer again).
         writer.finish().map_err(enc)?;
-        let out = writer.inner_mut();
-        out.finish().map_err(io)?;
-        finish_file(out, opts.durable).map_err(io)
+        Ok(writer.inner_mut().take())
     })
 }
