@@ -103,6 +103,8 @@ pub(crate) fn run_units<R: UnitRun + Send + Sync>(r: &mut R, opts: &RunOptions, 
     let write_opts = &WriteOptions { landing: Some(Arc::clone(&landing)), ..write_opts.clone() };
     // Returns the unit's poses and the seconds it took (its copy, not its disk time).
     let write_unit = |w: Written| -> Result<(u64, f64)> {
+        // A part that failed in the background stops the run here, not at its end.
+        landing.failure().map_err(|(path, source)| ParquetError::Io { path, source })?;
         let writing = Instant::now();
         for dir in [w.part.parent().filter(|_| w.batch.is_some()), w.stats_path.parent()].into_iter().flatten() {
             std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;

@@ -1,6 +1,7 @@
 //! `solve` (in memory) gives exactly the rows a run writes: same columns, same
 //! values bit for bit, same nulls, for a grid with a sweep and for a trajectory
-//! in both modes.
+//! in both modes, and for a 6-UPS run whose part files are megabytes (written to the
+//! disk on threads of their own where the file system takes direct writes).
 
 mod common;
 
@@ -73,9 +74,13 @@ fn assert_same(name: &str, expected: &ArrayRef, got: &ArrayRef) {
 }
 
 fn check(text: &str, columns: ColumnSet, chunk_size: u64) {
+    check_in(&tempfile::tempdir().unwrap().path().join("run"), text, columns, chunk_size);
+}
+
+/// [`check`] with the run in `out`.
+fn check_in(out: &std::path::Path, text: &str, columns: ColumnSet, chunk_size: u64) {
     let job = JobSpec::from_toml_str(text, "t.toml").unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let opts = RunOptions { columns, chunk_size, direct_io: true, ..common::options(&dir.path().join("run")) };
+    let opts = RunOptions { columns, chunk_size, direct_io: true, ..common::options(out) };
     run(&job, "t.toml", &opts).unwrap();
     let layout = Layout::new(&opts.out);
     let solved = solve(&job, "t.toml", &SolveOptions { columns, ..SolveOptions::default() }).unwrap();
@@ -123,4 +128,31 @@ fn minimal_columns_with_and_without_exact_errors() {
     check(GRID, ColumnSet::Minimal, 70);
     check(TRAJECTORY, ColumnSet::Minimal, 128);
     check(&format!("{GRID}\n[analysis]\nexact = true\n"), ColumnSet::Minimal, 70);
+}
+
+/// Parts of several megabytes: past the first full staging buffer (1 MiB), a direct
+/// file's bytes go to the disk on a thread of its own, and the run waits for it.
+#[test]
+fn a_six_ups_run_whose_parts_are_megabytes() {
+    const UPS: &str = r#"
+name = "ups"
+[mechanism]
+kind = "6-UPS"
+[clearance]
+s_radial = 1e-4
+u_radial = 1e-4
+[grid]
+x = { start = -0.1, stop = 0.1, n = 21 }
+y = { start = -0.1, stop = 0.1, n = 21 }
+z = { start = 0.7, stop = 0.8, n = 21 }
+phi = 0.05
+psi = 0.1
+theta = -0.1
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    check_in(&out, UPS, ColumnSet::Standard, 4096);
+    let part = Layout::new(&out).part(0, Mode::Kinetostatic, 0);
+    let bytes = std::fs::metadata(&part).unwrap().len();
+    assert!(bytes > 1 << 20, "{bytes} bytes: more than one staging buffer");
 }

@@ -116,6 +116,12 @@ impl Landing {
         state.failure.take().map_or(Ok(()), Err)
     }
 
+    /// The first failure so far, without waiting (reported once, here or by
+    /// [`Landing::wait`]): for a run to stop at its next file rather than at its end.
+    pub fn failure(&self) -> Result<(), (PathBuf, io::Error)> {
+        self.lock().failure.take().map_or(Ok(()), Err)
+    }
+
     fn lock(&self) -> std::sync::MutexGuard<'_, Flights> {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
@@ -553,7 +559,16 @@ mod tests {
             let direct = out.is_direct();
             out.write_all(&vec![1u8; 2 * STAGING + 5]).unwrap();
             let now = out.complete(&tmp, &path, false);
-            let later = landing.wait();
+            // Seen without waiting once the file's thread has met it.
+            let seen = loop {
+                let files = landing.lock().files;
+                match landing.failure() {
+                    Err(e) => break Err(e),
+                    Ok(()) if files == 0 => break Ok(()),
+                    Ok(()) => std::thread::yield_now(),
+                }
+            };
+            let later = seen.and_then(|()| landing.wait());
             if direct {
                 assert!(now.is_ok(), "{}: the rename is left to the file's thread", dir.display());
                 let (failed, cause) = later.expect_err("the rename fails");
