@@ -109,7 +109,7 @@ impl Landing {
     /// Waits until every file written with this landing is in place (or failed), and
     /// returns the first failure: the file it was writing, and why.
     pub fn wait(&self) -> Result<(), (PathBuf, io::Error)> {
-        let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        let mut state = self.lock();
         while state.files > 0 {
             state = self.changed.wait(state).unwrap_or_else(|e| e.into_inner());
         }
@@ -127,7 +127,7 @@ impl Landing {
     }
 
     /// Waits until fewer than [`IN_FLIGHT`] buffers are handed over, and counts one
-    /// more. Only the threads that write them wait for nothing, so this always ends.
+    /// more. The threads that write them never wait on the landing, so the wait ends.
     fn reserve(&self) {
         let mut state = self.lock();
         while state.buffers >= IN_FLIGHT {
@@ -182,12 +182,14 @@ struct Lane {
 }
 
 impl Lane {
-    /// Starts the thread that writes `file` (direct) for `landing`.
-    fn start(mut file: File, landing: Arc<Landing>) -> io::Result<Self> {
+    /// Starts the thread that writes `file` (direct, at `at`) for `landing`.
+    fn start(mut file: File, at: PathBuf, landing: Arc<Landing>) -> io::Result<Self> {
         let (tx, rx) = mpsc::channel::<Block>();
         landing.lock().files += 1;
         let ours = Arc::clone(&landing);
         let spawned = std::thread::Builder::new().name("clearance-write".into()).spawn(move || {
+            // Counts the file out however the thread ends; a panic is the file's failure.
+            let _leaving = Leaving(Arc::clone(&ours), at);
             let mut direct = true;
             let mut error: Option<io::Error> = None;
             for block in rx {
@@ -215,9 +217,6 @@ impl Lane {
                     }
                 }
             }
-            let mut state = ours.lock();
-            state.files -= 1;
-            ours.changed.notify_all();
         });
         match spawned {
             Ok(_) => Ok(Self { tx }),
@@ -228,9 +227,24 @@ impl Lane {
         }
     }
 
-    fn send(&self, block: Block) {
-        // The thread ends only when this sender is dropped, so it is there to receive.
-        let _ = self.tx.send(block);
+    /// Sends `block` to the file's thread; an error where the thread has ended (it
+    /// ends only when this sender is dropped, or on a panic).
+    fn send(&self, block: Block) -> io::Result<()> {
+        self.tx.send(block).map_err(|_| io::Error::other("the thread writing the file has ended"))
+    }
+}
+
+/// A background file's thread, counted out of its landing when it ends.
+struct Leaving(Arc<Landing>, PathBuf);
+
+impl Drop for Leaving {
+    fn drop(&mut self) {
+        let mut state = self.0.lock();
+        if std::thread::panicking() && state.failure.is_none() {
+            state.failure = Some((self.1.clone(), io::Error::other("the thread writing it panicked")));
+        }
+        state.files -= 1;
+        self.0.changed.notify_all();
     }
 }
 
@@ -319,6 +333,8 @@ fn local_disk(path: &Path) -> bool {
 pub(crate) struct Output {
     /// `None` once a background thread writes it (or in a taken-out shell).
     file: Option<File>,
+    /// Where it is written (the temporary name).
+    path: PathBuf,
     /// `Some` while the file is written with `O_DIRECT` (and its tail not yet
     /// handed to its thread).
     staging: Option<Staging>,
@@ -346,18 +362,18 @@ impl Output {
                 .custom_flags(libc::O_DIRECT)
                 .open(path);
             match direct {
-                Ok(file) => return Ok(Self::new(file, Some(Staging::new()))),
+                Ok(file) => return Ok(Self::new(file, path, Some(Staging::new()))),
                 Err(e) if e.raw_os_error() == Some(libc::EINVAL) => {}
                 Err(e) => return Err(e),
             }
         }
-        Ok(Self::new(File::create(path)?, None))
+        Ok(Self::new(File::create(path)?, path, None))
     }
 
     /// A file written through `staging` (direct), or straight (buffered).
-    fn new(file: File, staging: Option<Staging>) -> Self {
+    fn new(file: File, path: &Path, staging: Option<Staging>) -> Self {
         let direct = staging.is_some();
-        Self { file: Some(file), staging, direct, accepted: 0, landing: None, lane: None }
+        Self { file: Some(file), path: path.to_path_buf(), staging, direct, accepted: 0, landing: None, lane: None }
     }
 
     /// Writes a direct file's full buffers on a thread of its own, reporting to
@@ -392,12 +408,11 @@ impl Output {
         {
             if self.lane.is_none() {
                 let file = self.file.take().expect("a file not yet handed over");
-                self.lane = Some(Lane::start(file, Arc::clone(landing))?);
+                self.lane = Some(Lane::start(file, self.path.clone(), Arc::clone(landing))?);
             }
             landing.reserve();
             let full = if more { self.staging.replace(landing.spare()) } else { self.staging.take() };
-            self.lane.as_ref().expect("started above").send(Block::Bytes(full.expect("a direct file"), len));
-            return Ok(());
+            return self.lane.as_ref().expect("started above").send(Block::Bytes(full.expect("a direct file"), len));
         }
         let (Some(staging), Some(file)) = (self.staging.as_ref(), self.file.as_mut()) else { return Ok(()) };
         write_block(file, &mut self.direct, staging.data(len))?;
@@ -444,8 +459,7 @@ impl Output {
         let staged = self.staging.is_some();
         self.write_tail()?;
         if let Some(lane) = self.lane.take() {
-            lane.send(Block::Close { len: self.accepted, tmp: tmp.to_path_buf(), path: path.to_path_buf() });
-            return Ok(());
+            return lane.send(Block::Close { len: self.accepted, tmp: tmp.to_path_buf(), path: path.to_path_buf() });
         }
         let file = self.file.as_ref().expect("a file written here");
         if staged {
