@@ -73,8 +73,9 @@ impl Staging {
 /// (a part file is some 10 to 40 MB).
 const IN_FLIGHT: usize = 32;
 
-/// The files of a run written in the background ([`Output::in_background`]): how
-/// many are not yet in place, the buffers they hold, and the first failure.
+/// The files of a run written in the background (those its `WriteOptions::landing`
+/// names and that are not durable): how many are not yet in place, the buffers they
+/// hold, and the first failure.
 #[derive(Debug, Default)]
 pub struct Landing {
     state: Mutex<Flights>,
