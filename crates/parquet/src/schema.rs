@@ -657,7 +657,11 @@ impl<'a> PageWriter<'a> {
     /// encodes nothing: for a run without pose files, whose rows give only their
     /// sample, status and statistics. The part's page stays unwritten (`None`).
     pub fn discard<R>(self, buf: &mut PageBuffer, fill: impl FnOnce(&mut BlockSink<'_>) -> R) -> R {
-        self.fill(buf, fill).3
+        self.fill(buf, |sink| {
+            sink.values = false;
+            fill(sink)
+        })
+        .3
     }
 
     /// [`PageWriter::write`] for the same page of each member of a group (the same
@@ -787,6 +791,9 @@ pub struct BlockSink<'a> {
     tile: Option<Box<Tile>>,
     tile_start: usize,
     tile_len: usize,
+    /// Whether the rows' values are kept (not for a page that nothing writes: its
+    /// sample, status and dominant joint are all that is read of it).
+    values: bool,
 }
 
 /// Sets a column's null flag. Read first: once set, the flag's cache line stays
@@ -828,6 +835,7 @@ impl<'a> BlockSink<'a> {
             tile: None,
             tile_start: 0,
             tile_len: 0,
+            values: true,
         }
     }
 
@@ -838,6 +846,9 @@ impl<'a> BlockSink<'a> {
         self.t[i] = t;
         self.status[i] = r.status;
         self.dominant[i] = r.dominant.map_or(NO_JOINT, |(k, j)| (3 * k + j) as u8);
+        if !self.values {
+            return;
+        }
         if self.tile_len == TILE || (self.tile_len > 0 && i != self.tile_start + self.tile_len) {
             self.flush();
         }
