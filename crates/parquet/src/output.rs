@@ -68,6 +68,13 @@ impl Staging {
     }
 }
 
+/// A megabyte of bytes is not worth printing ([`Landing`] keeps spare buffers).
+impl std::fmt::Debug for Staging {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Staging").field("len", &self.len).finish_non_exhaustive()
+    }
+}
+
 /// The staging buffers handed to background writes and not yet written, at most:
 /// the memory a run's files in flight may hold beyond the one each open file fills
 /// (a part file is some 10 to 40 MB).
@@ -89,17 +96,8 @@ struct Flights {
     /// Staging buffers handed over and not yet written.
     buffers: usize,
     /// Written buffers, for the next files.
-    free: Vec<StagingBox>,
+    free: Vec<Staging>,
     failure: Option<(PathBuf, io::Error)>,
-}
-
-/// A staging buffer kept for reuse (`Debug` for [`Landing`]'s).
-struct StagingBox(Staging);
-
-impl std::fmt::Debug for StagingBox {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Staging")
-    }
 }
 
 impl Landing {
@@ -140,7 +138,7 @@ impl Landing {
     /// A buffer to fill: one written before, or a new one.
     fn spare(&self) -> Staging {
         match self.lock().free.pop() {
-            Some(StagingBox(mut s)) => {
+            Some(mut s) => {
                 s.len = 0;
                 s
             }
@@ -152,13 +150,13 @@ impl Landing {
     fn written(&self, staging: Staging) {
         let mut state = self.lock();
         state.buffers -= 1;
-        state.free.push(StagingBox(staging));
+        state.free.push(staging);
         self.changed.notify_all();
     }
 
     /// A buffer a file no longer needs, for the next.
     fn keep(&self, staging: Staging) {
-        self.lock().free.push(StagingBox(staging));
+        self.lock().free.push(staging);
     }
 
     fn failed(&self, path: &Path, e: io::Error) {
@@ -173,8 +171,8 @@ impl Landing {
 enum Block {
     /// The first `len` bytes of a staging buffer.
     Bytes(Staging, usize),
-    /// The file is `len` bytes long: cut it there and rename `tmp` to `path`.
-    Close { len: u64, tmp: PathBuf, path: PathBuf },
+    /// The file is `len` bytes long: cut it there and rename it to `path`.
+    Close { len: u64, path: PathBuf },
 }
 
 /// The thread writing one file in the background, and how to reach it.
@@ -190,7 +188,7 @@ impl Lane {
         let ours = Arc::clone(&landing);
         let spawned = std::thread::Builder::new().name("clearance-write".into()).spawn(move || {
             // Counts the file out however the thread ends; a panic is the file's failure.
-            let _leaving = Leaving(Arc::clone(&ours), at);
+            let _leaving = Leaving(Arc::clone(&ours), at.clone());
             let mut direct = true;
             let mut error: Option<io::Error> = None;
             for block in rx {
@@ -201,18 +199,13 @@ impl Lane {
                         }
                         ours.written(staging);
                     }
-                    Block::Close { len, tmp, path } => {
+                    Block::Close { len, path } => {
                         let closed = match error.take() {
                             Some(e) => Err(e),
-                            None => file.set_len(len).and_then(|()| {
-                                if !direct {
-                                    start_writeback(&file);
-                                }
-                                std::fs::rename(&tmp, &path)
-                            }),
+                            None => put_in_place(&file, Some(len), direct, false, &at, &path),
                         };
                         if let Err(e) = closed {
-                            let _ = std::fs::remove_file(&tmp);
+                            let _ = std::fs::remove_file(&at);
                             ours.failed(&path, e);
                         }
                     }
@@ -247,6 +240,21 @@ impl Drop for Leaving {
         state.files -= 1;
         self.0.changed.notify_all();
     }
+}
+
+/// Finishes `file`, written at `from`, and renames it to `to`: cut to `len` (a direct
+/// file's tail was padded to a block), then, when `durable`, on the disk, else, if it
+/// went through the page cache (not `direct`), the disk asked to start taking it.
+fn put_in_place(file: &File, len: Option<u64>, direct: bool, durable: bool, from: &Path, to: &Path) -> io::Result<()> {
+    if let Some(len) = len {
+        file.set_len(len)?;
+    }
+    if durable {
+        file.sync_all()?;
+    } else if !direct {
+        start_writeback(file);
+    }
+    std::fs::rename(from, to)
 }
 
 /// Writes `data` (a multiple of [`ALIGN`] while `direct`) to `file`. A file system
@@ -448,30 +456,23 @@ impl Output {
         self.write_staged(padded, false)
     }
 
-    /// Finishes the file written at `tmp` and renames it to `path`: its tail written
-    /// and its length cut to the bytes accepted, then, when `durable`, on the disk
-    /// (else, if it went through the page cache, the disk asked to start taking it).
+    /// Finishes the file (at its temporary name, where it was created) and renames it
+    /// to `path`: its tail written and its length cut to the bytes accepted, then, when
+    /// `durable`, on the disk (else, if it went through the page cache, the disk asked
+    /// to start taking it).
     /// A background file ([`Output::in_background`]) that is not durable does all this
     /// on its thread: the call returns at once, and its [`Landing`] has any failure
     /// (the temporary file then removed). On an error returned here, the caller
-    /// removes `tmp`.
-    pub fn complete(mut self, tmp: &Path, path: &Path, durable: bool) -> io::Result<()> {
+    /// removes the temporary file.
+    pub fn complete(mut self, path: &Path, durable: bool) -> io::Result<()> {
         debug_assert!(!(durable && self.landing.is_some()), "a durable file is not written in the background");
         let staged = self.staging.is_some();
         self.write_tail()?;
         if let Some(lane) = self.lane.take() {
-            return lane.send(Block::Close { len: self.accepted, tmp: tmp.to_path_buf(), path: path.to_path_buf() });
+            return lane.send(Block::Close { len: self.accepted, path: path.to_path_buf() });
         }
         let file = self.file.as_ref().expect("a file written here");
-        if staged {
-            file.set_len(self.accepted)?;
-        }
-        if durable {
-            file.sync_all()?;
-        } else if !self.direct {
-            start_writeback(file);
-        }
-        std::fs::rename(tmp, path)
+        put_in_place(file, staged.then_some(self.accepted), self.direct, durable, &self.path, path)
     }
 }
 
@@ -550,7 +551,7 @@ mod tests {
                     out.write_all(&chunk).unwrap();
                     expected.extend_from_slice(&chunk);
                 }
-                out.complete(&tmp, &path, false).unwrap();
+                out.complete(&path, false).unwrap();
                 landing.wait().unwrap();
                 assert_eq!(std::fs::read(&path).unwrap(), expected, "{} {background}", dir.display());
                 assert!(!tmp.exists());
@@ -573,7 +574,7 @@ mod tests {
             let mut out = Output::create(&tmp, true).unwrap().in_background(Some(&landing));
             let direct = out.is_direct();
             out.write_all(&vec![1u8; 2 * STAGING + 5]).unwrap();
-            let now = out.complete(&tmp, &path, false);
+            let now = out.complete(&path, false);
             // Seen without waiting once the file's thread has met it.
             let seen = loop {
                 let files = landing.lock().files;

@@ -422,7 +422,7 @@ pub(crate) fn atomically(
     let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
     let result = write(&tmp).and_then(|out| {
-        out.complete(&tmp, path, opts.durable).map_err(|source| ParquetError::Io { path: path.to_path_buf(), source })
+        out.complete(path, opts.durable).map_err(|source| ParquetError::Io { path: path.to_path_buf(), source })
     });
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
