@@ -37,14 +37,16 @@
 //! Which samples the search looks at comes from each sample's [`Trace`], recorded
 //! while a run solves it.
 //!
-//! [`vector_load`] holds the rule for one vector load along one path apart from any
-//! mechanism (the 6-UPS search calls it, and so can any search that has a path's
-//! sampled loads and a way to solve the load between samples).
+//! [`vector_load`] and [`scalar_load`] hold the rules for one vector or scalar load
+//! along one path apart from any mechanism (the 6-UPS and custom searches call them,
+//! and so can any search that has a path's sampled loads and a way to solve the load
+//! between samples); they too leave indeterminate samples out and stop at gaps.
 
 mod dips;
 mod minimise;
 mod paths;
 mod scalar;
+pub mod scalar_load;
 mod search;
 mod shortcut;
 mod trace;

@@ -137,7 +137,7 @@ const CLEAR: f64 = 0.5;
 /// minimum. Otherwise the interval is minimised (most stay clear: 99 % of the sampled
 /// minima of a 3-D grid are more than 8 times as far from zero as their neighbours'
 /// second difference).
-fn stays_clear(samples: [(f64, f64); 3], (plo, phi): (f64, f64), (mid, y_mid): (f64, f64)) -> bool {
+pub(crate) fn stays_clear(samples: [(f64, f64); 3], (plo, phi): (f64, f64), (mid, y_mid): (f64, f64)) -> bool {
     let [(x0, y0), (x1, y1), (x2, y2)] = samples;
     let d01 = (y1 - y0) / (x1 - x0);
     let d012 = ((y2 - y1) / (x2 - x1) - d01) / (x2 - x0);

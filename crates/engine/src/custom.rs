@@ -5,18 +5,20 @@
 //!
 //! The discontinuity search follows every grid line of every input, or the trajectory,
 //! for every joint group with play (docs/model.md §8, by the load's dimension): a
-//! scalar load (R axial, U angular, backlash) switches where its sign changes, located
-//! by Brent's root finder; a vector load by the rule of every mechanism
-//! ([`vector_load::switches`]: refined minima, directions read where the magnitude has
-//! risen to twice the minimum, located between samples). Groups that cannot move the
+//! scalar load (R axial, U angular, backlash) switches where its sign changes, between
+//! samples or twice between two samples of one sign ([`scalar_load::crossings`]); a vector load by the rule of every mechanism
+//! ([`vector_load::path_switches`]: refined minima, directions read where the magnitude has
+//! risen to twice the minimum, located between samples). Both leave out the samples
+//! whose load is indeterminate (its neighbours are consecutive) and stop at the poses
+//! that cannot be solved. Groups that cannot move the
 //! platform are never searched.
 
 use std::collections::HashMap;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_discontinuity::brent_root;
-use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
+use clearance_discontinuity::scalar_load;
+use clearance_discontinuity::vector_load::{self, PathSample, Reading, VectorRule};
 use clearance_grid::SampleSource;
 use clearance_kinematics::custom::Configuration;
 use clearance_model::{JobError, JobSpec, Mode, Variant};
@@ -24,7 +26,7 @@ use clearance_parquet::{
     ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
-use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve_members_near};
+use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, group_loads_near, solve_members_near};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
@@ -478,11 +480,31 @@ fn search(
                 }
             };
             let mut out: Vec<Vec<CustomSwitch>> = vec![Vec::new(); models.len()];
+            // The scalar groups' loads at the points halfway between samples, solved once
+            // for all: the scalar rule looks there beside each sampled minimum.
+            let scalars: Vec<usize> = groups.iter().copied().filter(|&g| model.scalar(g)).collect();
+            let halves: std::cell::RefCell<HashMap<u64, Vec<Option<[f64; 3]>>>> = Default::default();
             for &g in &groups {
                 let def = &model.groups[g];
                 let loads: Vec<Option<[f64; 3]>> = samples[0].iter().map(|r| r.loads[g]).collect();
+                let slot = scalars.iter().position(|&s| s == g).unwrap_or(usize::MAX);
                 let at = |p: f64| {
+                    let half = slot != usize::MAX && p.fract() == 0.5;
+                    if let Some(loads) = halves.borrow().get(&p.to_bits()).filter(|_| half) {
+                        return loads[slot];
+                    }
                     let (.., inputs) = point(p);
+                    if half {
+                        let [x, v, a] = split(&inputs);
+                        let near = trail.borrow();
+                        let (all, reached) =
+                            group_loads_near(model, &x, Some((&v, &a)), mode, near.nearest(p), &scalars);
+                        drop(near);
+                        trail.borrow_mut().keep(p, reached);
+                        let load = all[slot];
+                        halves.borrow_mut().insert(p.to_bits(), all);
+                        return load;
+                    }
                     let (load, reached) = load_of(model, &inputs, mode, trail.borrow().nearest(p), g);
                     trail.borrow_mut().keep(p, reached);
                     load
@@ -568,9 +590,11 @@ enum ReadAt {
 
 type SolveAt<'a> = dyn Fn(f64) -> (Option<f64>, [[f64; 3]; 6], Vec<CustomResult>) + 'a;
 
-/// A scalar load switches where its sign changes between consecutive determinate
-/// samples; the root is located by Brent's method to [`LOCATE_TOL`] in the path. The
-/// jump is read at the two samples.
+/// The rule for a scalar load ([`scalar_load::crossings`]): a switch where its sign
+/// changes between consecutive determinate samples, and two where an interval beside a
+/// sampled minimum of its magnitude holds a point of the other sign; each located to
+/// [`LOCATE_TOL`] in the path. The jump is read at the samples either side, or at the
+/// point of the other sign between a pair.
 #[allow(clippy::too_many_arguments)]
 fn scalar_switches(
     path: &UpsPath,
@@ -582,33 +606,22 @@ fn scalar_switches(
     kind: usize,
     group: usize,
 ) -> Vec<(CustomSwitch, ReadAt, ReadAt)> {
-    let value = |l: &Option<[f64; 3]>| l.map(|v| v[0]).filter(|v| v.abs() > floor);
-    let mut out = Vec::new();
-    for k in 0..loads.len().saturating_sub(1) {
-        let (Some(a), Some(b)) = (value(&loads[k]), value(&loads[k + 1])) else { continue };
-        if a.signum() == b.signum() {
-            continue;
-        }
-        // A point between the samples that cannot be solved cuts the path there (the
-        // path leaves the workspace and comes back), as an unsolvable sample does: the
-        // sign change is across the cut, not a switch.
-        let mut unsolved = false;
-        let x = brent_root(k as f64, (k + 1) as f64, a, b, LOCATE_TOL, |p| match at(p) {
-            Some(v) => v[0],
-            None => {
-                unsolved = true;
-                0.0
-            }
-        });
-        if unsolved {
-            continue;
-        }
-        let (t, s, r) = solve_at(x);
-        // |load| of the pose just solved (a scalar load sits in its first component).
-        let margin = group_load(&r[0], group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
-        out.push((switch(path, limb, kind, t, &s, &r[0], margin), ReadAt::Sample(k), ReadAt::Sample(k + 1)));
-    }
-    out
+    // A scalar load sits in its first component.
+    let values: Vec<Option<f64>> = loads.iter().map(|l| l.map(|v| v[0])).collect();
+    let place = |side: scalar_load::Side| match side {
+        scalar_load::Side::Sample(k) => ReadAt::Sample(k),
+        scalar_load::Side::At(p) => ReadAt::At(p),
+    };
+    scalar_load::crossings(&values, floor, LOCATE_TOL, |p| at(p).map(|v| v[0]))
+        .into_iter()
+        .map(|c| {
+            let (t, s, r) = solve_at(c.at);
+            // |load| of the pose just solved.
+            let margin =
+                group_load(&r[0], group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
+            (switch(path, limb, kind, t, &s, &r[0], margin), place(c.before), place(c.after))
+        })
+        .collect()
 }
 
 /// A switch at a solved point, its jump not yet read.
@@ -647,15 +660,13 @@ fn vector_switches(
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
     solve_at: &SolveAt,
 ) -> Vec<(CustomSwitch, ReadAt, ReadAt)> {
-    let mags: Vec<SampledLoad> = loads
-        .iter()
-        .map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v)).filter(|(m, _)| *m > rule.floor))
-        .collect();
+    let samples: Vec<PathSample> =
+        loads.iter().map(|l| PathSample::of(l.map(nalgebra::Vector3::from), rule.floor)).collect();
     let place = |r: &Reading| match r.sample {
         Some(k) => ReadAt::Sample(k),
         None => ReadAt::At(r.at),
     };
-    vector_load::switches(&mags, rule, at)
+    vector_load::path_switches(&samples, rule, at)
         .into_iter()
         .map(|found| {
             let (t, s, r) = solve_at(found.at);

@@ -10,14 +10,15 @@
 //! reads at samples what the pass solved, where this process computed them and they
 //! fit in memory, and solves the rest again (it keeps no traces, so it needs nothing
 //! from the parts and a resumed or sharded run finds the same switches). The rule for
-//! each load along each path is [`vector_load::switches`]: minima refined and polished
+//! each load along each path is [`vector_load::path_switches`]: minima refined and polished
 //! from the load vectors, directions read where the magnitude has risen back to
-//! twice the minimum, located between samples.
+//! twice the minimum, located between samples; samples whose load is indeterminate
+//! are left out.
 
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
+use clearance_discontinuity::vector_load::{self, PathSample, Reading, VectorRule};
 use clearance_grid::SampleSource;
 use clearance_model::{InputSpec, JobSpec, Mode, RangeSpec, SamplesSpec, Variant};
 use clearance_parquet::{
@@ -544,16 +545,14 @@ fn search(
                 let mut out = Vec::new();
                 for &kind in &kinds {
                     for l in 0..6 {
-                        let mags: Vec<SampledLoad> = loads
-                            .iter()
-                            .map(|r| r[kind][l].map(|f| (f.norm(), f)).filter(|(m, _)| *m > floor))
-                            .collect();
+                        let samples: Vec<PathSample> =
+                            loads.iter().map(|r| PathSample::of(r[kind][l], floor)).collect();
                         let at = |p: f64| {
                             let r = loads_at(ws, p);
                             let f = if kind == 0 { r.f_s[l] } else { r.f_u[l] };
                             loaded(r.status).then_some([f.x, f.y, f.z])
                         };
-                        for found in vector_load::switches(&mags, &rule, at) {
+                        for found in vector_load::path_switches(&samples, &rule, at) {
                             // The kind's error where each direction was read: the
                             // pass's (or the same solve) at a sample, solved between.
                             let mut error = |r: &Reading| match (r.sample, r.sample.and_then(|k| kept(path.index(k)))) {
