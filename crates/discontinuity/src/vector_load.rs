@@ -37,7 +37,8 @@
 //! 6. [`turns`]: a switch where the two directions differ by more than 90°.
 //!
 //! [`switches`] runs them all; [`path_switches`] runs them on a path whose samples tell
-//! an indeterminate load (left out: its neighbours are consecutive) from a gap. Read at a sample rather than located, the verdict of
+//! an indeterminate load (within the floor: left out, its neighbours consecutive) from
+//! a gap. Read at a sample rather than located, the verdict of
 //! step 6 changes with the sampling (a 6-UPS grid line gave a switch at 4 and 13
 //! samples, none at 7 and 49); located, it is a property of the load.
 //!
@@ -53,32 +54,6 @@ use crate::{brent_min, interpolated_root, vector_min, vector_polish};
 /// The load at one sample of a path: its magnitude and its vector, `None` where it is
 /// indeterminate (within the noise floor) or the pose unsolvable.
 pub type SampledLoad = Option<(f64, Vector3<f64>)>;
-
-/// A sample of a path as [`path_switches`] reads it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PathSample {
-    /// The load above the noise floor: its magnitude and its vector.
-    Determinate(f64, Vector3<f64>),
-    /// A solved pose whose load is within the noise floor: its direction is
-    /// undefined, so the search leaves the sample out and its neighbours are
-    /// consecutive (docs/model.md §8: a load through zero on a sample, such as an axial
-    /// load on a symmetry plane, still switches there).
-    Indeterminate,
-    /// No load (the pose cannot be solved, or the group cannot move the platform
-    /// there): a gap that no walk crosses.
-    Gap,
-}
-
-impl PathSample {
-    /// The sample of a load `f` (`None`: a gap), indeterminate at or below `floor`.
-    pub fn of(f: Option<Vector3<f64>>, floor: f64) -> Self {
-        match f.map(|f| (f.norm(), f)) {
-            None => PathSample::Gap,
-            Some((m, f)) if m > floor => PathSample::Determinate(m, f),
-            Some(_) => PathSample::Indeterminate,
-        }
-    }
-}
 
 /// The thresholds of the rule for one load.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -244,28 +219,30 @@ pub fn switches(
     out
 }
 
-/// [`switches`] on the path's determinate samples and gaps, its indeterminate samples
-/// left out (docs/model.md §8): the rule runs on the samples kept, in order, and a
-/// point between two kept samples is the path parameter in linear proportion between
-/// theirs (the identity where none is left out, to the bit). The switches are in the
-/// path's parameter and its samples' indices.
+/// [`switches`] on a path's samples as solved: `None` a gap (the pose cannot be solved,
+/// or the load is not the search's there), which no walk crosses; a load whose
+/// magnitude is at or below `rule.floor` indeterminate: its direction is undefined, so
+/// the sample is left out and its neighbours are consecutive (docs/model.md §8: a load
+/// through zero on a sample, such as an axial load on a symmetry plane, still switches
+/// there). The rule runs on the samples kept, in order; a point between two kept
+/// samples is the path parameter in linear proportion between theirs. The switches are
+/// in the path's parameter and its samples' indices. Without an indeterminate sample,
+/// [`switches`] itself.
 pub fn path_switches(
-    samples: &[PathSample],
+    loads: &[SampledLoad],
     rule: &VectorRule,
     mut at: impl FnMut(f64) -> Option<[f64; 3]>,
 ) -> Vec<VectorSwitch> {
-    let kept: Vec<usize> = (0..samples.len()).filter(|&k| samples[k] != PathSample::Indeterminate).collect();
+    let indeterminate = |l: &SampledLoad| l.is_some_and(|(m, _)| m <= rule.floor);
+    if !loads.iter().any(indeterminate) {
+        return switches(loads, rule, at);
+    }
+    let kept: Vec<usize> = (0..loads.len()).filter(|&k| !indeterminate(&loads[k])).collect();
     if kept.len() < 2 {
         return Vec::new();
     }
-    let loads: Vec<SampledLoad> = kept
-        .iter()
-        .map(|&k| match samples[k] {
-            PathSample::Determinate(m, f) => Some((m, f)),
-            _ => None,
-        })
-        .collect();
-    // `x − i` is exact for `x` in `[i, i + 1]`, so without a sample left out this is `x`.
+    let loads: Vec<SampledLoad> = kept.iter().map(|&k| loads[k]).collect();
+    // `x − i` is exact for `x` in `[i, i + 1]`: with unit spacing this is `x`.
     let param = |x: f64| {
         let i = (x.floor().max(0.0) as usize).min(kept.len() - 2);
         let (a, b) = (kept[i] as f64, kept[i + 1] as f64);

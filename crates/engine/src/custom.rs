@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
 use clearance_discontinuity::scalar_load;
-use clearance_discontinuity::vector_load::{self, PathSample, Reading, VectorRule};
+use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
 use clearance_grid::SampleSource;
 use clearance_kinematics::custom::Configuration;
 use clearance_model::{JobError, JobSpec, Mode, Variant};
@@ -660,13 +660,12 @@ fn vector_switches(
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
     solve_at: &SolveAt,
 ) -> Vec<(CustomSwitch, ReadAt, ReadAt)> {
-    let samples: Vec<PathSample> =
-        loads.iter().map(|l| PathSample::of(l.map(nalgebra::Vector3::from), rule.floor)).collect();
+    let mags: Vec<SampledLoad> = loads.iter().map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v))).collect();
     let place = |r: &Reading| match r.sample {
         Some(k) => ReadAt::Sample(k),
         None => ReadAt::At(r.at),
     };
-    vector_load::path_switches(&samples, rule, at)
+    vector_load::path_switches(&mags, rule, at)
         .into_iter()
         .map(|found| {
             let (t, s, r) = solve_at(found.at);

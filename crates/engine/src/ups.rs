@@ -18,7 +18,7 @@
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_discontinuity::vector_load::{self, PathSample, Reading, VectorRule};
+use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
 use clearance_grid::SampleSource;
 use clearance_model::{InputSpec, JobSpec, Mode, RangeSpec, SamplesSpec, Variant};
 use clearance_parquet::{
@@ -545,14 +545,13 @@ fn search(
                 let mut out = Vec::new();
                 for &kind in &kinds {
                     for l in 0..6 {
-                        let samples: Vec<PathSample> =
-                            loads.iter().map(|r| PathSample::of(r[kind][l], floor)).collect();
+                        let mags: Vec<SampledLoad> = loads.iter().map(|r| r[kind][l].map(|f| (f.norm(), f))).collect();
                         let at = |p: f64| {
                             let r = loads_at(ws, p);
                             let f = if kind == 0 { r.f_s[l] } else { r.f_u[l] };
                             loaded(r.status).then_some([f.x, f.y, f.z])
                         };
-                        for found in vector_load::path_switches(&samples, &rule, at) {
+                        for found in vector_load::path_switches(&mags, &rule, at) {
                             // The kind's error where each direction was read: the
                             // pass's (or the same solve) at a sample, solved between.
                             let mut error = |r: &Reading| match (r.sample, r.sample.and_then(|k| kept(path.index(k)))) {
