@@ -19,12 +19,12 @@
 //!   one sign, holds a point of the other sign (two crossings between samples, as a
 //!   finer sampling would show), found by minimising the signed load on the interval
 //!   (spared where the load at the interval's midpoint shows it clear) and located
-//!   either side of that point.
+//!   either side of that point. A load flat to round-off has no sampled minimum.
 //!
 //! An interval in which the load cannot be solved at some point is cut there: no
 //! crossing is kept in it.
 
-use crate::minimise::{brent_min_below, parabolic_min_below};
+use crate::minimise::{FLAT, brent_min_below, parabolic_min_below};
 use crate::scalar::stays_clear;
 use crate::{SCAN_TOL, brent_root, interpolated_root};
 
@@ -95,7 +95,11 @@ fn stretch_crossings(
     }
     for w in samples.windows(3) {
         let [(a, fa), (k, fk), (c, fc)] = [w[0], w[1], w[2]];
-        if !(fk.abs() < fa.abs() && fk.abs() <= fc.abs()) {
+        // A sampled minimum of the magnitude, not a flat load's round-off (a slider's
+        // force that a translation of the whole mechanism carries unchanged), which is
+        // no more a minimum than a monotone stretch is (as the vector rule's).
+        let (a_, m, c_) = (fa.abs(), fk.abs(), fc.abs());
+        if !(m < a_ && m <= c_) || (a_ - m <= FLAT * a_ && c_ - m <= FLAT * c_) {
             continue;
         }
         // The load's sign at the sample: look for a point of the other sign.
@@ -210,6 +214,31 @@ mod tests {
         let g = |s: f64| s - 2.5;
         let found = crossings(&sampled(6, g), 1e-9, TOL, |s| (!(2.45..=2.55).contains(&s)).then(|| g(s)));
         assert!(found.is_empty(), "{found:?}");
+    }
+
+    /// A load the same at every sample but for round-off (a slider's force along a
+    /// translation that carries the whole mechanism) has no sampled minimum to look
+    /// beside: nothing is solved between its samples.
+    #[test]
+    fn a_flat_load_is_not_searched_between_samples() {
+        let loads: Vec<Option<f64>> = [2.0, 2.0 - 4e-16, 2.0, 2.0 + 4e-16, 2.0 - 4e-16].map(Some).to_vec();
+        let mut solved = 0;
+        assert!(
+            crossings(&loads, 1e-9, TOL, |_| {
+                solved += 1;
+                Some(2.0)
+            })
+            .is_empty()
+        );
+        assert_eq!(solved, 0);
+        // A true minimum is looked beside, on both sides.
+        let loads: Vec<Option<f64>> = [2.0, 1.5, 2.0].map(Some).to_vec();
+        let mut solved = 0;
+        crossings(&loads, 1e-9, TOL, |s| {
+            solved += 1;
+            Some(1.5 + 0.5 * (s - 1.0) * (s - 1.0))
+        });
+        assert!(solved >= 2, "{solved}");
     }
 
     /// A load that stays clear of zero, dipping between samples, has no crossing.

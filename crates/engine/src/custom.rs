@@ -26,7 +26,7 @@ use clearance_parquet::{
     ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
-use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, group_loads_near, solve_members_near};
+use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve_members_near};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
@@ -480,31 +480,11 @@ fn search(
                 }
             };
             let mut out: Vec<Vec<CustomSwitch>> = vec![Vec::new(); models.len()];
-            // The scalar groups' loads at the points halfway between samples, solved once
-            // for all: the scalar rule looks there beside each sampled minimum.
-            let scalars: Vec<usize> = groups.iter().copied().filter(|&g| model.scalar(g)).collect();
-            let halves: std::cell::RefCell<HashMap<u64, Vec<Option<[f64; 3]>>>> = Default::default();
             for &g in &groups {
                 let def = &model.groups[g];
                 let loads: Vec<Option<[f64; 3]>> = samples[0].iter().map(|r| r.loads[g]).collect();
-                let slot = scalars.iter().position(|&s| s == g).unwrap_or(usize::MAX);
                 let at = |p: f64| {
-                    let half = slot != usize::MAX && p.fract() == 0.5;
-                    if let Some(loads) = halves.borrow().get(&p.to_bits()).filter(|_| half) {
-                        return loads[slot];
-                    }
                     let (.., inputs) = point(p);
-                    if half {
-                        let [x, v, a] = split(&inputs);
-                        let near = trail.borrow();
-                        let (all, reached) =
-                            group_loads_near(model, &x, Some((&v, &a)), mode, near.nearest(p), &scalars);
-                        drop(near);
-                        trail.borrow_mut().keep(p, reached);
-                        let load = all[slot];
-                        halves.borrow_mut().insert(p.to_bits(), all);
-                        return load;
-                    }
                     let (load, reached) = load_of(model, &inputs, mode, trail.borrow().nearest(p), g);
                     trail.borrow_mut().keep(p, reached);
                     load

@@ -463,41 +463,19 @@ pub fn group_load_near(
     near: Option<&Configuration>,
     group: usize,
 ) -> (Option<[f64; 3]>, Option<Configuration>) {
-    let (loads, configuration) = group_loads_near(model, inputs, rates, mode, near, &[group]);
-    (loads[0], configuration)
-}
-
-/// [`group_load_near`] for several groups at one pose: the configuration and the
-/// reactions are solved once, each group's load read from them (each the value
-/// [`group_load_near`] gives from the same configuration, bit for bit).
-pub fn group_loads_near(
-    model: &CustomModel,
-    inputs: &[f64],
-    rates: Option<(&[f64], &[f64])>,
-    mode: Mode,
-    near: Option<&Configuration>,
-    groups: &[usize],
-) -> (Vec<Option<[f64; 3]>>, Option<Configuration>) {
     let rates = if mode == Mode::Dynamic { rates } else { None };
-    let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else {
-        return (vec![None; groups.len()], None);
-    };
+    let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else { return (None, None) };
     let mut out = CustomResult::default();
-    let statics = statics(model, &posture, &mut out, false);
-    let loads = groups
-        .iter()
-        .map(|&group| {
-            let (basis, gi) = statics.as_ref()?;
-            let g = &model.groups[group];
-            let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
-            let pj = &posture.joints[g.limb][g.joint];
-            let (f, m) = out.reactions[g.limb][g.joint];
-            let (load, ..) = deciding_load(joint, g.group, &pj.axis, &pj.normal, &f, &m);
-            let (.., unit_p, _) = unit_reach(basis, gi, g, pj, &posture.platform.t, joint);
-            (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
-        })
-        .collect();
-    (loads, Some((posture.coords, posture.states)))
+    let load = statics(model, &posture, &mut out, false).and_then(|(basis, gi)| {
+        let g = &model.groups[group];
+        let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
+        let pj = &posture.joints[g.limb][g.joint];
+        let (f, m) = out.reactions[g.limb][g.joint];
+        let (load, ..) = deciding_load(joint, g.group, &pj.axis, &pj.normal, &f, &m);
+        let (.., unit_p, _) = unit_reach(&basis, &gi, g, pj, &posture.platform.t, joint);
+        (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
+    });
+    (load, Some((posture.coords, posture.states)))
 }
 
 /// The reactions (once: the models differ only in their clearances), then each
