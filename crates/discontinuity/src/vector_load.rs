@@ -38,9 +38,9 @@
 //!
 //! [`switches`] runs them all; [`path_switches`] runs them on a path whose samples tell
 //! an indeterminate load (within the floor: left out, its neighbours consecutive) from
-//! a gap. Read at a sample rather than located, the verdict of
-//! step 6 changes with the sampling (a 6-UPS grid line gave a switch at 4 and 13
-//! samples, none at 7 and 49); located, it is a property of the load.
+//! a gap. Read at a sample rather than located, the verdict of step 6 changes with the
+//! sampling (a 6-UPS grid line gave a switch at 4 and 13 samples, none at 7 and 49);
+//! located, it is a property of the load.
 //!
 //! No step skips an interval on the strength of the sample directions: the points
 //! where the directions are compared lie between samples, so agreeing sample

@@ -6,12 +6,12 @@
 //! The discontinuity search follows every grid line of every input, or the trajectory,
 //! for every joint group with play (docs/model.md §8, by the load's dimension): a
 //! scalar load (R axial, U angular, backlash) switches where its sign changes, between
-//! samples or twice between two samples of one sign ([`scalar_load::crossings`]); a vector load by the rule of every mechanism
-//! ([`vector_load::path_switches`]: refined minima, directions read where the magnitude has
-//! risen to twice the minimum, located between samples). Both leave out the samples
-//! whose load is indeterminate (its neighbours are consecutive) and stop at the poses
-//! that cannot be solved. Groups that cannot move the
-//! platform are never searched.
+//! samples or twice between two samples of one sign ([`scalar_load::crossings`]); a
+//! vector load by the rule of every mechanism ([`vector_load::path_switches`]: refined
+//! minima, directions read where the magnitude has risen to twice the minimum, located
+//! between samples). Both leave out the samples whose load is indeterminate (their
+//! neighbours are consecutive) and stop at the poses that cannot be solved. Groups that
+//! cannot move the platform are never searched.
 
 use std::collections::HashMap;
 use std::time::Instant;

@@ -10,9 +10,9 @@
 //! reads at samples what the pass solved, where this process computed them and they
 //! fit in memory, and solves the rest again (it keeps no traces, so it needs nothing
 //! from the parts and a resumed or sharded run finds the same switches). The rule for
-//! each load along each path is [`vector_load::path_switches`]: minima refined and polished
-//! from the load vectors, directions read where the magnitude has risen back to
-//! twice the minimum, located between samples; samples whose load is indeterminate
+//! each load along each path is [`vector_load::path_switches`]: minima refined and
+//! polished from the load vectors, directions read where the magnitude has risen back
+//! to twice the minimum, located between samples; samples whose load is indeterminate
 //! are left out.
 
 use std::time::Instant;
