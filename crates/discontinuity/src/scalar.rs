@@ -4,11 +4,12 @@
 
 use clearance_solver::{JointReactions, Workspace};
 
-use crate::minimise::{brent_min_below, interpolated_root_from, inverse_interpolation, parabolic_min_below};
+use crate::minimise::{interpolated_root_from, inverse_interpolation};
+use crate::scalar_load::pair_beside;
 use crate::search::{Segment, Side, Solved};
 use crate::shortcut::Shortcut;
 use crate::trace::{Decider, Trace, min_bit, neg_bit};
-use crate::{LOCATE_TOL, SCAN_TOL, axial, interpolated_root};
+use crate::{LOCATE_TOL, axial};
 
 /// One zero of the load, with the points either side that the jump is read between,
 /// and the reactions there (for its margin, under each kind it decides).
@@ -69,44 +70,16 @@ pub(crate) fn crossings(
         // The load's sign at the sample: look for an extremum of the other sign.
         let sign = if negative(k) { -1.0 } else { 1.0 };
         let samples = [a, k, c].map(|i| (ev.param(i), sign * f(solved, i, ws)));
-        for (lo, hi) in [(a, k), (k, c)] {
+        for (after, lo, hi) in [(false, a, k), (true, k, c)] {
             if negative(lo) != negative(hi) {
                 continue;
             }
-            let (plo, phi) = (ev.param(lo), ev.param(hi));
-            let mid = 0.5 * (plo + phi);
-            let mark = ev.unsolved_mark();
-            let at_mid = ev.reactions_at(mid, ws).map(|r| sign * axial(&r, model, j));
-            if MIDPOINT.on() && at_mid.is_some_and(|y| stays_clear(samples, (plo, phi), (mid, y))) {
+            let at = |p: f64| ev.reactions_at(p, ws).map(|r| axial(&r, model, j));
+            let Some((first, pm, second)) = pair_beside(samples, after, sign, floor, LOCATE_TOL, &MIDPOINT, at) else {
                 continue;
-            }
-            MIDPOINT.minimising();
-            // One point of the other sign is enough; narrower excursions than the
-            // tolerance are too narrow for any sampling.
-            let (xtol, mut g) = (SCAN_TOL * (phi - plo), |p| {
-                ev.reactions_at(p, ws).map_or(f64::INFINITY, |r| sign * axial(&r, model, j))
-            });
-            // Whether the load takes the other sign, from the three samples and the
-            // midpoint in a few parabolic steps (most of these intervals stay clear).
-            let known = [samples[0], samples[1], samples[2], (mid, at_mid.unwrap_or(f64::NAN))];
-            if parabolic_min_below(&known, plo, phi, xtol, -floor, &mut g).1 >= -floor {
-                continue;
-            }
-            // Where it does, the point of the other sign the crossings are read from
-            // (and the jumps read at) is Brent's, as it always was.
-            let (pm, least) = brent_min_below(plo, phi, xtol, -floor, g);
-            if least >= -floor {
-                continue;
-            }
-            let fm = sign * least;
-            let (flo, fhi) = (f(solved, lo, ws), f(solved, hi, ws));
-            let first = interpolated_root(plo, pm, flo, fm, LOCATE_TOL, |p| f_at(p, ws));
-            let at_first = ev.reactions_at(first, ws);
-            let second = interpolated_root(pm, phi, fm, fhi, LOCATE_TOL, |p| f_at(p, ws));
-            let at_second = ev.reactions_at(second, ws);
-            if ev.cut_since(mark, plo, phi) {
-                continue;
-            }
+            };
+            // Mostly points the root finders evaluated last, so solved already.
+            let (at_first, at_second) = (ev.reactions_at(first, ws), ev.reactions_at(second, ws));
             out.push(Crossing { p: first, reactions: at_first, before: Side::Sample(lo), after: Side::At(pm) });
             out.push(Crossing { p: second, reactions: at_second, before: Side::At(pm), after: Side::Sample(hi) });
         }

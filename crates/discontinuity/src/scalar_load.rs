@@ -1,7 +1,9 @@
 //! The switches of one scalar load along one path (docs/model.md §8), whatever the
 //! mechanism: the load's samples in path order and a way to evaluate it between them
-//! are all it needs. It is the scalar rule of the 3-limb search (`scalar.rs`)
-//! apart from any mechanism; the custom search calls it.
+//! are all it needs. It is the scalar rule of the 3-limb search (`scalar.rs`, which
+//! reads traces and its own cache of reactions) apart from any mechanism; the custom
+//! search calls it, and both look for a pair of zeros between samples with
+//! `pair_beside`.
 //!
 //! A path is read as the load at its samples, `&[Option<f64>]` (`None` where the pose
 //! cannot be solved, or the load is not the search's there: a gap that cuts the path),
@@ -26,6 +28,7 @@
 
 use crate::minimise::{FLAT, brent_min_below, parabolic_min_below};
 use crate::scalar::stays_clear;
+use crate::shortcut::Shortcut;
 use crate::{SCAN_TOL, brent_root, interpolated_root};
 
 /// Where a crossing's jump is read on one side of it.
@@ -78,17 +81,15 @@ fn stretch_crossings(
     at: &mut impl FnMut(f64) -> Option<f64>,
     out: &mut Vec<Crossing>,
 ) {
-    // Whether the load could not be solved at some point of the interval searched:
-    // such a point reads zero for the root finders and infinity for the minimiser,
-    // and cuts the interval.
-    let mut unsolved;
     for w in samples.windows(2) {
         let [(a, fa), (b, fb)] = [w[0], w[1]];
         if fa.signum() == fb.signum() {
             continue;
         }
-        unsolved = false;
-        let x = brent_root(a as f64, b as f64, fa, fb, tol, |p| read(at, p, &mut unsolved, 0.0));
+        // A point that cannot be solved reads zero for the root finder, and cuts the
+        // interval.
+        let mut unsolved = false;
+        let x = brent_root(a as f64, b as f64, fa, fb, tol, |p| read(&mut *at, p, &mut unsolved, 0.0));
         if !unsolved {
             out.push(Crossing { at: x, before: Side::Sample(a), after: Side::Sample(b) });
         }
@@ -105,40 +106,74 @@ fn stretch_crossings(
         // The load's sign at the sample: look for a point of the other sign.
         let sign = fk.signum();
         let three = [(a as f64, sign * fa), (k as f64, sign * fk), (c as f64, sign * fc)];
-        for ((lo, flo), (hi, fhi)) in [((a, fa), (k, fk)), ((k, fk), (c, fc))] {
+        for (after, (lo, flo), (hi, fhi)) in [(false, (a, fa), (k, fk)), (true, (k, fk), (c, fc))] {
             if flo.signum() != fhi.signum() {
                 continue;
             }
-            let (plo, phi) = (lo as f64, hi as f64);
-            let mid = 0.5 * (plo + phi);
-            // An unsolvable midpoint cuts the interval.
-            let Some(y_mid) = at(mid).map(|y| sign * y) else { continue };
-            if stays_clear(three, (plo, phi), (mid, y_mid)) {
-                continue;
+            if let Some((first, pm, second)) = pair_beside(three, after, sign, floor, tol, &MIDPOINT, &mut *at) {
+                out.push(Crossing { at: first, before: Side::Sample(lo), after: Side::At(pm) });
+                out.push(Crossing { at: second, before: Side::At(pm), after: Side::Sample(hi) });
             }
-            // One point of the other sign is enough; narrower excursions than the
-            // tolerance are too narrow for any sampling.
-            let xtol = SCAN_TOL * (phi - plo);
-            unsolved = false;
-            let mut g = |p: f64| sign * read(at, p, &mut unsolved, sign * f64::INFINITY);
-            let known = [three[0], three[1], three[2], (mid, y_mid)];
-            if parabolic_min_below(&known, plo, phi, xtol, -floor, &mut g).1 >= -floor {
-                continue;
-            }
-            let (pm, least) = brent_min_below(plo, phi, xtol, -floor, &mut g);
-            if least >= -floor || unsolved {
-                continue;
-            }
-            let fm = sign * least;
-            let first = interpolated_root(plo, pm, flo, fm, tol, |p| read(at, p, &mut unsolved, 0.0));
-            let second = interpolated_root(pm, phi, fm, fhi, tol, |p| read(at, p, &mut unsolved, 0.0));
-            if unsolved {
-                continue;
-            }
-            out.push(Crossing { at: first, before: Side::Sample(lo), after: Side::At(pm) });
-            out.push(Crossing { at: second, before: Side::At(pm), after: Side::Sample(hi) });
         }
     }
+}
+
+/// Sparing the minimisation of an interval clear at its midpoint, in this rule (the
+/// 3-limb search has its own, which its tests turn off and count).
+static MIDPOINT: Shortcut = Shortcut::new();
+
+/// The two zeros of a load inside one of the two intervals beside a sampled minimum
+/// (the one after it where `after`), whose ends have the sign `sign` (±1) of the load
+/// at that minimum; `three` is the minimum and its neighbours, `(parameter, sign·f)`.
+/// The interval is clear where the load at its midpoint shows it ([`stays_clear`], while
+/// `midpoint` is on); else the signed load is minimised over it (a few parabolic steps
+/// from the samples and the midpoint, then Brent's method, to `SCAN_TOL` of the
+/// interval) until a point of the other sign (below `−floor`) is found or none is, and
+/// the zeros are located either side of that point to `tol`. Returns `(first, point of
+/// the other sign, second)`; `None` where the interval stays clear, or where the load
+/// cannot be solved at some point of it (the interval is cut there). The one rule of
+/// the 3-limb search and of [`crossings`].
+pub(crate) fn pair_beside(
+    three: [(f64, f64); 3],
+    after: bool,
+    sign: f64,
+    floor: f64,
+    tol: f64,
+    midpoint: &Shortcut,
+    mut at: impl FnMut(f64) -> Option<f64>,
+) -> Option<(f64, f64, f64)> {
+    let ((plo, slo), (phi, shi)) = if after { (three[1], three[2]) } else { (three[0], three[1]) };
+    // The load itself at the ends (`sign` is ±1: exact).
+    let (flo, fhi) = (sign * slo, sign * shi);
+    let mid = 0.5 * (plo + phi);
+    let y_mid = at(mid).map(|y| sign * y);
+    if midpoint.on() && y_mid.is_some_and(|y| stays_clear(three, (plo, phi), (mid, y))) {
+        return None;
+    }
+    midpoint.minimising();
+    // An unsolvable midpoint cuts the interval.
+    let y_mid = y_mid?;
+    // One point of the other sign is enough; narrower excursions than the tolerance
+    // are too narrow for any sampling.
+    let xtol = SCAN_TOL * (phi - plo);
+    let mut unsolved = false;
+    let mut g = |p: f64| sign * read(&mut at, p, &mut unsolved, sign * f64::INFINITY);
+    // Whether the load takes the other sign, from the three samples and the midpoint
+    // in a few parabolic steps (most of these intervals stay clear).
+    let known = [three[0], three[1], three[2], (mid, y_mid)];
+    if parabolic_min_below(&known, plo, phi, xtol, -floor, &mut g).1 >= -floor {
+        return None;
+    }
+    // Where it does, the point of the other sign the crossings are read from (and the
+    // jumps read at) is Brent's.
+    let (pm, least) = brent_min_below(plo, phi, xtol, -floor, &mut g);
+    if least >= -floor || unsolved {
+        return None;
+    }
+    let fm = sign * least;
+    let first = interpolated_root(plo, pm, flo, fm, tol, |p| read(&mut at, p, &mut unsolved, 0.0));
+    let second = interpolated_root(pm, phi, fm, fhi, tol, |p| read(&mut at, p, &mut unsolved, 0.0));
+    (!unsolved).then_some((first, pm, second))
 }
 
 /// The load at `p`, else `missing`, marking the interval `unsolved`.
