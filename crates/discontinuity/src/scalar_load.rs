@@ -31,13 +31,14 @@ use crate::scalar::stays_clear;
 use crate::shortcut::Shortcut;
 use crate::{SCAN_TOL, brent_root, interpolated_root};
 
-/// Where a crossing's jump is read on one side of it.
+/// Where a switch's jump is read on one side of it (this rule's crossings, the 3-limb
+/// search's switches, the custom search's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Side {
     /// A sample of the path (its index).
     Sample(usize),
-    /// A point between samples (the path parameter): the point of the other sign
-    /// between a pair of crossings.
+    /// A point between samples (the path parameter, in sample steps), such as the point
+    /// of the other sign between a pair of crossings.
     At(f64),
 }
 

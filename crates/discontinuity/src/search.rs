@@ -578,16 +578,12 @@ pub(crate) fn search_path_known(
     out
 }
 
-/// One side of a switch, for the jump across it: a sample of the path, or a point
-/// between samples.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Side {
-    Sample(usize),
-    At(f64),
-}
+// One side of a switch, for the jump across it: a sample of the path, or a point
+// between samples (the scalar rule's type, shared).
+pub(crate) use crate::scalar_load::Side;
 
 impl Side {
-    pub fn errors(self, solved: &mut Solved<'_>, ws: &mut Workspace) -> KindErrors {
+    pub(crate) fn errors(self, solved: &mut Solved<'_>, ws: &mut Workspace) -> KindErrors {
         match self {
             Side::Sample(k) => solved.errors(k, ws),
             Side::At(p) => solved.ev.errors_at(p, ws),

@@ -17,7 +17,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_discontinuity::scalar_load;
+use clearance_discontinuity::scalar_load::{self, Side};
 use clearance_discontinuity::vector_load::{self, Reading, SampledLoad, VectorRule};
 use clearance_grid::SampleSource;
 use clearance_kinematics::custom::Configuration;
@@ -497,10 +497,10 @@ fn search(
                 // Each member's jump: its kind's error after minus before, from its own
                 // samples, or solved (once for all members) between them.
                 for (switch, before, after) in found {
-                    let read = |r: ReadAt| -> Vec<Option<[f64; 6]>> {
+                    let read = |r: Side| -> Vec<Option<[f64; 6]>> {
                         match r {
-                            ReadAt::Sample(k) => samples.iter().map(|s| s[k].errors[def.kind]).collect(),
-                            ReadAt::At(p) => solve_at(p).2.iter().map(|r| kind_error(r, def.kind)).collect(),
+                            Side::Sample(k) => samples.iter().map(|s| s[k].errors[def.kind]).collect(),
+                            Side::At(p) => solve_at(p).2.iter().map(|r| kind_error(r, def.kind)).collect(),
                         }
                     };
                     let (b, a) = (read(before), read(after));
@@ -559,15 +559,6 @@ impl Trail {
     }
 }
 
-/// Where a switch's jump is read on one side of it.
-#[derive(Clone, Copy, Debug)]
-enum ReadAt {
-    /// A sample of the path (its place along the path).
-    Sample(usize),
-    /// A point between samples (the path parameter, in sample steps).
-    At(f64),
-}
-
 type SolveAt<'a> = dyn Fn(f64) -> (Option<f64>, [[f64; 3]; 6], Vec<CustomResult>) + 'a;
 
 /// The rule for a scalar load ([`scalar_load::crossings`]): a switch where its sign
@@ -585,13 +576,9 @@ fn scalar_switches(
     solve_at: &SolveAt,
     kind: usize,
     group: usize,
-) -> Vec<(CustomSwitch, ReadAt, ReadAt)> {
+) -> Vec<(CustomSwitch, Side, Side)> {
     // A scalar load sits in its first component.
     let values: Vec<Option<f64>> = loads.iter().map(|l| l.map(|v| v[0])).collect();
-    let place = |side: scalar_load::Side| match side {
-        scalar_load::Side::Sample(k) => ReadAt::Sample(k),
-        scalar_load::Side::At(p) => ReadAt::At(p),
-    };
     scalar_load::crossings(&values, floor, LOCATE_TOL, |p| at(p).map(|v| v[0]))
         .into_iter()
         .map(|c| {
@@ -599,7 +586,7 @@ fn scalar_switches(
             // |load| of the pose just solved.
             let margin =
                 group_load(&r[0], group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
-            (switch(path, limb, kind, t, &s, &r[0], margin), place(c.before), place(c.after))
+            (switch(path, limb, kind, t, &s, &r[0], margin), c.before, c.after)
         })
         .collect()
 }
@@ -639,11 +626,11 @@ fn vector_switches(
     limb: usize,
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
     solve_at: &SolveAt,
-) -> Vec<(CustomSwitch, ReadAt, ReadAt)> {
+) -> Vec<(CustomSwitch, Side, Side)> {
     let mags: Vec<SampledLoad> = loads.iter().map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v))).collect();
     let place = |r: &Reading| match r.sample {
-        Some(k) => ReadAt::Sample(k),
-        None => ReadAt::At(r.at),
+        Some(k) => Side::Sample(k),
+        None => Side::At(r.at),
     };
     vector_load::path_switches(&mags, rule, at)
         .into_iter()
