@@ -29,7 +29,8 @@ type Switch = (u32, String, f64, f64, Option<[f64; 6]>);
 fn switches(psi: usize, described: bool) -> Vec<Switch> {
     let mut job = JobSpec::from_toml_str(&JOB.replace("PSI", &psi.to_string()), "prs.toml").unwrap();
     if described {
-        job = describe(&job, "prs.toml").unwrap();
+        // Its general path (as `describe` writes it, the 3-PRS kernel would solve it).
+        job = common::general_path(&describe(&job, "prs.toml").unwrap());
     }
     let dir = tempfile::tempdir().unwrap();
     run(&job, "prs.toml", &common::options(dir.path())).unwrap();

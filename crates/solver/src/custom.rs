@@ -19,14 +19,15 @@
 
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
 
+use clearance_kinematics::Posture;
 use clearance_kinematics::custom::{
-    Configuration, CustomGeometry, CustomPosture, Few, JointState, PosedJoint, Reflectors, Rigid, Unsolved,
-    custom_posture, custom_posture_near, exp_so3, householder, placement,
+    Configuration, CustomGeometry, CustomPosture, Few, JointState, Reflectors, Rigid, Unsolved, custom_posture,
+    custom_posture_near, exp_so3, householder, placement,
 };
 use clearance_model::custom::{Group, JointType};
 use clearance_model::{JobError, JobSpec, Mode};
 
-use crate::pose::Status;
+use crate::pose::{Status, Workspace, solve_pose};
 
 type V3 = Vector3<f64>;
 type V6 = Vector6<f64>;
@@ -95,6 +96,10 @@ pub struct CustomModel {
     pub floor: f64,
     pub singular_cond: f64,
     pub exact: bool,
+    /// Where the description is a built-in kind's, that kind's kernel, which then
+    /// solves its poses ([`Preset`]); `None` (as [`CustomModel::from_job`] leaves it):
+    /// the general path for every pose.
+    pub preset: Option<std::sync::Arc<Preset>>,
 }
 
 /// A group's unit response below this `|Δp|` (m per m, or per rad times 1 m) cannot
@@ -149,6 +154,7 @@ impl CustomModel {
             floor: job.analysis.indeterminate_load_fraction * weight,
             singular_cond: job.analysis.singular_cond,
             exact: job.analysis.exact,
+            preset: None,
             geom,
         };
         // Rigid at home: the limbs' constraint wrenches span every wrench.
@@ -267,17 +273,26 @@ impl LimbBasis {
 
 impl Basis {
     fn new(p: &CustomPosture, geom: &CustomGeometry) -> Option<Basis> {
+        Self::of_limbs(geom.limbs.iter().zip(&p.joints).map(|(limb, pj)| {
+            limb.joints.iter().zip(pj).filter(|(j, _)| !j.actuated).flat_map(|(_, pj)| pj.columns.iter().copied())
+        }))
+    }
+
+    /// The basis of limbs given by their passive columns (spatial screws at the pose);
+    /// `None` where the counts do not make `G` square or a limb's own freedoms are
+    /// dependent.
+    fn of_limbs<C: Iterator<Item = V6>>(passive: impl Iterator<Item = C>) -> Option<Basis> {
         let mut g = Matrix6::zeros();
-        let mut limbs = Vec::with_capacity(geom.limbs.len());
+        let mut limbs = Vec::with_capacity(6);
         let mut at = 0;
-        for (limb, pj) in geom.limbs.iter().zip(&p.joints) {
+        for columns in passive {
             let mut cols = [V6::zeros(); 6];
             let mut n = 0;
-            for c in limb.joints.iter().zip(pj).filter(|(j, _)| !j.actuated).flat_map(|(_, pj)| &pj.columns) {
+            for c in columns {
                 if n == 6 {
                     return None;
                 }
-                cols[n] = *c;
+                cols[n] = c;
                 n += 1;
             }
             if at + 6 - n > 6 {
@@ -304,6 +319,11 @@ impl Basis {
             return None;
         }
         Some(Basis { g, limbs })
+    }
+
+    /// Limb `l`'s columns of `G`: where they start, and how many.
+    fn block(&self, l: usize) -> (usize, usize) {
+        (self.limbs[l].start, self.limbs[l].width)
     }
 
     /// The 2-norm condition number of `G` (from its singular values).
@@ -425,6 +445,14 @@ pub fn solve_members_near(
     near: Option<&Configuration>,
 ) -> (Vec<CustomResult>, Option<Configuration>) {
     let model = models[0];
+    let rates = if mode == Mode::Dynamic { rates } else { None };
+    if models.iter().all(|m| m.preset.is_some()) {
+        let fast: Option<Vec<CustomResult>> =
+            models.iter().map(|m| m.preset.as_deref().and_then(|p| preset_result(m, p, inputs, rates, mode))).collect();
+        if let Some(fast) = fast {
+            return (fast, None);
+        }
+    }
     let mut out = CustomResult {
         coords: [f64::NAN; 6],
         cond: f64::NAN,
@@ -436,7 +464,6 @@ pub fn solve_members_near(
     for (i, &k) in model.geom.inputs.iter().enumerate() {
         out.coords[k] = inputs[i];
     }
-    let rates = if mode == Mode::Dynamic { rates } else { None };
     let posture = match custom_posture_near(&model.geom, inputs, rates, near) {
         Ok(p) => p,
         Err(unsolved) => {
@@ -464,6 +491,9 @@ pub fn group_load_near(
     group: usize,
 ) -> (Option<[f64; 3]>, Option<Configuration>) {
     let rates = if mode == Mode::Dynamic { rates } else { None };
+    if let Some(load) = model.preset.as_deref().and_then(|p| preset_load(model, p, inputs, rates, mode, group)) {
+        return (load, None);
+    }
     let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else { return (None, None) };
     let mut out = CustomResult::default();
     let load = statics(model, &posture, &mut out, false).and_then(|(basis, gi)| {
@@ -472,10 +502,268 @@ pub fn group_load_near(
         let pj = &posture.joints[g.limb][g.joint];
         let (f, m) = out.reactions[g.limb][g.joint];
         let (load, ..) = deciding_load(joint, g.group, &pj.axis, &pj.normal, &f, &m);
-        let (.., unit_p, _) = unit_reach(&basis, &gi, g, pj, &posture.platform.t, joint);
+        let at = (&pj.centre, &pj.axis, &pj.normal);
+        let (.., unit_p, _) = unit_reach(&basis.g, basis.block(g.limb), &gi, (joint, g.group), at, &posture.platform.t);
         (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
     });
     (load, Some((posture.coords, posture.states)))
+}
+
+/// A description that is a built-in 3-PRS (as `clearance describe` writes one, docs/model.md
+/// §12.9), with what its kernel needs: the poses that kernel solves cleanly are solved
+/// there and given as the general path gives them, to round-off (docs/model.md §12.10).
+///
+/// The kernel answers a pose only where its answer is the general path's, to
+/// round-off, by the general path's own rules: the kernel solves it (status ok), `κ₂`
+/// of the description's wrench basis `G` is within `singular_cond`, every group's
+/// deciding load is above the floor (so no take-up is indeterminate), and every group
+/// provably moves P (its own contribution to `|Δp|` is at least
+/// [`IMMOBILE`] per unit of its magnitude, a lower bound of its unit reach). Any other
+/// pose goes the general way.
+#[derive(Clone, Debug)]
+pub struct Preset {
+    /// The built-in kind's model: the fast solver, with the envelope.
+    pub model: crate::Model,
+    /// The actuators' positions at home: a custom `q` is measured from there.
+    pub q_home: [f64; 3],
+    /// Per kind of the description, its place in `clearance_model::KINDS`.
+    pub kinds: Vec<usize>,
+}
+
+impl Preset {
+    /// The preset for a description whose built-in kind's model is `model`, its joints
+    /// in each limb `P, R, S` (the 3-PRS's), at `home`; `None` unless every kind of
+    /// `custom` is one of the built-in kind's, on the joints that kind names, with
+    /// every group's magnitude positive, and the exact error off.
+    pub fn new(custom: &CustomModel, mut model: crate::Model, home: &[f64; 6]) -> Option<Self> {
+        use clearance_model::MechanismKind;
+        if model.geometry.kind != MechanismKind::Prs3 || custom.exact || custom.geom.inputs != [2, 4, 5] {
+            return None;
+        }
+        let order = [JointType::P, JointType::R, JointType::S];
+        let limbs_ok = custom.geom.limbs.len() == 3
+            && custom.geom.limbs.iter().all(|l| {
+                l.joints.len() == 3
+                    && l.joints.iter().zip(order).all(|(j, t)| j.joint == t && j.actuated == (t == JointType::P))
+            });
+        let kinds: Option<Vec<usize>> =
+            custom.kinds.iter().map(|k| clearance_model::KINDS.iter().position(|b| b.name() == k.as_str())).collect();
+        let kinds = kinds?;
+        // s_radial is the S joint's radial play; the other three are the R joint's.
+        let groups_ok = custom.groups.iter().all(|g| {
+            let expected = match kinds[g.kind] {
+                0 => (2, Group::Radial),
+                1 => (1, Group::Radial),
+                2 => (1, Group::Axial),
+                _ => (1, Group::Angular),
+            };
+            (g.joint, g.group) == expected && g.magnitude > 0.0
+        });
+        if !limbs_ok || !groups_ok {
+            return None;
+        }
+        model.solver = crate::SolverKind::Fast;
+        model.envelope = true;
+        model.totals_only = false;
+        model.exact = false;
+        model.singular_cond = custom.singular_cond;
+        let at_home = crate::fast::Pose::<f64>::new(&model.geometry, home[2], home[4], home[5]);
+        if !at_home.reachable {
+            return None;
+        }
+        Some(Self { q_home: at_home.q, kinds, model })
+    }
+}
+
+/// The posture of a preset's pose and the description's wrench basis `G` there, limb
+/// `j`'s block in columns `2j, 2j + 1`. The wrenches that do no work on the passive R
+/// (axis `y_j` at `B_j`) and S (at `A_j`) are the forces through `A_j` in the plane of
+/// `y_j` and the leg: `[f; A_j × f]` for `f` in span(`y_j`, `e_j`), made orthonormal.
+/// It is the general path's `G` but for an orthogonal change of basis within each
+/// limb's block, to which `κ₂(G)` and every response are blind.
+fn preset_frame(preset: &Preset, inputs: &[f64]) -> (Posture, Matrix6<f64>) {
+    let geometry = &preset.model.geometry;
+    let pose = crate::fast::Pose::<f64>::new(geometry, inputs[0], inputs[1], inputs[2]).posture(0);
+    let mut g = Matrix6::zeros();
+    for j in 0..3 {
+        let a = pose.a[j];
+        let force = |f: &V3| six(*f, a.cross(f));
+        let u = force(&geometry.y[j]).normalize();
+        let w = force(&pose.e[j]);
+        let w = (w - u * u.dot(&w)).normalize();
+        g.set_column(2 * j, &u);
+        g.set_column(2 * j + 1, &w);
+    }
+    (pose, g)
+}
+
+/// The 2-norm condition number of `G` (from its singular values), as [`Basis::cond`].
+fn cond_of(g: &Matrix6<f64>) -> f64 {
+    let s = g.singular_values();
+    let (hi, lo) = (s.max(), s.min());
+    if lo > 0.0 { hi / lo } else { f64::INFINITY }
+}
+
+/// Group `group`'s deciding load at a pose of a preset, as [`group_load_near`] reads
+/// it (`Some(None)` where the group cannot move P); `None` where the kernel does not
+/// solve the pose, which the general path then decides.
+fn preset_load(
+    model: &CustomModel,
+    preset: &Preset,
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    group: usize,
+) -> Option<Option<[f64; 3]>> {
+    let sample = kernel_sample(inputs, rates);
+    let r = KERNEL
+        .with(|ws| crate::pose::solve_reactions_if_solvable(&preset.model, &sample, mode, &mut ws.borrow_mut()))?;
+    let (pose, g) = preset_frame(preset, inputs);
+    // As `statics` decides without the condition number: a bound where it can.
+    let gi = g.try_inverse()?;
+    let bound = g.norm() * gi.norm();
+    let within = |c: f64| c.is_finite() && c <= model.singular_cond;
+    if !within(bound) && !within(cond_of(&g)) {
+        return None;
+    }
+    let def = &model.groups[group];
+    let (l, joint) = (def.limb, model.joint_type(def));
+    let (f, m, centre, axis) = match joint {
+        JointType::S => (r.f_s[l], V3::zeros(), pose.a[l], V3::zeros()),
+        _ => (r.f_r[l], r.m_r[l], pose.b[l], preset.model.geometry.y[l]),
+    };
+    let (load, ..) = deciding_load(joint, def.group, &axis, &V3::zeros(), &f, &m);
+    let at = (&centre, &axis, &V3::zeros());
+    let (.., unit_p, _) = unit_reach(&g, (2 * l, 2), &gi, (joint, def.group), at, &pose.p);
+    Some((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]))
+}
+
+/// The kernel's sample of a preset's inputs (`z`, `ψ`, `θ`) and their rates.
+fn kernel_sample(inputs: &[f64], rates: Option<(&[f64], &[f64])>) -> clearance_grid::Sample {
+    let at = |i: usize| [inputs[i], rates.map_or(0.0, |r| r.0[i]), rates.map_or(0.0, |r| r.1[i])];
+    clearance_grid::Sample { index: 0, t: None, z: at(0), psi: at(1), theta: at(2) }
+}
+
+thread_local! {
+    /// The kernel's scratch, per thread (unused by its fast solver, which is the one a
+    /// preset uses, but its signature asks for one).
+    static KERNEL: std::cell::RefCell<Workspace> = std::cell::RefCell::new(Workspace::new());
+}
+
+/// A pose of a description that is a preset, solved by the preset's kernel and given
+/// as [`solve_posture`] gives it; `None` where the kernel's answer is not the general
+/// path's (see [`Preset`]): the caller then solves the pose the general way.
+fn preset_result(
+    model: &CustomModel,
+    preset: &Preset,
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+) -> Option<CustomResult> {
+    let sample = kernel_sample(inputs, rates);
+    let r = KERNEL.with(|ws| solve_pose(&preset.model, &sample, mode, &mut ws.borrow_mut()));
+    // Where a take-up is indeterminate, the kernel gives no joint contributions: each
+    // group's own response is then computed here, as `take_up` does.
+    let indeterminate = match r.status {
+        Status::Ok => false,
+        Status::IndeterminateContact => true,
+        _ => return None,
+    };
+    let geometry = &preset.model.geometry;
+    let (pose, g) = preset_frame(preset, inputs);
+    // NaN is not within the limit.
+    let cond = cond_of(&g);
+    if cond.is_nan() || cond > model.singular_cond {
+        return None;
+    }
+    let gi = if indeterminate { Some(g.try_inverse()?) } else { None };
+    let coords = [r.x, r.y, inputs[0], r.phi, inputs[1], inputs[2]];
+    let mut out = CustomResult {
+        status: Status::Ok,
+        coords,
+        q: (0..3).map(|j| r.q[j] - preset.q_home[j]).collect(),
+        tau: (0..3).map(|j| r.reactions.f_r[j].dot(&geometry.rail(j))).collect(),
+        // P (on the massless slider: the R joint's reaction, about the same point),
+        // R and S; the S joint transmits no couple.
+        reactions: (0..3)
+            .map(|j| {
+                let (f_r, m_r) = (r.reactions.f_r[j], r.reactions.m_r[j]);
+                vec![(f_r, m_r), (f_r, m_r), (r.reactions.f_s[j], V3::zeros())]
+            })
+            .collect(),
+        cond,
+        ..Default::default()
+    };
+    let mut undetermined = vec![false; model.kinds.len()];
+    out.takes = Vec::with_capacity(model.groups.len());
+    for def in &model.groups {
+        let (l, joint) = (def.limb, model.joint_type(def));
+        let (axis, centre) = if joint == JointType::R { (geometry.y[l], pose.b[l]) } else { (V3::zeros(), pose.a[l]) };
+        let (f, m) = out.reactions[l][def.joint];
+        let (load, dir, rotation) = deciding_load(joint, def.group, &axis, &V3::zeros(), &f, &m);
+        let scalar = def.scalar(joint);
+        let margin = if scalar { load.x.abs() } else { load.norm() };
+        // The take-up's direction as `take_up` chooses it.
+        let unit = if scalar && margin <= model.floor {
+            -dir * load.x.signum()
+        } else if scalar {
+            dir
+        } else if margin > 0.0 {
+            dir / margin
+        } else {
+            V3::zeros()
+        };
+        let disp = unit * def.magnitude;
+        let twist = if rotation { six(disp, centre.cross(&disp)) } else { six(V3::zeros(), disp) };
+        let mut take = GroupTake { load: [load.x, load.y, load.z], margin, twist, mobile: true, ..Default::default() };
+        if let Some(gi) = &gi {
+            let at = (&centre, &axis, &V3::zeros());
+            let (.., unit_p, _) = unit_reach(&g, (2 * l, 2), gi, (joint, def.group), at, &pose.p);
+            let e = response(&g, (2 * l, 2), gi, &twist, &pose.p);
+            take.mobile = unit_p >= IMMOBILE;
+            take.indeterminate = def.magnitude > 0.0 && take.mobile && margin <= model.floor;
+            take.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+            undetermined[def.kind] |= take.indeterminate;
+        } else {
+            // A group's own |Δp| bounds its unit reach from below: at least IMMOBILE
+            // per unit of magnitude proves that it moves P.
+            take.dp = r.contribution[preset.kinds[def.kind]][l];
+            if !(margin > model.floor && take.dp >= IMMOBILE * def.magnitude) {
+                return None;
+            }
+        }
+        out.takes.push(take);
+    }
+    // The kernel's verdict on each kind must be the description's.
+    if preset.kinds.iter().zip(&undetermined).any(|(&kb, &u)| r.kind_ok[kb] == u) {
+        return None;
+    }
+    let nine = |e: &[f64; 6]| -> [f64; 9] {
+        let eu = euler_errors(&coords, &V3::new(e[3], e[4], e[5]));
+        [e[0], e[1], e[2], e[3], e[4], e[5], eu[0], eu[1], eu[2]]
+    };
+    let mut sum = [0.0; 6];
+    let mut env_total = [0.0; 8];
+    for (&kb, &u) in preset.kinds.iter().zip(&undetermined) {
+        let e = &r.errors[kb];
+        let six = [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z];
+        out.kind_errors.push((!u).then(|| nine(&six)));
+        for c in 0..6 {
+            sum[c] += six[c];
+        }
+        out.envelope.push(r.envelope[kb]);
+        for c in 0..8 {
+            env_total[c] += r.envelope[kb][c];
+        }
+    }
+    if indeterminate {
+        out.status = Status::IndeterminateContact;
+    } else {
+        out.total = Some(nine(&sum));
+    }
+    out.env_total = env_total;
+    out.dominant = dominant(model, &out.takes);
+    Some(out)
 }
 
 /// The reactions (once: the models differ only in their clearances), then each
@@ -666,13 +954,13 @@ enum Shape {
     Segment,
 }
 
-/// `ΔΓ` at P of a displacement twist `zeta` of limb `l`: `S·G⁻ᵀ·[N_lᵀ·S·ζ]`.
-fn response(basis: &Basis, gi: &Matrix6<f64>, l: usize, zeta: &V6, pos: &V3) -> [f64; 6] {
-    let LimbBasis { start, width, .. } = basis.limbs[l];
+/// `ΔΓ` at P of a displacement twist `zeta` of the limb whose columns of `G` are
+/// `block` (start, width): `S·G⁻ᵀ·[N_lᵀ·S·ζ]`.
+fn response(g: &Matrix6<f64>, (start, width): (usize, usize), gi: &Matrix6<f64>, zeta: &V6, pos: &V3) -> [f64; 6] {
     let sz = swap(zeta);
     let mut b = V6::zeros();
     for k in 0..width {
-        b[start + k] = basis.g.column(start + k).dot(&sz);
+        b[start + k] = g.column(start + k).dot(&sz);
     }
     let y = gi.transpose() * b;
     at_p(&swap(&y), pos)
@@ -733,18 +1021,19 @@ fn largest_singular_value(m: &Matrix3<f64>) -> f64 {
     largest.max(0.0).sqrt()
 }
 
-/// The unit responses at P of a group's admissible set, the set's shape, and the
+/// The unit responses at P of a group's admissible set (its joint's centre, axis and
+/// normal in `at`; the limb's columns of `G` in `block`), the set's shape, and the
 /// largest `|Δp|` and `|Δα|` a unit take-up in it can cause.
 fn unit_reach(
-    basis: &Basis,
+    g: &Matrix6<f64>,
+    block: (usize, usize),
     gi: &Matrix6<f64>,
-    g: &GroupDef,
-    pj: &PosedJoint,
+    (joint, group): (JointType, Group),
+    (centre, axis, normal): (&V3, &V3, &V3),
     pos: &V3,
-    joint: JointType,
 ) -> (Few<[f64; 6]>, Shape, f64, f64) {
-    let (set, shape) = unit_set(joint, g.group, &pj.centre, &pj.axis, &pj.normal);
-    let responses = set.map(|z| response(basis, gi, g.limb, z, pos));
+    let (set, shape) = unit_set(joint, group, centre, axis, normal);
+    let responses = set.map(|z| response(g, block, gi, z, pos));
     let block = |rows: std::ops::Range<usize>| -> f64 {
         let m = SMatrix::<f64, 3, 3>::from_fn(|r, c| responses.get(c).map_or(0.0, |x| x[rows.start + r]));
         match shape {
@@ -788,7 +1077,9 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         let disp = unit * g.magnitude;
         t.twist = if rotation { six(disp, pj.centre.cross(&disp)) } else { six(V3::zeros(), disp) };
         // The admissible set's unit responses: the envelope, and whether it moves P.
-        let (responses, shape, unit_p, unit_a) = unit_reach(basis, gi, g, pj, &pos, joint.joint);
+        let at = (&pj.centre, &pj.axis, &pj.normal);
+        let (responses, shape, unit_p, unit_a) =
+            unit_reach(&basis.g, basis.block(g.limb), gi, (joint.joint, g.group), at, &pos);
         t.mobile = unit_p >= IMMOBILE;
         for c in 0..6 {
             let reach = match shape {
@@ -800,7 +1091,7 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         envelope[g.kind][6] += g.magnitude * unit_p;
         envelope[g.kind][7] += g.magnitude * unit_a;
         t.indeterminate = g.magnitude > 0.0 && t.mobile && t.margin <= model.floor;
-        let e = response(basis, gi, g.limb, &t.twist, &pos);
+        let e = response(&basis.g, basis.block(g.limb), gi, &t.twist, &pos);
         t.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
         if t.indeterminate {
             indeterminate[g.kind] = true;

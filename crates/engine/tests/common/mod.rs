@@ -57,3 +57,23 @@ pub fn replaced(text: &str, from: &str, to: &str) -> String {
 pub fn column<'a, T: 'static>(b: &'a RecordBatch, name: &str) -> &'a T {
     b.column_by_name(name).unwrap_or_else(|| panic!("no {name}")).as_any().downcast_ref().unwrap()
 }
+
+/// `job`, a description of a built-in 3-PRS (as `describe` writes it), with each leg's
+/// centre of mass written out where the description leaves the default (the midpoint
+/// of the leg's joints): the same mechanism, which is then not recognised as the
+/// built-in kind's, so that its poses go the description's general way and not
+/// through the 3-PRS kernel (docs/model.md §12.10).
+pub fn general_path(job: &clearance_engine::JobSpec) -> clearance_engine::JobSpec {
+    let mut out = job.clone();
+    for limb in out.mechanism.limb.as_mut().expect("a description").iter_mut() {
+        let n = limb.joints.len();
+        for (k, body) in limb.bodies.iter_mut().enumerate().filter(|(k, _)| k + 1 < n) {
+            if body.com.is_none() {
+                let (a, b) = (limb.joints[k].at, limb.joints[k + 1].at);
+                body.com = Some(std::array::from_fn(|i| (a[i] + b[i]) / 2.0));
+            }
+        }
+    }
+    assert!(!clearance_engine::uses_kernel(&out, "general.toml").unwrap(), "the kernel still applies");
+    out
+}
