@@ -185,6 +185,16 @@ fn the_kernel_gives_the_general_path_with_inclined_rails_in_dynamics() {
 }
 
 #[test]
+fn the_kernel_gives_the_general_path_with_one_kind_of_play() {
+    // Three kinds without play: their groups' mobility comes from `G⁻¹`.
+    let job = described(
+        "[clearance]\nr_radial = 1e-4\n[analysis]\nmodes = [\"kinetostatic\", \"dynamic\"]\n\
+         [trajectory]\ntime = { start = 0.0, stop = 2.0, n = 41 }\nz = 2.0\npsi = { offset = 0.0, harmonics = [{ amplitude = 0.3, period = 2.0 }] }\ntheta = 0.1\n",
+    );
+    check(&job, &["t"], 0);
+}
+
+#[test]
 fn only_a_builtin_description_is_given_the_kernel() {
     let text = format!("{KINDS}[grid]\nz = 2.05\npsi = 0.1\ntheta = 0.2\n");
     let job = described(&text);

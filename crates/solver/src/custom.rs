@@ -514,11 +514,12 @@ pub fn group_load_near(
 /// there and given as the general path gives them, to round-off (docs/model.md §12.10).
 ///
 /// The kernel answers a pose only where its answer is the general path's, to
-/// round-off, by the general path's own rules: the kernel solves it (status ok), `κ₂`
-/// of the description's wrench basis `G` is within `singular_cond`, every group's
-/// deciding load is above the floor (so no take-up is indeterminate), and every group
-/// provably moves P (its own contribution to `|Δp|` is at least
-/// [`IMMOBILE`] per unit of its magnitude, a lower bound of its unit reach). Any other
+/// round-off, by the general path's own rules: the kernel solves it (status ok or
+/// indeterminate contact), `κ₂` of the description's wrench basis `G` is within
+/// `singular_cond`, and each kind's determinacy is the description's. Each group's
+/// mobility is proved by its own contribution to `|Δp|` (at least [`IMMOBILE`] per
+/// unit of its magnitude, a lower bound of its unit reach) where the pose is ok and
+/// every group has play, else computed from `G⁻¹` as the general path does. Any other
 /// pose goes the general way.
 #[derive(Clone, Debug)]
 pub struct Preset {
@@ -528,13 +529,15 @@ pub struct Preset {
     pub q_home: [f64; 3],
     /// Per kind of the description, its place in `clearance_model::KINDS`.
     pub kinds: Vec<usize>,
+    /// Whether some group's magnitude is zero.
+    pub without_play: bool,
 }
 
 impl Preset {
     /// The preset for a description whose built-in kind's model is `model`, its joints
     /// in each limb `P, R, S` (the 3-PRS's), at `home`; `None` unless every kind of
-    /// `custom` is one of the built-in kind's, on the joints that kind names, with
-    /// every group's magnitude positive, and the exact error off.
+    /// `custom` is one of the built-in kind's, on the joints that kind names, and the
+    /// exact error is off.
     pub fn new(custom: &CustomModel, mut model: crate::Model, home: &[f64; 6]) -> Option<Self> {
         use clearance_model::MechanismKind;
         if model.geometry.kind != MechanismKind::Prs3 || custom.exact || custom.geom.inputs != [2, 4, 5] {
@@ -557,7 +560,7 @@ impl Preset {
                 2 => (1, Group::Axial),
                 _ => (1, Group::Angular),
             };
-            (g.joint, g.group) == expected && g.magnitude > 0.0
+            (g.joint, g.group) == expected && g.magnitude >= 0.0
         });
         if !limbs_ok || !groups_ok {
             return None;
@@ -571,7 +574,8 @@ impl Preset {
         if !at_home.reachable {
             return None;
         }
-        Some(Self { q_home: at_home.q, kinds, model })
+        let without_play = custom.groups.iter().any(|g| g.magnitude == 0.0);
+        Some(Self { q_home: at_home.q, kinds, model, without_play })
     }
 }
 
@@ -676,7 +680,8 @@ fn preset_result(
     if cond.is_nan() || cond > model.singular_cond {
         return None;
     }
-    let gi = if indeterminate { Some(g.try_inverse()?) } else { None };
+    // A group without play is not proved mobile by its (zero) error: then too.
+    let gi = if indeterminate || preset.without_play { Some(g.try_inverse()?) } else { None };
     let coords = [r.x, r.y, inputs[0], r.phi, inputs[1], inputs[2]];
     let mut out = CustomResult {
         status: Status::Ok,
