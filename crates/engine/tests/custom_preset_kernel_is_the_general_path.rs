@@ -13,7 +13,7 @@
 
 mod common;
 
-use common::column;
+use common::{ColumnScales, column};
 
 use arrow::array::{Array, Float64Array, StringArray, UInt32Array};
 use arrow::record_batch::RecordBatch;
@@ -50,62 +50,18 @@ fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     out
 }
 
-fn family(name: &str) -> Option<&'static str> {
-    if ["f_", "m_", "margin_", "tau"].iter().any(|p| name.starts_with(p)) {
-        Some("loads")
-    } else if ["err_", "env_"].iter().any(|p| name.starts_with(p)) {
-        Some("errors")
-    } else {
-        None
-    }
-}
-
-fn largest(a: &Float64Array) -> f64 {
-    (0..a.len()).filter(|&r| a.is_valid(r)).map(|r| a.value(r).abs()).fold(0.0, f64::max)
-}
-
 /// Every column of `fast` against `general`; returns how many float columns were
 /// compared, and how many values differ in their bits.
 fn compare_poses(fast: &RecordBatch, general: &RecordBatch) -> (usize, usize) {
     assert_eq!(fast.schema().fields(), general.schema().fields());
     assert_eq!(fast.num_rows(), general.num_rows());
-    let mut families = std::collections::HashMap::new();
-    for (i, field) in general.schema().fields().iter().enumerate() {
-        if let (Some(f), Some(a)) = (family(field.name()), general.column(i).as_any().downcast_ref::<Float64Array>()) {
-            let e = families.entry(f).or_insert(0.0f64);
-            *e = e.max(largest(a));
-        }
-    }
+    let scales = ColumnScales::of(general);
     let (mut compared, mut differing) = (0, 0);
     for (i, field) in general.schema().fields().iter().enumerate() {
-        let name = field.name();
         let (x, y) = (general.column(i), fast.column(i));
-        if let Some(x) = x.as_any().downcast_ref::<StringArray>() {
-            let y = y.as_any().downcast_ref::<StringArray>().unwrap();
-            for r in 0..x.len() {
-                let (a, b) = (x.is_valid(r).then(|| x.value(r)), y.is_valid(r).then(|| y.value(r)));
-                assert_eq!(a, b, "{name} row {r}");
-            }
-            continue;
-        }
-        let (Some(x), Some(y)) = (x.as_any().downcast_ref::<Float64Array>(), y.as_any().downcast_ref::<Float64Array>())
-        else {
-            continue;
-        };
-        compared += 1;
-        let scale = largest(x).max(family(name).map_or(0.0, |f| 1e-2 * families[f]));
-        for r in 0..x.len() {
-            assert_eq!(x.is_valid(r), y.is_valid(r), "{name} row {r}: null in one run only");
-            if x.is_valid(r) {
-                let d = (x.value(r) - y.value(r)).abs();
-                differing += usize::from(x.value(r) != y.value(r));
-                assert!(
-                    d <= 1e-12 * scale,
-                    "{name} row {r}: {} (kernel) vs {} (scale {scale:e})",
-                    y.value(r),
-                    x.value(r)
-                );
-            }
+        if let Some(d) = scales.assert_close(field.name(), x, y, 1e-12) {
+            compared += usize::from(x.as_any().is::<Float64Array>());
+            differing += d;
         }
     }
     (compared, differing)

@@ -12,9 +12,9 @@
 
 mod common;
 
-use arrow::array::{Array, Float64Array, StringArray};
 use arrow::record_batch::RecordBatch;
 use clearance_engine::{ColumnSet, JobSpec, MechanismKind, SolveOptions, describe, solve};
+use common::ColumnScales;
 
 fn column_of_custom(name: &str) -> String {
     // margin_s1 -> margin_s1_radial; everything else keeps its name.
@@ -52,29 +52,9 @@ fn check(text: &str) {
     assert!(compared_columns > 40, "only {compared_columns} columns compared");
 }
 
-fn family(name: &str) -> Option<&'static str> {
-    if ["f_", "m_", "margin_", "tau"].iter().any(|p| name.starts_with(p)) {
-        Some("loads")
-    } else if ["err_", "env_", "exact_err_"].iter().any(|p| name.starts_with(p)) {
-        Some("errors")
-    } else {
-        None
-    }
-}
-
-fn largest(a: &Float64Array) -> f64 {
-    (0..a.len()).filter(|&r| a.is_valid(r)).map(|r| a.value(r).abs()).fold(0.0, f64::max)
-}
-
 fn compare_batches(b: &RecordBatch, c: &RecordBatch, count: &mut usize) {
     assert_eq!(b.num_rows(), c.num_rows());
-    let mut families = std::collections::HashMap::new();
-    for (i, field) in b.schema().fields().iter().enumerate() {
-        if let (Some(f), Some(a)) = (family(field.name()), b.column(i).as_any().downcast_ref::<Float64Array>()) {
-            let e = families.entry(f).or_insert(0.0f64);
-            *e = e.max(largest(a));
-        }
-    }
+    let scales = ColumnScales::of(b);
     for (i, field) in b.schema().fields().iter().enumerate() {
         let name = field.name();
         if !compared(name) {
@@ -84,33 +64,8 @@ fn compare_batches(b: &RecordBatch, c: &RecordBatch, count: &mut usize) {
             panic!("the description's run has no column {}", column_of_custom(name));
         };
         *count += 1;
-        let (x, y) = (b.column(i), c.column(j));
-        if let (Some(x), Some(y)) = (x.as_any().downcast_ref::<StringArray>(), y.as_any().downcast_ref::<StringArray>())
-        {
-            for r in 0..x.len() {
-                let (a, b) = (x.is_valid(r).then(|| x.value(r)), y.is_valid(r).then(|| y.value(r)));
-                assert_eq!(a, b, "{name} row {r}");
-            }
-            continue;
-        }
-        let (Some(x), Some(y)) = (x.as_any().downcast_ref::<Float64Array>(), y.as_any().downcast_ref::<Float64Array>())
-        else {
-            continue;
-        };
-        let scale = largest(x).max(family(name).map_or(0.0, |f| 1e-2 * families[f]));
-        for r in 0..x.len() {
-            assert_eq!(x.is_valid(r), y.is_valid(r), "{name} row {r}: null in one run only");
-            if x.is_valid(r) {
-                let d = (x.value(r) - y.value(r)).abs();
-                let tol = if name.starts_with("exact_err_") { 1e-10 } else { 1e-12 };
-                assert!(
-                    d <= tol * scale.max(1e-300),
-                    "{name} row {r}: {} vs {} (scale {scale:e})",
-                    x.value(r),
-                    y.value(r)
-                );
-            }
-        }
+        let tol = if name.starts_with("exact_err_") { 1e-10 } else { 1e-12 };
+        scales.assert_close(name, b.column(i), c.column(j), tol);
     }
 }
 

@@ -77,3 +77,73 @@ pub fn general_path(job: &clearance_engine::JobSpec) -> clearance_engine::JobSpe
     assert!(!clearance_engine::uses_kernel(&out, "general.toml").unwrap(), "the kernel still applies");
     out
 }
+
+/// The family of a column whose values share a scale (loads: reactions and margins;
+/// errors: errors and envelopes), for [`ColumnScales`].
+pub fn family(name: &str) -> Option<&'static str> {
+    if ["f_", "m_", "margin_", "tau"].iter().any(|p| name.starts_with(p)) {
+        Some("loads")
+    } else if ["err_", "env_", "exact_err_"].iter().any(|p| name.starts_with(p)) {
+        Some("errors")
+    } else {
+        None
+    }
+}
+
+/// The largest magnitude among a column's valid values (0 if none).
+pub fn largest(a: &arrow::array::Float64Array) -> f64 {
+    (0..a.len()).filter(|&r| a.is_valid(r)).map(|r| a.value(r).abs()).fold(0.0, f64::max)
+}
+
+/// Each column's scale in a reference batch: its largest value, or a hundredth of its
+/// family's (see [`family`]) where that is larger, so that a column zero to round-off
+/// (a couple along an axis that transmits none) is measured against its run's loads
+/// or errors.
+pub struct ColumnScales(std::collections::HashMap<&'static str, f64>);
+
+impl ColumnScales {
+    pub fn of(reference: &RecordBatch) -> Self {
+        let mut families = std::collections::HashMap::new();
+        for (i, field) in reference.schema().fields().iter().enumerate() {
+            let a = reference.column(i).as_any().downcast_ref::<arrow::array::Float64Array>();
+            if let (Some(f), Some(a)) = (family(field.name()), a) {
+                let e = families.entry(f).or_insert(0.0f64);
+                *e = e.max(largest(a));
+            }
+        }
+        Self(families)
+    }
+
+    /// Asserts column `name` of the other run (`y`) equal to the reference's (`x`):
+    /// strings and nulls exactly, numbers within `tol` of the column's scale. Returns
+    /// how many numbers differ in their bits, or `None` for a column of another type
+    /// (not compared).
+    pub fn assert_close(&self, name: &str, x: &dyn Array, y: &dyn Array, tol: f64) -> Option<usize> {
+        use arrow::array::{Float64Array, StringArray};
+        if let (Some(x), Some(y)) = (x.as_any().downcast_ref::<StringArray>(), y.as_any().downcast_ref::<StringArray>())
+        {
+            for r in 0..x.len() {
+                let (a, b) = (x.is_valid(r).then(|| x.value(r)), y.is_valid(r).then(|| y.value(r)));
+                assert_eq!(a, b, "{name} row {r}");
+            }
+            return Some(0);
+        }
+        let (x, y) = (x.as_any().downcast_ref::<Float64Array>()?, y.as_any().downcast_ref::<Float64Array>()?);
+        let scale = largest(x).max(family(name).map_or(0.0, |f| 1e-2 * self.0[f]));
+        let mut differing = 0;
+        for r in 0..x.len() {
+            assert_eq!(x.is_valid(r), y.is_valid(r), "{name} row {r}: null in one run only");
+            if x.is_valid(r) {
+                let d = (x.value(r) - y.value(r)).abs();
+                differing += usize::from(x.value(r) != y.value(r));
+                assert!(
+                    d <= tol * scale.max(1e-300),
+                    "{name} row {r}: {} vs {} (scale {scale:e})",
+                    x.value(r),
+                    y.value(r)
+                );
+            }
+        }
+        Some(differing)
+    }
+}
