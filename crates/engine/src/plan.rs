@@ -2,6 +2,7 @@
 
 use clearance_model::{JobSpec, MechanismKind, MechanismSpec, PROTOTYPE_LIMB_ANGLES_DEG, SamplesSpec};
 use clearance_parquet::{ColumnSet, PoseSchema, UpsSchema};
+use clearance_solver::custom::CustomModel;
 use serde::Serialize;
 
 use crate::error::EngineError;
@@ -73,9 +74,10 @@ pub fn plan(job: &JobSpec, file: &str) -> Result<Plan, EngineError> {
     let modes: Vec<&'static str> = job.analysis.modes.iter().map(|m| m.name()).collect();
     let ups = job.mechanism.kind == MechanismKind::Ups6;
     let custom = job.mechanism.kind == MechanismKind::Custom;
-    // A custom description is checked whole (its rank at home too) for every variant.
+    // A custom description is checked whole (its rank at home too) for every variant
+    // (whether the 3-PRS kernel solves it is the run's business, not the plan's).
     let models = if custom {
-        variants.iter().map(|v| crate::custom::model_of(&v.job, file)).collect::<Result<Vec<_>, _>>()?
+        variants.iter().map(|v| CustomModel::from_job(&v.job, file)).collect::<Result<Vec<_>, _>>()?
     } else {
         Vec::new()
     };

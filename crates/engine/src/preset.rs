@@ -25,10 +25,15 @@ type V3 = Vector3<f64>;
 /// larger of the two and 1.
 const SAME: f64 = 1e-12;
 
-/// An angle in degrees, snapped to a whole degree within 1e-9°, in `[0, 360)`.
-fn degrees(radians: f64) -> f64 {
+/// An angle in degrees, snapped to a whole degree within 1e-9°.
+fn snapped(radians: f64) -> f64 {
     let d = radians.to_degrees();
-    let d = if (d - d.round()).abs() <= 1e-9 { d.round() } else { d };
+    if (d - d.round()).abs() <= 1e-9 { d.round() } else { d }
+}
+
+/// [`snapped`], in `[0, 360)`.
+fn degrees(radians: f64) -> f64 {
+    let d = snapped(radians);
     if d < 0.0 { d + 360.0 } else { d }
 }
 
@@ -61,8 +66,7 @@ fn builtin_of(job: &JobSpec) -> Option<JobSpec> {
         let local = platform.r.transpose() * (a - platform.t);
         limb_deg.push(degrees(alpha));
         platform_deg.push(degrees(local.y.atan2(local.x)));
-        rail_deg = beta.to_degrees();
-        rail_deg = if (rail_deg - rail_deg.round()).abs() <= 1e-9 { rail_deg.round() } else { rail_deg };
+        rail_deg = snapped(beta);
         base_radius = if rail_deg == 0.0 { b.x.hypot(b.y) } else { b.dot(&x) - b.z / beta.cos() * beta.sin() };
         platform_radius = local.x.hypot(local.y);
         leg_length = (a - b).norm();
@@ -154,8 +158,7 @@ pub fn uses_kernel(job: &JobSpec, file: &str) -> Result<bool, clearance_model::J
         return Ok(false);
     }
     for v in job.variants(file)? {
-        let model = CustomModel::from_job(&v.job, file)?;
-        if preset_of(&v.job, &model).is_none() {
+        if crate::custom::model_of(&v.job, file)?.preset.is_none() {
             return Ok(false);
         }
     }

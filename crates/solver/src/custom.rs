@@ -328,9 +328,7 @@ impl Basis {
 
     /// The 2-norm condition number of `G` (from its singular values).
     fn cond(&self) -> f64 {
-        let s = self.g.singular_values();
-        let (hi, lo) = (s.max(), s.min());
-        if lo > 0.0 { hi / lo } else { f64::INFINITY }
+        cond_of(&self.g)
     }
 }
 
@@ -601,7 +599,7 @@ fn preset_frame(preset: &Preset, inputs: &[f64]) -> (Posture, Matrix6<f64>) {
     (pose, g)
 }
 
-/// The 2-norm condition number of `G` (from its singular values), as [`Basis::cond`].
+/// The 2-norm condition number of `g` (from its singular values).
 fn cond_of(g: &Matrix6<f64>) -> f64 {
     let s = g.singular_values();
     let (hi, lo) = (s.max(), s.min());
@@ -704,38 +702,19 @@ fn preset_result(
     for def in &model.groups {
         let (l, joint) = (def.limb, model.joint_type(def));
         let (axis, centre) = if joint == JointType::R { (geometry.y[l], pose.b[l]) } else { (V3::zeros(), pose.a[l]) };
-        let (f, m) = out.reactions[l][def.joint];
-        let (load, dir, rotation) = deciding_load(joint, def.group, &axis, &V3::zeros(), &f, &m);
-        let scalar = def.scalar(joint);
-        let margin = if scalar { load.x.abs() } else { load.norm() };
-        // The take-up's direction as `take_up` chooses it.
-        let unit = if scalar && margin <= model.floor {
-            -dir * load.x.signum()
-        } else if scalar {
-            dir
-        } else if margin > 0.0 {
-            dir / margin
-        } else {
-            V3::zeros()
-        };
-        let disp = unit * def.magnitude;
-        let twist = if rotation { six(disp, centre.cross(&disp)) } else { six(V3::zeros(), disp) };
-        let mut take = GroupTake { load: [load.x, load.y, load.z], margin, twist, mobile: true, ..Default::default() };
+        let at = (&centre, &axis, &V3::zeros());
+        let mut take = group_take(model, def, joint, at, out.reactions[l][def.joint]);
         if let Some(gi) = &gi {
-            let at = (&centre, &axis, &V3::zeros());
-            let (.., unit_p, _) = unit_reach(&g, (2 * l, 2), gi, (joint, def.group), at, &pose.p);
-            let e = response(&g, (2 * l, 2), gi, &twist, &pose.p);
-            take.mobile = unit_p >= IMMOBILE;
-            take.indeterminate = def.magnitude > 0.0 && take.mobile && margin <= model.floor;
-            take.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+            settle(model, def, joint, at, (&g, (2 * l, 2), gi), &pose.p, &mut take);
             undetermined[def.kind] |= take.indeterminate;
         } else {
             // A group's own |Δp| bounds its unit reach from below: at least IMMOBILE
             // per unit of magnitude proves that it moves P.
             take.dp = r.contribution[preset.kinds[def.kind]][l];
-            if !(margin > model.floor && take.dp >= IMMOBILE * def.magnitude) {
+            if !(take.margin > model.floor && take.dp >= IMMOBILE * def.magnitude) {
                 return None;
             }
+            take.mobile = true;
         }
         out.takes.push(take);
     }
@@ -1026,6 +1005,10 @@ fn largest_singular_value(m: &Matrix3<f64>) -> f64 {
     largest.max(0.0).sqrt()
 }
 
+/// A group's admissible set's unit responses at P, its shape, and the largest `|Δp|`
+/// and `|Δα|` a unit take-up in it can cause ([`unit_reach`]).
+type Reach = (Few<[f64; 6]>, Shape, f64, f64);
+
 /// The unit responses at P of a group's admissible set (its joint's centre, axis and
 /// normal in `at`; the limb's columns of `G` in `block`), the set's shape, and the
 /// largest `|Δp|` and `|Δα|` a unit take-up in it can cause.
@@ -1036,7 +1019,7 @@ fn unit_reach(
     (joint, group): (JointType, Group),
     (centre, axis, normal): (&V3, &V3, &V3),
     pos: &V3,
-) -> (Few<[f64; 6]>, Shape, f64, f64) {
+) -> Reach {
     let (set, shape) = unit_set(joint, group, centre, axis, normal);
     let responses = set.map(|z| response(g, block, gi, z, pos));
     let block = |rows: std::ops::Range<usize>| -> f64 {
@@ -1050,6 +1033,56 @@ fn unit_reach(
     (responses, shape, unit_p, unit_a)
 }
 
+/// A group's deciding load, margin and displacement twist at a pose (docs/model.md
+/// §12.5), from its joint's reaction `(f, m)` and its centre, axis and normal there;
+/// whether it moves P, its determinacy and its own error are [`settle`]'s.
+fn group_take(
+    model: &CustomModel,
+    def: &GroupDef,
+    joint: JointType,
+    (centre, axis, normal): (&V3, &V3, &V3),
+    (f, m): (V3, V3),
+) -> GroupTake {
+    let (load, dir, rotation) = deciding_load(joint, def.group, axis, normal, &f, &m);
+    let scalar = def.scalar(joint);
+    let margin = if scalar { load.x.abs() } else { load.norm() };
+    // A scalar load at or below the floor decides nothing: the take-up is then along
+    // +axis (the 6-UPS's convention for its U tilt play, whose load is round-off).
+    // `dir` is −axis·signum(load), signum never 0.
+    let unit = if scalar && margin <= model.floor {
+        -dir * load.x.signum()
+    } else if scalar {
+        dir
+    } else if margin > 0.0 {
+        dir / margin
+    } else {
+        V3::zeros()
+    };
+    let disp = unit * def.magnitude;
+    let twist = if rotation { six(disp, centre.cross(&disp)) } else { six(V3::zeros(), disp) };
+    GroupTake { load: [load.x, load.y, load.z], margin, twist, ..Default::default() }
+}
+
+/// Whether `take`'s group moves P, whether its take-up is indeterminate, and its own
+/// `|Δp|`, from `G⁻¹` (`(G, the limb's block of it, G⁻¹)` in `system`); returns its
+/// admissible set's unit reach ([`unit_reach`], for the envelope) and its error at P.
+fn settle(
+    model: &CustomModel,
+    def: &GroupDef,
+    joint: JointType,
+    at: (&V3, &V3, &V3),
+    (g, block, gi): (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
+    pos: &V3,
+    take: &mut GroupTake,
+) -> (Reach, [f64; 6]) {
+    let reach = unit_reach(g, block, gi, (joint, def.group), at, pos);
+    take.mobile = reach.2 >= IMMOBILE;
+    take.indeterminate = def.magnitude > 0.0 && take.mobile && take.margin <= model.floor;
+    let e = response(g, block, gi, &take.twist, pos);
+    take.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+    (reach, e)
+}
+
 fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f64>, out: &mut CustomResult) {
     let pos = p.platform.t;
     let nk = model.kinds.len();
@@ -1058,34 +1091,13 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
     let mut envelope = vec![[0.0f64; 8]; nk];
     out.takes = Vec::with_capacity(model.groups.len());
     for g in &model.groups {
-        let joint = &model.geom.limbs[g.limb].joints[g.joint];
+        let joint = model.joint_type(g);
         let pj = &p.joints[g.limb][g.joint];
-        let (f, m) = out.reactions[g.limb][g.joint];
-        let a = pj.axis;
-        let mut t = GroupTake::default();
-        let (load, dir, rotation) = deciding_load(joint.joint, g.group, &a, &pj.normal, &f, &m);
-        let scalar = g.scalar(joint.joint);
-        t.load = [load.x, load.y, load.z];
-        t.margin = if scalar { load.x.abs() } else { load.norm() };
-        // A scalar load at or below the floor decides nothing: the take-up is then along
-        // +axis (the 6-UPS's convention for its U tilt play, whose load is round-off).
-        // `dir` is −axis·signum(load), signum never 0.
-        let unit = if scalar && t.margin <= model.floor {
-            -dir * load.x.signum()
-        } else if scalar {
-            dir
-        } else if t.margin > 0.0 {
-            dir / t.margin
-        } else {
-            V3::zeros()
-        };
-        let disp = unit * g.magnitude;
-        t.twist = if rotation { six(disp, pj.centre.cross(&disp)) } else { six(V3::zeros(), disp) };
-        // The admissible set's unit responses: the envelope, and whether it moves P.
         let at = (&pj.centre, &pj.axis, &pj.normal);
-        let (responses, shape, unit_p, unit_a) =
-            unit_reach(&basis.g, basis.block(g.limb), gi, (joint.joint, g.group), at, &pos);
-        t.mobile = unit_p >= IMMOBILE;
+        let mut t = group_take(model, g, joint, at, out.reactions[g.limb][g.joint]);
+        // The admissible set's unit responses: the envelope, and whether it moves P.
+        let ((responses, shape, unit_p, unit_a), e) =
+            settle(model, g, joint, at, (&basis.g, basis.block(g.limb), gi), &pos, &mut t);
         for c in 0..6 {
             let reach = match shape {
                 Shape::Segment => responses[0][c].abs(),
@@ -1095,9 +1107,6 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         }
         envelope[g.kind][6] += g.magnitude * unit_p;
         envelope[g.kind][7] += g.magnitude * unit_a;
-        t.indeterminate = g.magnitude > 0.0 && t.mobile && t.margin <= model.floor;
-        let e = response(&basis.g, basis.block(g.limb), gi, &t.twist, &pos);
-        t.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
         if t.indeterminate {
             indeterminate[g.kind] = true;
         } else {
