@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# Issue 39's figures on a machine with many cores, two engines side by side in one
+# run (benches/README.md, "16 cores"): the kernel and end-to-end rates at 1 … N
+# threads, whole `clearance run` processes into /dev/shm at 2 and N threads (wall,
+# CPU and peak memory), and the 8.7 M-row sweep of the issue.
+#
+#   scripts/scaling_many_cores.sh NEW_BIN OLD_BIN OUT_DIR [THREADS]
+#
+# NEW_BIN and OLD_BIN are release binaries (OLD_BIN may be the same as NEW_BIN);
+# every table goes to OUT_DIR/summary.txt and to stdout, the raw output beside it.
+# Needs python3 (wall, CPU and peak RSS of each process) and about 6 GB in
+# /dev/shm; took 109 s on a 16-core Xeon.
+set -u
+NEW=$1 OLD=$2 OUT=$3 N=${4:-$(nproc)}
+mkdir -p "$OUT"
+export TMPDIR=/dev/shm
+work=$(mktemp -d /dev/shm/scaling.XXXXXX)
+trap 'rm -rf "$work"' EXIT
+here=$(cd "$(dirname "$0")/.." && pwd)
+summary="$OUT/summary.txt"
+say() { echo "$*" | tee -a "$summary"; }
+
+say "# $(date -u +%FT%TZ), $(nproc) CPUs; new $("$NEW" --version), old $("$OLD" --version)"
+lscpu > "$OUT/lscpu.txt" 2>&1
+grep -E "Model name|^CPU\(s\)|Thread|Flags" "$OUT/lscpu.txt" | sed 's/^Flags:.*\(avx2\).*\(avx512f\).*/Flags: avx2 avx512f …/' | tee -a "$summary"
+
+# Wall seconds, CPU seconds and peak RSS (MiB) of one process, quiet.
+timed() {
+    python3 - "$@" <<'EOF'
+import resource, subprocess, sys, time
+t = time.perf_counter()
+rc = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE).returncode
+wall = time.perf_counter() - t
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(f"{wall:.3f} {ru.ru_utime + ru.ru_stime:.2f} {ru.ru_maxrss / 1024:.0f} rc={rc}")
+EOF
+}
+
+# 1. bench --scaling, new then old, standard columns, then minimal and none.
+counts="1,2,4,8,$N"
+[ "$N" -le 8 ] && counts="1,2,4,$N"
+for cols in standard minimal none; do
+    for which in new old; do
+        bin=$NEW; [ $which = old ] && bin=$OLD
+        say "## bench --scaling --columns $cols ($which)"
+        tc=$counts; [ $cols != standard ] && tc="2,$N"
+        "$bin" bench --scaling --thread-counts "$tc" --repeat 3 --columns $cols > "$OUT/scaling_${cols}_$which.txt" 2>&1
+        grep -E "^\s*[0-9]+\s|thread|kernel" "$OUT/scaling_${cols}_$which.txt" | tee -a "$summary"
+    done
+done
+
+# 2. Whole processes, grid_2d at 2 × 2 its samples (1.6 M poses), into /dev/shm.
+sed 's/n = 633/n = 1266/g' "$here/benches/suite/grid_2d.toml" > "$work/grid_2d_x4.toml"
+say "## clearance run grid_2d at 1266 x 1266 into /dev/shm: wall s, CPU s, peak MiB"
+for round in 1 2 3; do
+    for t in 2 "$N"; do
+        for which in new old; do
+            bin=$NEW; [ $which = old ] && bin=$OLD
+            say "$which threads=$t round=$round: $(timed "$bin" run "$work/grid_2d_x4.toml" --out "$work/o" --threads "$t" --quiet)"
+            rm -rf "$work/o"
+        done
+    done
+done
+say "## minimal columns, $N threads"
+for round in 1 2; do
+    for which in new old; do
+        bin=$NEW; [ $which = old ] && bin=$OLD
+        say "$which round=$round: $(timed "$bin" run "$work/grid_2d_x4.toml" --out "$work/o" --threads "$N" --columns minimal --quiet)"
+        rm -rf "$work/o"
+    done
+done
+
+# 3. The issue's sweep: 8 × 301 × 301 poses, 4 masses × 3 r_radial, 8.7 M rows.
+sed -e 's/n = 4 }/n = 8 }/' -e 's/n = 121/n = 301/g' "$here/benches/suite/sweep_masses_clearances_12.toml" > "$work/sweep_8m.toml"
+say "## 8.7 M-row sweep into /dev/shm: wall s, CPU s, peak MiB"
+for round in 1 2; do
+    for which in new old; do
+        bin=$NEW; [ $which = old ] && bin=$OLD
+        say "$which threads=$N round=$round: $(timed "$bin" run "$work/sweep_8m.toml" --out "$work/o" --threads "$N" --quiet)"
+        rm -rf "$work/o"
+    done
+done
+for which in new old; do
+    bin=$NEW; [ $which = old ] && bin=$OLD
+    say "$which threads=2: $(timed "$bin" run "$work/sweep_8m.toml" --out "$work/o" --threads 2 --quiet)"
+    rm -rf "$work/o"
+done
+say "# done $(date -u +%FT%TZ)"
