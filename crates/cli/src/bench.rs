@@ -580,6 +580,11 @@ pub fn default_thread_counts(cores: usize) -> Vec<usize> {
     out
 }
 
+/// `pool_tasks` where the run counted it (the 3-limb path), else `None`.
+fn counted(pool_tasks: f64) -> Option<f64> {
+    (pool_tasks > 0.0).then_some(pool_tasks)
+}
+
 /// One thread count's figures.
 struct Scaled {
     threads: usize,
@@ -671,7 +676,7 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
             .map(|r| {
                 let share = |s: f64| s / r.seconds;
                 format!(
-                    "{{\"threads\": {}, \"kernel_poses_per_s\": {:.1}, \"end_to_end_poses_per_s\": {:.1}, \"end_to_end_over_kernel\": {:.4}, \"cpu_over_wall\": {:.3}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_writing\": {:.4}, \"share_finish\": {:.4}}}",
+                    "{{\"threads\": {}, \"kernel_poses_per_s\": {:.1}, \"end_to_end_poses_per_s\": {:.1}, \"end_to_end_over_kernel\": {:.4}, \"cpu_over_wall\": {:.3}, \"share_pose_pass\": {:.4}, \"share_search\": {:.4}, \"share_writing\": {:.4}, \"share_finish\": {:.4}, \"pool_in_tasks\": {}, \"share_queue_wait\": {}}}",
                     r.threads,
                     r.kernel,
                     r.e2e,
@@ -680,7 +685,9 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
                     share(r.stages.pose_pass),
                     share(r.stages.search),
                     share(r.stages.writing),
-                    share(r.stages.finish)
+                    share(r.stages.finish),
+                    counted(r.stages.pool_tasks).map_or("null".into(), |t| format!("{:.4}", share(t))),
+                    counted(r.stages.pool_tasks).map_or("null".into(), |_| format!("{:.4}", share(r.stages.queue_wait)))
                 )
             })
             .collect();
@@ -707,7 +714,7 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
         o.repeat
     );
     println!(
-        "{:>7} {:>14} {:>14} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "{:>7} {:>14} {:>14} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
         "threads",
         "kernel /s",
         "end to end /s",
@@ -717,12 +724,14 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
         "pass %",
         "search %",
         "write %",
-        "finish %"
+        "finish %",
+        "tasks %",
+        "queue %"
     );
     for r in &rows {
         let pct = |s: f64| 100.0 * s / r.seconds;
         println!(
-            "{:>7} {:>14.0} {:>14.0} {:>9.2} {:>9.2} {:>8.2} {:>8.1} {:>8.1} {:>8.1} {:>8.1}",
+            "{:>7} {:>14.0} {:>14.0} {:>9.2} {:>9.2} {:>8.2} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8} {:>8}",
             r.threads,
             r.kernel,
             r.e2e,
@@ -732,12 +741,16 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
             pct(r.stages.pose_pass),
             pct(r.stages.search),
             pct(r.stages.writing),
-            pct(r.stages.finish)
+            pct(r.stages.finish),
+            counted(r.stages.pool_tasks).map_or("-".into(), |t| format!("{:.1}", pct(t))),
+            counted(r.stages.pool_tasks).map_or("-".into(), |_| format!("{:.1}", pct(r.stages.queue_wait)))
         );
     }
     println!(
         "(the kernel does what the column set needs, the envelope and the dominant joint but for minimal, without I/O; \
-         stage shares are busy time over the run's wall time, and overlap: the writer threads work beside the pool)"
+         stage shares are busy time over the run's wall time, and overlap: the writer threads work beside the pool; \
+         tasks % is the share of the pool's thread time in the run's tasks, queue % the time its threads waited on \
+         the writers' full queue, both counted by the 3-limb path only)"
     );
     Ok(())
 }

@@ -377,6 +377,11 @@ fn bench_scaling_has_a_row_per_thread_count() {
             let share = r[key].as_f64().unwrap();
             assert!((0.0..=2.0).contains(&share), "{key} = {share}");
         }
+        // The bench job is a 3-PRS: its pool's time in tasks is counted, a share of
+        // the pool's thread time; waiting on the writers is part of it.
+        let (tasks, queue) = (r["pool_in_tasks"].as_f64().unwrap(), r["share_queue_wait"].as_f64().unwrap());
+        assert!(tasks > 0.0 && tasks <= 1.0 + 1e-6, "pool_in_tasks = {tasks}");
+        assert!((0.0..=tasks * r["threads"].as_f64().unwrap()).contains(&queue), "share_queue_wait = {queue}");
     }
     assert_eq!(v["columns"], "standard");
     let o = run(&["bench", "--scaling", "--threads", "2"]);

@@ -113,6 +113,17 @@ pub struct StageTimes {
     /// run), or the merge of the shards' switches, and the run's final files. After
     /// shards, only the invocation that finishes the run has it.
     pub finish: f64,
+    /// The thread-seconds the pool's threads spent in the run's tasks (computing
+    /// pages, concluding units, searching batches of grid lines), over the number of
+    /// threads: against the wall time, the share of the pool's time that had work.
+    /// Beside the process's CPU time it tells idle threads (no task to take) from
+    /// threads in a task but off the CPU (blocked on a lock, a page fault, the
+    /// disk). Counted by the 3-limb path; 0 for the other kinds.
+    pub pool_tasks: f64,
+    /// The seconds pool threads spent blocked handing finished parts to the writer
+    /// threads, whose queue was full (included in [`StageTimes::pool_tasks`] ×
+    /// threads). Counted by the 3-limb path; 0 for the other kinds.
+    pub queue_wait: f64,
 }
 
 /// One part file's worth of work.
@@ -834,6 +845,9 @@ struct Ctx<'a> {
     layout: &'a Layout,
     /// Buffers of written pages, to encode pages into.
     spare: &'a std::sync::Mutex<Vec<Vec<u8>>>,
+    /// Nanoseconds the pool's threads spent in the run's tasks
+    /// ([`StageTimes::pool_tasks`]).
+    tasks_ns: &'a std::sync::atomic::AtomicU64,
     /// A solver's and a page's working buffers for each page being computed, kept
     /// from page to page: rayon calls `map_init`'s init for every piece it splits
     /// off, and a fresh page buffer is megabytes to zero and fault in.
@@ -848,6 +862,11 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    /// Runs `f`, one task of the pool, counting its time ([`StageTimes::pool_tasks`]).
+    fn task<R>(&self, f: impl FnOnce() -> R) -> R {
+        timed(self.tasks_ns, f)
+    }
+
     /// Whether the run searches `work` as it computes: it searches at all
     /// ([`RunOptions::search`]), keeps its traces for the search, and the work is its
     /// group's first member's (whose traces the search follows; the other members
@@ -879,6 +898,14 @@ impl Ctx<'_> {
     fn put_worker(&self, worker: (Blocks, PageBuffer)) {
         self.workers.lock().expect("no panic while held").push(worker);
     }
+}
+
+/// Runs `f`, adding its nanoseconds to `ns`.
+fn timed<R>(ns: &std::sync::atomic::AtomicU64, f: impl FnOnce() -> R) -> R {
+    let start = Instant::now();
+    let out = f();
+    ns.fetch_add(start.elapsed().as_nanos() as u64, std::sync::atomic::Ordering::Relaxed);
+    out
 }
 
 /// A work computed, its pages encoded, before its traces are pruned and its
@@ -1126,7 +1153,7 @@ fn compute_pages<'a>(
         .map(|_| {
             let mut done = Vec::new();
             while let Some((p, pages, page_traces, page_loads, page_sampled)) = next_page() {
-                done.push((p, compute_page(pages, page_traces, page_loads, page_sampled)));
+                done.push((p, ctx.task(|| compute_page(pages, page_traces, page_loads, page_sampled))));
             }
             done
         })
@@ -1177,33 +1204,35 @@ fn compute_batch<'a>(ctx: &Ctx<'_>, work: &'a Work, buffers: Buffers) -> Result<
     let stats: Vec<Vec<SummaryStats>> = work_blocks
         .into_par_iter()
         .map(|(b, (mut block_sinks, (block_traces, block_loads, block_sampled)))| {
-            let (mut blocks, buf) = ctx.take_worker();
-            let first = range.start + (b * BLOCK) as u64;
-            let stats = if group.alone() {
-                vec![solve_block(
-                    &mut blocks,
-                    model,
-                    source,
-                    mode,
-                    first,
-                    &mut block_sinks[0],
-                    0,
-                    block_traces,
-                    block_loads,
-                    block_sampled,
-                )]
-            } else {
-                let rows = block_traces.len();
-                let shared =
-                    solve_shared(&mut blocks, model, source, mode, first, block_traces, block_loads, block_sampled);
-                block_sinks
-                    .iter_mut()
-                    .zip(&work.units)
-                    .map(|(sink, unit)| shared.put(&group.scales[group.member(unit.variant)], sink, 0..rows))
-                    .collect()
-            };
-            ctx.put_worker((blocks, buf));
-            stats
+            ctx.task(|| {
+                let (mut blocks, buf) = ctx.take_worker();
+                let first = range.start + (b * BLOCK) as u64;
+                let stats = if group.alone() {
+                    vec![solve_block(
+                        &mut blocks,
+                        model,
+                        source,
+                        mode,
+                        first,
+                        &mut block_sinks[0],
+                        0,
+                        block_traces,
+                        block_loads,
+                        block_sampled,
+                    )]
+                } else {
+                    let rows = block_traces.len();
+                    let shared =
+                        solve_shared(&mut blocks, model, source, mode, first, block_traces, block_loads, block_sampled);
+                    block_sinks
+                        .iter_mut()
+                        .zip(&work.units)
+                        .map(|(sink, unit)| shared.put(&group.scales[group.member(unit.variant)], sink, 0..rows))
+                        .collect()
+                };
+                ctx.put_worker((blocks, buf));
+                stats
+            })
         })
         .collect();
     // One block's statistics per page entry, in block order, as `compute_pages` gives them.
@@ -1277,6 +1306,8 @@ struct StepSearch<'a> {
     /// the last.
     from: std::sync::atomic::AtomicU64,
     to: std::sync::atomic::AtomicU64,
+    /// Nanoseconds the pool's threads spent in its batches, all together.
+    busy: std::sync::atomic::AtomicU64,
 }
 
 impl<'a> StepSearch<'a> {
@@ -1288,6 +1319,7 @@ impl<'a> StepSearch<'a> {
             found: std::sync::Mutex::new(Vec::new()),
             from: std::sync::atomic::AtomicU64::new(u64::MAX),
             to: std::sync::atomic::AtomicU64::new(0),
+            busy: std::sync::atomic::AtomicU64::new(0),
         }
     }
 
@@ -1310,7 +1342,7 @@ impl<'a> StepSearch<'a> {
         for (i, batch) in p.batches.iter().enumerate() {
             scope.spawn_fifo(move |_| {
                 self.from.fetch_min(self.since_start(Instant::now()), std::sync::atomic::Ordering::Relaxed);
-                let switches = p.search.search_batch(batch);
+                let switches = timed(&self.busy, || p.search.search_batch(batch));
                 self.found.lock().expect("no panic while held").push((i, switches));
                 self.to.fetch_max(self.since_start(Instant::now()), std::sync::atomic::Ordering::Relaxed);
             });
@@ -1521,6 +1553,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
     // After a writer's failure every writer stops; the receiver goes with the last,
     // and the run's next send fails.
     let failed = &std::sync::atomic::AtomicBool::new(false);
+    // What the pool's threads spent in tasks, and of it blocked on the writers' queue.
+    let (tasks_ns, queue_ns) = (&std::sync::atomic::AtomicU64::new(0), &std::sync::atomic::AtomicU64::new(0));
     let finalized = std::thread::scope(|scope| -> Result<bool> {
         // Writer threads take the parts in turn: one thread wrote every part, and
         // with many threads it paced the run (issue 39: at 16 threads it was busy
@@ -1584,6 +1618,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             opts,
             layout,
             spare,
+            tasks_ns,
             workers,
             keep: kept.keep,
             store_sampled: (!models.iter().any(|(_, source)| source.is_trajectory())).into(),
@@ -1625,21 +1660,23 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
                 let (models, variants, groups) = (&models, &variants, &groups);
                 s.spawn_fifo(move |s| {
                     *concluded = previous.take().map(|c| {
-                        let work = c.work;
-                        let Concluded { parts, traces, refine, mut buffers } = conclude(ctx, c, kept);
-                        let n = (traces.len() * parts.len()) as u64;
-                        let sent = parts.into_iter().all(|part| tx.send(part).is_ok());
-                        // A group's traces once, from the work of its first member.
-                        if ctx.searched_now(work) {
-                            let start = Instant::now();
-                            let (model, source) = &models[work.group];
-                            let opts = search_options(&variants[groups[work.group].first() as usize]);
-                            let key = (work.group, work.units[0].mode);
-                            let sampled = std::mem::take(&mut buffers.sampled);
-                            let pending = kept.receive(key, refine, &traces, sampled, model, source, &opts);
-                            step.ready(pending, start.elapsed().as_secs_f64());
-                        }
-                        (n, buffers, sent)
+                        ctx.task(|| {
+                            let work = c.work;
+                            let Concluded { parts, traces, refine, mut buffers } = conclude(ctx, c, kept);
+                            let n = (traces.len() * parts.len()) as u64;
+                            let sent = timed(queue_ns, || parts.into_iter().all(|part| tx.send(part).is_ok()));
+                            // A group's traces once, from the work of its first member.
+                            if ctx.searched_now(work) {
+                                let start = Instant::now();
+                                let (model, source) = &models[work.group];
+                                let opts = search_options(&variants[groups[work.group].first() as usize]);
+                                let key = (work.group, work.units[0].mode);
+                                let sampled = std::mem::take(&mut buffers.sampled);
+                                let pending = kept.receive(key, refine, &traces, sampled, model, source, &opts);
+                                step.ready(pending, start.elapsed().as_secs_f64());
+                            }
+                            (n, buffers, sent)
+                        })
                     });
                     step.arrive(s);
                 });
@@ -1657,6 +1694,8 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let (computed, pose_pass) = computed.expect("the step computes");
             stages.pose_pass += pose_pass;
             let start = Instant::now();
+            tasks_ns
+                .fetch_add(step.busy.load(std::sync::atomic::Ordering::Relaxed), std::sync::atomic::Ordering::Relaxed);
             if let Some((p, found, seconds)) = step.into_found() {
                 let reads = kept.searched(p, found);
                 if reads.stored > 0 && !reads.paid() {
@@ -1689,6 +1728,9 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             writer_handles.into_iter().map(|w| w.join().expect("a writer thread does not panic")).collect();
         // The writers' mean busy time: the share of the wall time they were busy.
         stages.writing += busy.into_iter().sum::<Result<f64>>()? / writers as f64;
+        let threads = rayon::current_num_threads() as f64;
+        stages.pool_tasks = tasks_ns.load(std::sync::atomic::Ordering::Relaxed) as f64 * 1e-9 / threads;
+        stages.queue_wait = queue_ns.load(std::sync::atomic::Ordering::Relaxed) as f64 * 1e-9;
         finalized.transpose().map(|f| f.is_some())
     })?;
     progress.finish();
