@@ -49,40 +49,31 @@ for cols in standard minimal none; do
     done
 done
 
-# 2. Whole processes, grid_2d at 2 × 2 its samples (1.6 M poses), into /dev/shm.
-sed 's/n = 633/n = 1266/g' "$here/benches/suite/grid_2d.toml" > "$work/grid_2d_x4.toml"
-say "## clearance run grid_2d at 1266 x 1266 into /dev/shm: wall s, CPU s, peak MiB"
-for round in 1 2 3; do
-    for t in 2 "$N"; do
-        for which in new old; do
-            bin=$NEW; [ $which = old ] && bin=$OLD
-            say "$which threads=$t round=$round: $(timed "$bin" run "$work/grid_2d_x4.toml" --out "$work/o" --threads "$t" --quiet)"
-            rm -rf "$work/o"
+# Alternated rounds of `clearance run JOB` by both engines into /dev/shm:
+#   runs JOB ROUNDS "THREAD COUNTS" [RUN FLAGS...]
+runs() {
+    local job=$1 rounds=$2 counts=$3
+    shift 3
+    for round in $(seq "$rounds"); do
+        for t in $counts; do
+            for which in new old; do
+                bin=$NEW; [ $which = old ] && bin=$OLD
+                say "$which threads=$t round=$round $*: $(timed "$bin" run "$job" --out "$work/o" --threads "$t" --quiet "$@")"
+                rm -rf "$work/o"
+            done
         done
     done
-done
-say "## minimal columns, $N threads"
-for round in 1 2; do
-    for which in new old; do
-        bin=$NEW; [ $which = old ] && bin=$OLD
-        say "$which round=$round: $(timed "$bin" run "$work/grid_2d_x4.toml" --out "$work/o" --threads "$N" --columns minimal --quiet)"
-        rm -rf "$work/o"
-    done
-done
+}
+
+# 2. Whole processes, grid_2d at 2 × 2 its samples (1.6 M poses).
+sed 's/n = 633/n = 1266/g' "$here/benches/suite/grid_2d.toml" > "$work/grid_2d_x4.toml"
+say "## clearance run grid_2d at 1266 x 1266 into /dev/shm: wall s, CPU s, peak MiB"
+runs "$work/grid_2d_x4.toml" 3 "2 $N"
+runs "$work/grid_2d_x4.toml" 2 "$N" --columns minimal
 
 # 3. The issue's sweep: 8 × 301 × 301 poses, 4 masses × 3 r_radial, 8.7 M rows.
 sed -e 's/n = 4 }/n = 8 }/' -e 's/n = 121/n = 301/g' "$here/benches/suite/sweep_masses_clearances_12.toml" > "$work/sweep_8m.toml"
 say "## 8.7 M-row sweep into /dev/shm: wall s, CPU s, peak MiB"
-for round in 1 2; do
-    for which in new old; do
-        bin=$NEW; [ $which = old ] && bin=$OLD
-        say "$which threads=$N round=$round: $(timed "$bin" run "$work/sweep_8m.toml" --out "$work/o" --threads "$N" --quiet)"
-        rm -rf "$work/o"
-    done
-done
-for which in new old; do
-    bin=$NEW; [ $which = old ] && bin=$OLD
-    say "$which threads=2: $(timed "$bin" run "$work/sweep_8m.toml" --out "$work/o" --threads 2 --quiet)"
-    rm -rf "$work/o"
-done
+runs "$work/sweep_8m.toml" 2 "$N"
+runs "$work/sweep_8m.toml" 1 2
 say "# done $(date -u +%FT%TZ)"
