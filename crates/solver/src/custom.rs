@@ -273,26 +273,17 @@ impl LimbBasis {
 
 impl Basis {
     fn new(p: &CustomPosture, geom: &CustomGeometry) -> Option<Basis> {
-        Self::of_limbs(geom.limbs.iter().zip(&p.joints).map(|(limb, pj)| {
-            limb.joints.iter().zip(pj).filter(|(j, _)| !j.actuated).flat_map(|(_, pj)| pj.columns.iter().copied())
-        }))
-    }
-
-    /// The basis of limbs given by their passive columns (spatial screws at the pose);
-    /// `None` where the counts do not make `G` square or a limb's own freedoms are
-    /// dependent.
-    fn of_limbs<C: Iterator<Item = V6>>(passive: impl Iterator<Item = C>) -> Option<Basis> {
         let mut g = Matrix6::zeros();
-        let mut limbs = Vec::with_capacity(6);
+        let mut limbs = Vec::with_capacity(geom.limbs.len());
         let mut at = 0;
-        for columns in passive {
+        for (limb, pj) in geom.limbs.iter().zip(&p.joints) {
             let mut cols = [V6::zeros(); 6];
             let mut n = 0;
-            for c in columns {
+            for c in limb.joints.iter().zip(pj).filter(|(j, _)| !j.actuated).flat_map(|(_, pj)| &pj.columns) {
                 if n == 6 {
                     return None;
                 }
-                cols[n] = c;
+                cols[n] = *c;
                 n += 1;
             }
             if at + 6 - n > 6 {
