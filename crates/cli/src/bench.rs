@@ -580,11 +580,6 @@ pub fn default_thread_counts(cores: usize) -> Vec<usize> {
     out
 }
 
-/// `pool_tasks` where the run counted it (the 3-limb path), else `None`.
-fn counted(pool_tasks: f64) -> Option<f64> {
-    (pool_tasks > 0.0).then_some(pool_tasks)
-}
-
 /// One thread count's figures.
 struct Scaled {
     threads: usize,
@@ -594,6 +589,15 @@ struct Scaled {
     busy: f64,
     stages: clearance_engine::StageTimes,
     seconds: f64,
+}
+
+impl Scaled {
+    /// The pool's time in tasks (over its thread time) and its waits on the writers'
+    /// queue (over the wall time), where the run counted them (the 3-limb path).
+    fn pool(&self) -> Option<(f64, f64)> {
+        let s = &self.stages;
+        (s.pool_tasks > 0.0).then(|| (s.pool_tasks / self.seconds, s.queue_wait / self.seconds))
+    }
 }
 
 /// The kernel and end-to-end rates at each thread count, side by side, on a pool of
@@ -686,8 +690,8 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
                     share(r.stages.search),
                     share(r.stages.writing),
                     share(r.stages.finish),
-                    counted(r.stages.pool_tasks).map_or("null".into(), |t| format!("{:.4}", share(t))),
-                    counted(r.stages.pool_tasks).map_or("null".into(), |_| format!("{:.4}", share(r.stages.queue_wait)))
+                    r.pool().map_or("null".into(), |(t, _)| format!("{t:.4}")),
+                    r.pool().map_or("null".into(), |(_, q)| format!("{q:.4}"))
                 )
             })
             .collect();
@@ -742,8 +746,8 @@ pub fn scaling(o: &ScalingOptions) -> Result<()> {
             pct(r.stages.search),
             pct(r.stages.writing),
             pct(r.stages.finish),
-            counted(r.stages.pool_tasks).map_or("-".into(), |t| format!("{:.1}", pct(t))),
-            counted(r.stages.pool_tasks).map_or("-".into(), |_| format!("{:.1}", pct(r.stages.queue_wait)))
+            r.pool().map_or("-".into(), |(t, _)| format!("{:.1}", 100.0 * t)),
+            r.pool().map_or("-".into(), |(_, q)| format!("{:.1}", 100.0 * q))
         );
     }
     println!(

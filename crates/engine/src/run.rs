@@ -1306,12 +1306,13 @@ struct StepSearch<'a> {
     /// the last.
     from: std::sync::atomic::AtomicU64,
     to: std::sync::atomic::AtomicU64,
-    /// Nanoseconds the pool's threads spent in its batches, all together.
-    busy: std::sync::atomic::AtomicU64,
+    /// The run's count of its pool's time in tasks, to which its batches add
+    /// ([`StageTimes::pool_tasks`]).
+    tasks_ns: &'a std::sync::atomic::AtomicU64,
 }
 
 impl<'a> StepSearch<'a> {
-    fn new() -> Self {
+    fn new(tasks_ns: &'a std::sync::atomic::AtomicU64) -> Self {
         Self {
             start: Instant::now(),
             ready: std::sync::OnceLock::new(),
@@ -1319,7 +1320,7 @@ impl<'a> StepSearch<'a> {
             found: std::sync::Mutex::new(Vec::new()),
             from: std::sync::atomic::AtomicU64::new(u64::MAX),
             to: std::sync::atomic::AtomicU64::new(0),
-            busy: std::sync::atomic::AtomicU64::new(0),
+            tasks_ns,
         }
     }
 
@@ -1342,7 +1343,7 @@ impl<'a> StepSearch<'a> {
         for (i, batch) in p.batches.iter().enumerate() {
             scope.spawn_fifo(move |_| {
                 self.from.fetch_min(self.since_start(Instant::now()), std::sync::atomic::Ordering::Relaxed);
-                let switches = timed(&self.busy, || p.search.search_batch(batch));
+                let switches = timed(self.tasks_ns, || p.search.search_batch(batch));
                 self.found.lock().expect("no panic while held").push((i, switches));
                 self.to.fetch_max(self.since_start(Instant::now()), std::sync::atomic::Ordering::Relaxed);
             });
@@ -1652,7 +1653,7 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             // a quarter of a sweep's wall time; this way it fills the time the last
             // pages leave the other threads, then has every thread.
             let tx = &tx;
-            let step = StepSearch::new();
+            let step = StepSearch::new(tasks_ns);
             let mut concluded = None;
             let mut computed = None;
             rayon::scope_fifo(|s| {
@@ -1694,8 +1695,6 @@ pub fn run(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Result<RunReport
             let (computed, pose_pass) = computed.expect("the step computes");
             stages.pose_pass += pose_pass;
             let start = Instant::now();
-            tasks_ns
-                .fetch_add(step.busy.load(std::sync::atomic::Ordering::Relaxed), std::sync::atomic::Ordering::Relaxed);
             if let Some((p, found, seconds)) = step.into_found() {
                 let reads = kept.searched(p, found);
                 if reads.stored > 0 && !reads.paid() {
