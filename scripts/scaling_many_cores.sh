@@ -2,14 +2,17 @@
 # Issue 39's figures on a machine with many cores, two engines side by side in one
 # run (benches/README.md, "16 cores"): the kernel and end-to-end rates at 1 … N
 # threads, whole `clearance run` processes into /dev/shm at 2 and N threads (wall,
-# CPU and peak memory), and the 8.7 M-row sweep of the issue.
+# CPU, peak memory and page faults), the 8.7 M-row sweep of the issue, and the new
+# engine under two settings of glibc's allocator (larger first heaps, and those on
+# transparent huge pages).
 #
 #   scripts/scaling_many_cores.sh NEW_BIN OLD_BIN OUT_DIR [THREADS]
 #
 # NEW_BIN and OLD_BIN are release binaries (OLD_BIN may be the same as NEW_BIN);
 # every table goes to OUT_DIR/summary.txt and to stdout, the raw output beside it.
 # Needs python3 (wall, CPU and peak RSS of each process) and about 6 GB in
-# /dev/shm; took 109 s on a 16-core Xeon.
+# /dev/shm; took 109 s on a 16-core Xeon before the allocator rounds were added
+# (nine more runs of a second or so).
 set -u
 NEW=$1 OLD=$2 OUT=$3 N=${4:-$(nproc)}
 mkdir -p "$OUT"
@@ -24,7 +27,8 @@ say "# $(date -u +%FT%TZ), $(nproc) CPUs; new $("$NEW" --version), old $("$OLD" 
 lscpu > "$OUT/lscpu.txt" 2>&1
 grep -E "Model name|^CPU\(s\)|Thread|Flags" "$OUT/lscpu.txt" | sed 's/^Flags:.*\(avx2\).*\(avx512f\).*/Flags: avx2 avx512f …/' | tee -a "$summary"
 
-# Wall seconds, CPU seconds and peak RSS (MiB) of one process, quiet.
+# Wall seconds, CPU seconds, peak RSS (MiB) and minor page faults of one process,
+# quiet.
 timed() {
     python3 - "$@" <<'EOF'
 import resource, subprocess, sys, time
@@ -32,7 +36,7 @@ t = time.perf_counter()
 rc = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE).returncode
 wall = time.perf_counter() - t
 ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-print(f"{wall:.3f} {ru.ru_utime + ru.ru_stime:.2f} {ru.ru_maxrss / 1024:.0f} rc={rc}")
+print(f"{wall:.3f} {ru.ru_utime + ru.ru_stime:.2f} {ru.ru_maxrss / 1024:.0f} faults={ru.ru_minflt} rc={rc}")
 EOF
 }
 
@@ -67,13 +71,27 @@ runs() {
 
 # 2. Whole processes, grid_2d at 2 × 2 its samples (1.6 M poses).
 sed 's/n = 633/n = 1266/g' "$here/benches/suite/grid_2d.toml" > "$work/grid_2d_x4.toml"
-say "## clearance run grid_2d at 1266 x 1266 into /dev/shm: wall s, CPU s, peak MiB"
+say "## clearance run grid_2d at 1266 x 1266 into /dev/shm: wall s, CPU s, peak MiB, faults"
 runs "$work/grid_2d_x4.toml" 3 "2 $N"
 runs "$work/grid_2d_x4.toml" 2 "$N" --columns minimal
 
 # 3. The issue's sweep: 8 × 301 × 301 poses, 4 masses × 3 r_radial, 8.7 M rows.
 sed -e 's/n = 4 }/n = 8 }/' -e 's/n = 121/n = 301/g' "$here/benches/suite/sweep_masses_clearances_12.toml" > "$work/sweep_8m.toml"
-say "## 8.7 M-row sweep into /dev/shm: wall s, CPU s, peak MiB"
+say "## 8.7 M-row sweep into /dev/shm: wall s, CPU s, peak MiB, faults"
 runs "$work/sweep_8m.toml" 2 "$N"
 runs "$work/sweep_8m.toml" 1 2
+
+# 4. The new engine's allocator, alternated at N threads on grid_2d at 1.6 M poses:
+# as it is; each thread's first heap 32 MiB (else its heap grows by mprotect, often a
+# page at a time: about 1 000 calls a run on 2 cores, each holding the process's
+# memory map against every other thread's page faults); the same on transparent huge
+# pages (a third of the page faults on 2 cores). benches/README.md, "What limits it
+# now".
+say "## allocator settings, new engine, grid_2d at 1266 x 1266, $N threads: wall s, CPU s, peak MiB, faults"
+for round in 1 2 3; do
+    for tunables in "" glibc.malloc.top_pad=33554432 glibc.malloc.hugetlb=1:glibc.malloc.top_pad=33554432; do
+        say "GLIBC_TUNABLES=$tunables round=$round: $(GLIBC_TUNABLES=$tunables timed "$NEW" run "$work/grid_2d_x4.toml" --out "$work/o" --threads "$N" --quiet)"
+        rm -rf "$work/o"
+    done
+done
 say "# done $(date -u +%FT%TZ)"
