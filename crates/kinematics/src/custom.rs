@@ -787,6 +787,9 @@ fn jacobian(geom: &CustomGeometry, coords: &[f64; 6], joints: &[Vec<PosedJoint>]
 
 /// Newton iterations at most per continuation step.
 const NEWTON_STEPS: usize = 12;
+/// A Newton iteration whose residual (as [`newton`] measures it) grows while above
+/// this has failed.
+const DIVERGING: f64 = 1e-8;
 /// The largest change of an angle (rad) or of a length (in units of the mechanism's
 /// length scale) in one continuation step: beyond, the step is halved, so that the
 /// continuation does not jump branch.
@@ -871,6 +874,7 @@ fn newton_in(
     let home = placement(&geom.home).inverse();
     let k = geom.parasitic.len();
     let NewtonWork { columns, dofs, r, dx, f } = work;
+    let mut last = f64::INFINITY;
     for _ in 0..NEWTON_STEPS {
         let d = placement(coords).then(&home);
         let mut size = 0.0f64;
@@ -885,6 +889,13 @@ fn newton_in(
         if size < 1e-14 {
             return Some(moved);
         }
+        // A residual that grows while far above round-off is not converging: the
+        // caller halves its step (or, at a pose out of reach, gives up) without
+        // spending the rest of the iterations on it.
+        if size > last && size > DIVERGING {
+            return None;
+        }
+        last = size;
         if !f.refactor(&parasitic_screws(geom, coords)[..k], columns, dofs) {
             return None;
         }
