@@ -10,7 +10,7 @@
 #
 # NEW_BIN and OLD_BIN are release binaries (OLD_BIN may be the same as NEW_BIN);
 # every table goes to OUT_DIR/summary.txt and to stdout, the raw output beside it.
-# Needs python3 (wall, CPU and peak RSS of each process) and about 6 GB in
+# Needs python3 (wall, CPU, peak RSS and page faults of each process) and about 6 GB in
 # /dev/shm; took 109 s on a 16-core Xeon before the allocator rounds were added
 # (nine more runs of a second or so).
 set -u
