@@ -5,11 +5,12 @@
 
 scripts/crosscheck_custom.py checks the numbers of well-behaved random mechanisms against
 the reference; this checks what a designer's first drafts meet: each job starts from one
-of its random families (3-RRS, 3-PRS, 3-RPS, 6-UPS, 6-PUS) and is then bent at random:
+of its random families (3-RRS, 3-PRS, 3-RPS, 6-UPS, 6-PUS), or one time in four from a
+built-in job of jobs/ (3-PRS, 3-RPS, 6-UPS; without its sweep), and is then bent at random:
 
 * grids and trajectories many times wider than the workspace (poses out of reach, out of a
   joint's range, through singularities, continuation that must give up);
-* a joint moved off the closed home pose, joint types swapped, a joint or a limb dropped,
+* (custom only) a joint moved, joint types swapped, a joint or a limb dropped,
   axes made parallel, another subset of the six coordinates as inputs (descriptions that
   are overconstrained, not rigid, idle or do not close);
 * no weight at all (every load zero), masses and loads a million times larger, every
@@ -47,6 +48,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 
 import numpy as np
 import pyarrow.compute as pc
@@ -153,19 +155,22 @@ def _other_inputs(rng, job):
 def _weightless(rng, job):
     job["mass"] = {"platform": 0.0}
     job.pop("load", None)
-    for limb in job["mechanism"]["limb"]:
+    if job.get("mechanism", {}).get("kind", "3-PRS") == "3-PRS":
+        job["mass"]["leg"] = 0.0
+    for limb in job.get("mechanism", {}).get("limb", []):
         for b in limb.get("bodies", []):
             b["mass"] = 0.0
             b.pop("inertia", None)
     if rng.random() < 0.5:
-        job["mechanism"]["gravity"] = [0.0, 0.0, 0.0]
+        job.setdefault("mechanism", {})["gravity"] = [0.0, 0.0, 0.0]
 
 
 def _heavy(rng, job):
     f = 1e6
-    job["mass"]["platform"] = job["mass"].get("platform", 1.0) * f
-    job["mass"].pop("platform_inertia", None)
-    for p in job["mass"].get("points", []):
+    mass = job.setdefault("mass", {})
+    mass["platform"] = mass.get("platform", 10.0) * f
+    mass.pop("platform_inertia", None)
+    for p in mass.get("points", []):
         p["mass"] *= f
     if "load" in job:
         job["load"]["force"] = [v * f for v in job["load"]["force"]]
@@ -255,8 +260,38 @@ def _samples(job):
     return job["trajectory"]["time"]["n"]
 
 
+def builtin_jobs():
+    """The jobs of jobs/ of the built-in kinds (3-PRS, 3-RPS, 6-UPS)."""
+    out = []
+    for path in sorted(glob.glob(os.path.join(os.path.dirname(HERE), "jobs", "*.toml"))):
+        with open(path, "rb") as f:
+            job = tomllib.load(f)
+        if job.get("mechanism", {}).get("kind", "3-PRS") != "custom":
+            out.append((os.path.basename(path), job))
+    return out
+
+
+BUILTIN = builtin_jobs()
+
+
+def inputs_of(job):
+    """The input columns of a job's pose files."""
+    kind = job.get("mechanism", {}).get("kind", "3-PRS")
+    if kind == "custom":
+        return job["mechanism"]["inputs"]
+    return list(COORDS) if kind == "6-UPS" else ["z", "psi", "theta"]
+
+
 def draw(rng, index):
-    """A random stressed job and the names of the mutations applied."""
+    """A random stressed job and the names of the mutations applied: one of
+    crosscheck_custom.py's random mechanisms, or (one in four) a built-in job of jobs/."""
+    if rng.random() < 0.25:
+        name, job = BUILTIN[int(rng.integers(len(BUILTIN)))]
+        job = copy.deepcopy(job)
+        chosen = [str(m) for m in rng.choice(RUNNABLE, size=int(rng.integers(1, 4)), replace=False)]
+        for m in chosen:
+            MUTATIONS[m](rng, job)
+        return _bounded(job), f"{name} + {', '.join(chosen)}"
     while True:
         got = cc.random_job(rng, index)
         if got is not None:
@@ -269,15 +304,20 @@ def draw(rng, index):
         chosen.append(str(rng.choice(BREAKING)))
     for m in chosen:
         MUTATIONS[m](rng, job)
+    return _bounded(job), f"{tag} + {', '.join(chosen)}"
+
+
+def _bounded(job):
+    """`job` with at most MAX_SAMPLES samples and one variant."""
     if "trajectory" in job:
         job["trajectory"]["time"]["n"] = min(job["trajectory"]["time"]["n"], MAX_SAMPLES)
     while _samples(job) > MAX_SAMPLES:
         for v in job["grid"].values():
             if isinstance(v, dict) and v["n"] > 2:
-                v["n"] -= 1
+                v["n"] = max(2, v["n"] // 2)
     # Sweeps are the parser's business (fuzz/): one variant here.
     job.pop("sweep", None)
-    return job, f"{tag} + {', '.join(chosen)}"
+    return job
 
 
 def check_output(out, inputs):
@@ -356,7 +396,7 @@ def run_one(binary, job, work, timeout):
         return "refused", p.stderr.strip().splitlines()[0]
     if p.returncode != 0:
         return "failed", f"exit {p.returncode}: {p.stderr.strip()[-2000:]}"
-    bad = check_output(out, job["mechanism"]["inputs"])
+    bad = check_output(out, inputs_of(job))
     return ("failed", "; ".join(bad)) if bad else ("accepted", "")
 
 
