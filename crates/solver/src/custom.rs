@@ -384,14 +384,20 @@ pub fn log_so3(r: &Matrix3<f64>) -> V3 {
     a * (s.atan2(c) / s)
 }
 
-/// `[ΔΦ, ΔΨ, ΔΘ]` from `Δα = ΔΘ·ŷ + ΔΨ·R_y x̂ + ΔΦ·R_y R_x ẑ` (docs/model.md §6).
-fn euler_errors(coords: &[f64; 6], dalpha: &V3) -> [f64; 3] {
+/// The nine components of an error `[Δp; Δα]` at the pose `coords`: the six, then
+/// `[ΔΦ, ΔΨ, ΔΘ]` from `Δα = ΔΘ·ŷ + ΔΨ·R_y x̂ + ΔΦ·R_y R_x ẑ` (docs/model.md §6), NaN
+/// where the angles are singular. The 3 × 3 map is factored once for the pose's kinds
+/// and total.
+fn nine_at(coords: &[f64; 6]) -> impl Fn(&[f64; 6]) -> [f64; 9] {
     let ry = nalgebra::Rotation3::from_axis_angle(&V3::y_axis(), coords[5]).into_inner();
     let rx = nalgebra::Rotation3::from_axis_angle(&V3::x_axis(), coords[4]).into_inner();
-    let e = Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]);
-    match e.lu().solve(dalpha) {
-        Some(x) => [x[0], x[1], x[2]],
-        None => [f64::NAN; 3],
+    let lu = Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]).lu();
+    move |e| {
+        let eu = match lu.solve(&V3::new(e[3], e[4], e[5])) {
+            Some(x) => [x[0], x[1], x[2]],
+            None => [f64::NAN; 3],
+        };
+        [e[0], e[1], e[2], e[3], e[4], e[5], eu[0], eu[1], eu[2]]
     }
 }
 
@@ -713,10 +719,7 @@ fn preset_result(
     if preset.kinds.iter().zip(&undetermined).any(|(&kb, &u)| r.kind_ok[kb] == u) {
         return None;
     }
-    let nine = |e: &[f64; 6]| -> [f64; 9] {
-        let eu = euler_errors(&coords, &V3::new(e[3], e[4], e[5]));
-        [e[0], e[1], e[2], e[3], e[4], e[5], eu[0], eu[1], eu[2]]
-    };
+    let nine = nine_at(&coords);
     let mut sum = [0.0; 6];
     let mut env_total = [0.0; 8];
     for (&kb, &u) in preset.kinds.iter().zip(&undetermined) {
@@ -1107,10 +1110,7 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         }
         out.takes.push(t);
     }
-    let nine = |e: &[f64; 6]| -> [f64; 9] {
-        let eu = euler_errors(&p.coords, &V3::new(e[3], e[4], e[5]));
-        [e[0], e[1], e[2], e[3], e[4], e[5], eu[0], eu[1], eu[2]]
-    };
+    let nine = nine_at(&p.coords);
     out.kind_errors = (0..nk).map(|k| (!indeterminate[k]).then(|| nine(&errors[k]))).collect();
     out.total = (!indeterminate.iter().any(|&i| i)).then(|| {
         let mut s = [0.0; 6];
