@@ -26,7 +26,7 @@ use clearance_parquet::{
     ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
-use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, solve_members_near};
+use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, preset_members, solve_members_near};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
@@ -140,15 +140,28 @@ fn solve_members(
         .collect::<Vec<u64>>()
         .into_par_iter()
         .map(|start| {
+            let run = start.max(range.start)..(start + RUN).min(range.end);
+            let (times, inputs): (Vec<Option<f64>>, Vec<Vec<[f64; 3]>>) =
+                run.clone().map(|i| inputs_of(models[0], source, i)).unzip();
+            // A preset's kernel solves the run at once; a pose it does not answer, and
+            // every pose of another description, goes through `solve_inputs`.
+            let mut fast = preset_members(models, &inputs, mode).unwrap_or_default();
             let mut near = None;
             let mut out = Vec::with_capacity(RUN as usize);
             for i in start..(start + RUN).min(range.end) {
-                let (t, inputs) = inputs_of(models[0], source, i);
-                let (r, reached) = solve_inputs(models, &inputs, mode, near.as_ref());
-                near = reached;
-                if i >= range.start {
-                    out.push((CustomRow { sample: i, t }, r));
+                if i < range.start {
+                    // Continuation runs from the run's first sample, whatever the range.
+                    let (_, inputs) = inputs_of(models[0], source, i);
+                    near = solve_inputs(models, &inputs, mode, near.as_ref()).1;
+                    continue;
                 }
+                let k = (i - run.start) as usize;
+                let (r, reached) = match fast.get_mut(k).and_then(Option::take) {
+                    Some(r) => (r, None),
+                    None => solve_inputs(models, &inputs[k], mode, near.as_ref()),
+                };
+                near = reached;
+                out.push((CustomRow { sample: i, t: times[k] }, r));
             }
             out
         })

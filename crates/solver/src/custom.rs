@@ -27,7 +27,7 @@ use clearance_kinematics::custom::{
 use clearance_model::custom::{Group, JointType};
 use clearance_model::{JobError, JobSpec, Mode};
 
-use crate::pose::{Status, Workspace, solve_pose};
+use crate::pose::{PoseResult, Status, Workspace, solve_pose};
 
 type V3 = Vector3<f64>;
 type V6 = Vector6<f64>;
@@ -661,6 +661,47 @@ fn preset_result(
 ) -> Option<CustomResult> {
     let sample = kernel_sample(inputs, rates);
     let r = KERNEL.with(|ws| solve_pose(&preset.model, &sample, mode, &mut ws.borrow_mut()));
+    preset_result_of(model, preset, inputs, &r)
+}
+
+/// [`solve_members_near`] for a run of poses of a description that is a preset, every
+/// member's kernel solving the run at once (in statics, the lanes of its batched fast
+/// solver): per pose (`inputs`: each input's value, rate and acceleration, in canonical
+/// order), every member's result, or `None` where some member's kernel answer is not
+/// the general path's (the caller then solves that pose with [`solve_members_near`]).
+/// `None` unless every member is a preset.
+pub fn preset_members(
+    models: &[&CustomModel],
+    poses: &[Vec<[f64; 3]>],
+    mode: Mode,
+) -> Option<Vec<Option<Vec<CustomResult>>>> {
+    let presets: Vec<&Preset> = models.iter().map(|m| m.preset.as_deref()).collect::<Option<_>>()?;
+    let dynamic = mode == Mode::Dynamic;
+    let samples: Vec<clearance_grid::Sample> = poses
+        .iter()
+        .map(|p| {
+            let at = |i: usize| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] };
+            clearance_grid::Sample { index: 0, t: None, z: at(0), psi: at(1), theta: at(2) }
+        })
+        .collect();
+    let mut kernel = vec![PoseResult::default(); samples.len()];
+    let mut out: Vec<Option<Vec<CustomResult>>> =
+        (0..poses.len()).map(|_| Some(Vec::with_capacity(models.len()))).collect();
+    for (model, preset) in models.iter().zip(presets) {
+        KERNEL.with(|ws| crate::pose::solve_poses(&preset.model, &samples, mode, &mut ws.borrow_mut(), &mut kernel));
+        for ((pose, r), slot) in poses.iter().zip(&kernel).zip(&mut out) {
+            let inputs: [f64; 3] = std::array::from_fn(|i| pose[i][0]);
+            *slot = slot.take().and_then(|mut members| {
+                members.push(preset_result_of(model, preset, &inputs, r)?);
+                Some(members)
+            });
+        }
+    }
+    Some(out)
+}
+
+/// [`preset_result`] from the kernel's result `r` at `inputs`.
+fn preset_result_of(model: &CustomModel, preset: &Preset, inputs: &[f64], r: &PoseResult) -> Option<CustomResult> {
     // Where a take-up is indeterminate, the kernel gives no joint contributions: each
     // group's own response is then computed here, as `take_up` does.
     let indeterminate = match r.status {
