@@ -148,7 +148,7 @@ fn solve_members(
             let mut fast = preset_members(models, &inputs, mode).unwrap_or_default();
             let mut near = None;
             let mut out = Vec::with_capacity(RUN as usize);
-            for i in start..(start + RUN).min(range.end) {
+            for i in start..run.end {
                 if i < range.start {
                     // Continuation runs from the run's first sample, whatever the range.
                     let (_, inputs) = inputs_of(models[0], source, i);

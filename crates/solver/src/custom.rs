@@ -639,7 +639,12 @@ fn preset_load(
 
 /// The kernel's sample of a preset's inputs (`z`, `ψ`, `θ`) and their rates.
 fn kernel_sample(inputs: &[f64], rates: Option<(&[f64], &[f64])>) -> clearance_grid::Sample {
-    let at = |i: usize| [inputs[i], rates.map_or(0.0, |r| r.0[i]), rates.map_or(0.0, |r| r.1[i])];
+    kernel_sample_of(|i| [inputs[i], rates.map_or(0.0, |r| r.0[i]), rates.map_or(0.0, |r| r.1[i])])
+}
+
+/// The kernel's sample whose input `i` (`z`, `ψ`, `θ`) has value, rate and
+/// acceleration `at(i)`.
+fn kernel_sample_of(at: impl Fn(usize) -> [f64; 3]) -> clearance_grid::Sample {
     clearance_grid::Sample { index: 0, t: None, z: at(0), psi: at(1), theta: at(2) }
 }
 
@@ -677,13 +682,9 @@ pub fn preset_members(
 ) -> Option<Vec<Option<Vec<CustomResult>>>> {
     let presets: Vec<&Preset> = models.iter().map(|m| m.preset.as_deref()).collect::<Option<_>>()?;
     let dynamic = mode == Mode::Dynamic;
-    let samples: Vec<clearance_grid::Sample> = poses
-        .iter()
-        .map(|p| {
-            let at = |i: usize| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] };
-            clearance_grid::Sample { index: 0, t: None, z: at(0), psi: at(1), theta: at(2) }
-        })
-        .collect();
+    // Statics has no rates, as `solve_members_near` has none there.
+    let samples: Vec<clearance_grid::Sample> =
+        poses.iter().map(|p| kernel_sample_of(|i| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] })).collect();
     let mut kernel = vec![PoseResult::default(); samples.len()];
     let mut out: Vec<Option<Vec<CustomResult>>> =
         (0..poses.len()).map(|_| Some(Vec::with_capacity(models.len()))).collect();
