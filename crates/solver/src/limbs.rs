@@ -131,6 +131,12 @@ impl Body {
 
     /// `I·ω̇ + ω×(I·ω)`.
     pub(crate) fn spin(&self) -> Vector3<f64> {
+        // A body at rest in statics: no inertia formed, no motion. Every product is
+        // then +0, so the value is the one computed, +0, without the products.
+        let zero = |v: &[f64]| v.iter().all(|x| x.to_bits() == 0);
+        if zero(self.omega.as_slice()) && zero(self.omega_dot.as_slice()) && zero(self.inertia.as_slice()) {
+            return Vector3::zeros();
+        }
         let (i, w) = (&self.inertia, &self.omega);
         i * self.omega_dot + w.cross(&(i * w))
     }

@@ -505,21 +505,26 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
     if !conditioned {
         return out;
     }
-    let sol = match how {
-        Solve::All | Solve::Errors => match (&inverse, model.assembly.solve_loads_reduced(posed, inverse.as_ref())) {
-            (Some(inverse), Some(mut sol)) => {
-                leg_errors(&model.assembly, &pose, inverse, &mut sol);
-                sol
+    // Solved into the worker's solution, reset (some 2 kB): a fresh one a pose,
+    // returned by value, was copied several times over.
+    let sol = &mut ws.sol;
+    *sol = LimbsSolution::default();
+    match how {
+        Solve::All | Solve::Errors => match &inverse {
+            Some(inverse) if model.assembly.solve_loads_reduced_into(posed, Some(inverse), sol) => {
+                leg_errors(&model.assembly, &pose, inverse, sol);
             }
-            _ => model.assembly.solve(posed, &mut ws.data),
+            _ => *sol = model.assembly.solve(posed, &mut ws.data),
         },
-        Solve::Assembled => model.assembly.solve(posed, &mut ws.data),
-        Solve::Loads => model.assembly.solve_loads(posed, &mut ws.data),
-        Solve::Reduced => model
-            .assembly
-            .solve_loads_reduced(posed, inverse.as_ref())
-            .unwrap_or_else(|| model.assembly.solve_loads(posed, &mut ws.data)),
-    };
+        Solve::Assembled => *sol = model.assembly.solve(posed, &mut ws.data),
+        Solve::Loads => *sol = model.assembly.solve_loads(posed, &mut ws.data),
+        Solve::Reduced => {
+            if !model.assembly.solve_loads_reduced_into(posed, inverse.as_ref(), sol) {
+                *sol = model.assembly.solve_loads(posed, &mut ws.data);
+            }
+        }
+    }
+    let sol = &*sol;
     if sol.status == Status::NearSingular {
         return out;
     }
@@ -540,10 +545,10 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
         return out;
     }
     if let Some(inverse) = &inverse {
-        set_envelope(model, &pose, inverse, &sol, &mut out);
+        set_envelope(model, &pose, inverse, sol, &mut out);
     }
     if model.exact && out.status == Status::Ok {
-        out.exact = ups_exact_error(model, &pose, &sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
+        out.exact = ups_exact_error(model, &pose, sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
     }
     out
 }
@@ -603,13 +608,31 @@ fn leg_screws(pose: &UpsPosture) -> SMatrix<f64, 6, 6> {
 
 /// `(κ₁(G), κ∞(G))` ([`ups_condition`]) and `G⁻¹`, which the envelope uses too.
 fn condition_of(g: &SMatrix<f64, 6, 6>) -> (f64, f64, Option<SMatrix<f64, 6, 6>>) {
-    let one = |m: &SMatrix<f64, 6, 6>| (0..6).map(|c| m.column(c).abs().sum()).fold(0.0, f64::max);
-    let inf = |m: &SMatrix<f64, 6, 6>| (0..6).map(|r| m.row(r).abs().sum()).fold(0.0, f64::max);
     let inverse = inverse6(g);
     match &inverse {
-        Some(gi) if gi.iter().all(|v| v.is_finite()) => (one(g) * one(gi), inf(g) * inf(gi), inverse),
+        Some(gi) if gi.as_slice().iter().all(|v| v.is_finite()) => {
+            let ((g1, g_inf), (i1, i_inf)) = (norms(g), norms(gi));
+            (g1 * i1, g_inf * i_inf, inverse)
+        }
         _ => (f64::INFINITY, f64::INFINITY, inverse),
     }
+}
+
+/// `(‖m‖₁, ‖m‖∞)`: the largest column and row sums of `|m|`, each sum from zero in
+/// index order. Written out: nalgebra's strided views summed through their iterators
+/// took more than the inverse itself.
+fn norms(m: &SMatrix<f64, 6, 6>) -> (f64, f64) {
+    let (mut cols, mut rows) = ([0.0f64; 6], [0.0f64; 6]);
+    let m = m.as_slice(); // column-major
+    for c in 0..6 {
+        for r in 0..6 {
+            let v = m[6 * c + r].abs();
+            cols[c] += v;
+            rows[r] += v;
+        }
+    }
+    let largest = |sums: [f64; 6]| sums.into_iter().fold(0.0, f64::max);
+    (largest(cols), largest(rows))
 }
 
 /// `g⁻¹` by Gauss–Jordan elimination with partial pivoting, `None` where a pivot is
@@ -817,4 +840,31 @@ pub fn ups_exact_error(model: &UpsModel, pose: &UpsPosture, sol: &LimbsSolution)
     }
     let out = [w.x, w.y, w.z, dp.x, dp.y, dp.z];
     (last_step <= 1e-10 && out.iter().all(|v| v.is_finite())).then_some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The written-out norms are nalgebra's column and row sums of `|m|`, bit for bit
+    /// (the condition numbers of every 6-UPS job keep their values), on matrices with
+    /// entries over many magnitudes and signs, zeros included.
+    #[test]
+    fn norms_are_nalgebras_sums_bit_for_bit() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..2000 {
+            let m = SMatrix::<f64, 6, 6>::from_fn(|_, _| {
+                if rng.random_bool(0.1) {
+                    0.0
+                } else {
+                    rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(-8..8))
+                }
+            });
+            let one = (0..6).map(|c| m.column(c).abs().sum()).fold(0.0, f64::max);
+            let inf = (0..6).map(|r| m.row(r).abs().sum()).fold(0.0, f64::max);
+            let (n1, n_inf) = norms(&m);
+            assert_eq!((n1.to_bits(), n_inf.to_bits()), (one.to_bits(), inf.to_bits()), "{m}");
+        }
+    }
 }
