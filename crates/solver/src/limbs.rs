@@ -133,8 +133,8 @@ impl Body {
     pub(crate) fn spin(&self) -> Vector3<f64> {
         // A body at rest in statics: no inertia formed, no motion. Every product is
         // then +0, so the value is the one computed, +0, without the products.
-        let zero = |v: &[f64]| v.iter().all(|x| x.to_bits() == 0);
-        if zero(self.omega.as_slice()) && zero(self.omega_dot.as_slice()) && zero(self.inertia.as_slice()) {
+        let bits = |v: &[f64]| v.iter().fold(0, |a, x| a | x.to_bits());
+        if bits(self.omega.as_slice()) | bits(self.omega_dot.as_slice()) | bits(self.inertia.as_slice()) == 0 {
             return Vector3::zeros();
         }
         let (i, w) = (&self.inertia, &self.omega);
