@@ -581,7 +581,11 @@ type SolveAt<'a> = dyn Fn(f64) -> (Option<f64>, [[f64; 3]; 6], Vec<CustomResult>
 /// changes between consecutive determinate samples, and two where an interval beside a
 /// sampled minimum of its magnitude holds a point of the other sign; each located to
 /// [`LOCATE_TOL`] in the path. The jump is read at the samples either side, or at the
-/// point of the other sign between a pair.
+/// point of the other sign between a pair. A crossing whose point the search cannot
+/// solve again (its continuation from the points it solved last does not reach the
+/// pose, or the group's load is not the search's there) is dropped, as a point that
+/// cannot be solved cuts an interval: its margin and parasitic coordinates would be
+/// unknown.
 #[allow(clippy::too_many_arguments)]
 fn scalar_switches(
     path: &UpsPath,
@@ -597,12 +601,12 @@ fn scalar_switches(
     let values: Vec<Option<f64>> = loads.iter().map(|l| l.map(|v| v[0])).collect();
     scalar_load::crossings(&values, floor, LOCATE_TOL, |p| at(p).map(|v| v[0]))
         .into_iter()
-        .map(|c| {
+        .filter_map(|c| {
             let (t, s, r) = solve_at(c.at);
-            // |load| of the pose just solved.
-            let margin =
-                group_load(&r[0], group).map_or(f64::NAN, |v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
-            (switch(path, limb, kind, t, &s, &r[0], margin), c.before, c.after)
+            // |load| of the pose just solved; none where it cannot be solved there.
+            let v = group_load(&r[0], group)?;
+            let margin = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            Some((switch(path, limb, kind, t, &s, &r[0], margin), c.before, c.after))
         })
         .collect()
 }
@@ -633,7 +637,9 @@ fn switch(
 }
 
 /// The vector rule of docs/model.md §8 on one group's loads along one path; the jump
-/// is the kind's error between the two points where the directions were read.
+/// is the kind's error between the two points where the directions were read. A
+/// switch whose point the search cannot solve again is dropped (as in
+/// [`scalar_switches`]).
 fn vector_switches(
     path: &UpsPath,
     loads: &[Option<[f64; 3]>],
@@ -650,9 +656,11 @@ fn vector_switches(
     };
     vector_load::path_switches(&mags, rule, at)
         .into_iter()
-        .map(|found| {
+        .filter_map(|found| {
             let (t, s, r) = solve_at(found.at);
-            (switch(path, limb, kind, t, &s, &r[0], found.margin), place(&found.before), place(&found.after))
+            r[0].loaded().then(|| {
+                (switch(path, limb, kind, t, &s, &r[0], found.margin), place(&found.before), place(&found.after))
+            })
         })
         .collect()
 }
