@@ -505,21 +505,22 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
     if !conditioned {
         return out;
     }
-    // Solved into the worker's solution, reset (some 2 kB): a fresh one a pose,
-    // returned by value, was copied several times over.
+    // The reduced form solves into the worker's solution, reset (some 2 kB): a fresh
+    // one a pose, returned by value, was copied several times over.
     let sol = &mut ws.sol;
-    *sol = LimbsSolution::default();
+    let reduced = |sol: &mut LimbsSolution, inverse: Option<&SMatrix<f64, 6, 6>>| {
+        *sol = LimbsSolution::default();
+        model.assembly.solve_loads_reduced_into(posed, inverse, sol)
+    };
     match how {
         Solve::All | Solve::Errors => match &inverse {
-            Some(inverse) if model.assembly.solve_loads_reduced_into(posed, Some(inverse), sol) => {
-                leg_errors(&model.assembly, &pose, inverse, sol);
-            }
+            Some(inverse) if reduced(sol, Some(inverse)) => leg_errors(&model.assembly, &pose, inverse, sol),
             _ => *sol = model.assembly.solve(posed, &mut ws.data),
         },
         Solve::Assembled => *sol = model.assembly.solve(posed, &mut ws.data),
         Solve::Loads => *sol = model.assembly.solve_loads(posed, &mut ws.data),
         Solve::Reduced => {
-            if !model.assembly.solve_loads_reduced_into(posed, inverse.as_ref(), sol) {
+            if !reduced(sol, inverse.as_ref()) {
                 *sol = model.assembly.solve_loads(posed, &mut ws.data);
             }
         }
