@@ -461,18 +461,74 @@ fn chain(limb: &LimbGeom, states: &[JointState]) -> (Vec<Rigid>, Vec<PosedJoint>
 
 /// The displacement of a limb's last body and its columns (in `columns`, at most six:
 /// a limb of more freedoms is idle and refused), without allocating. `None` past six.
-fn closure(limb: &LimbGeom, states: &[JointState], columns: &mut [Vector6<f64>; 6]) -> Option<(Rigid, usize)> {
+/// What crossing each joint gave is kept in `crossed`, from which [`chain`]'s result is
+/// put together without crossing the joints again ([`Crossing::chain`]).
+fn closure(
+    limb: &LimbGeom,
+    states: &[JointState],
+    columns: &mut [Vector6<f64>; 6],
+    crossed: &mut [Crossing; 6],
+) -> Option<(Rigid, usize)> {
     let mut g = Rigid::IDENTITY;
     let mut n = 0;
-    for (j, s) in limb.joints.iter().zip(states) {
+    for ((j, s), kept) in limb.joints.iter().zip(states).zip(crossed.iter_mut()) {
         let c = cross(j, s, &mut g);
         if n + c.n > 6 {
             return None;
         }
         columns[n..n + c.n].copy_from_slice(&c.columns[..c.n]);
+        // Field by field: the compiler moves these in registers, where the whole
+        // struct at once went through `memcpy`.
+        kept.body.r = g.r;
+        kept.body.t = g.t;
+        kept.centre = c.centre;
+        kept.axis = c.axis;
+        kept.axis2 = c.axis2;
+        kept.n = c.n;
         n += c.n;
     }
-    Some((g, n))
+    // Six columns come from six joints at most, so every joint was kept.
+    (limb.joints.len() <= 6).then_some((g, n))
+}
+
+/// One joint as [`closure`] crossed it: the displacement of the body after it, its
+/// centre and axes at the pose, and how many columns it gave.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    body: Rigid,
+    centre: V3,
+    axis: V3,
+    axis2: V3,
+    n: usize,
+}
+
+impl Default for Crossing {
+    fn default() -> Self {
+        Self { body: Rigid::IDENTITY, centre: V3::zeros(), axis: V3::zeros(), axis2: V3::zeros(), n: 0 }
+    }
+}
+
+impl Crossing {
+    /// [`chain`]'s result for a limb whose joints [`closure`] crossed (`crossed`, in
+    /// order) with the columns `columns`: the same numbers, bit for bit.
+    fn chain(limb: &LimbGeom, crossed: &[Crossing; 6], columns: &[Vector6<f64>; 6]) -> (Vec<Rigid>, Vec<PosedJoint>) {
+        let mut bodies = Vec::with_capacity(limb.joints.len());
+        let mut joints = Vec::with_capacity(limb.joints.len());
+        let mut at = 0;
+        for (j, c) in limb.joints.iter().zip(crossed) {
+            let normal = if j.joint == JointType::U { c.axis.cross(&c.axis2) } else { V3::zeros() };
+            joints.push(PosedJoint {
+                centre: c.centre,
+                axis: c.axis,
+                axis2: c.axis2,
+                normal,
+                columns: Screws::of(&columns[at..at + c.n]),
+            });
+            bodies.push(c.body);
+            at += c.n;
+        }
+        (bodies, joints)
+    }
 }
 
 /// The closure's Newton matrix `[J_1 … J_L | −V_par]` (limb l's rows hold its columns
@@ -518,24 +574,13 @@ impl Lu6 {
             }
         }
         self.perm = [0, 1, 2, 3, 4, 5];
-        for c in 0..6 {
-            let p = (c..6).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs())).unwrap_or(c);
-            m.swap(c, p);
-            self.perm.swap(c, p);
-            let pivot = m[c][c];
-            if pivot == 0.0 || !pivot.is_finite() {
-                return false;
-            }
-            let row = m[c];
-            for r in m.iter_mut().skip(c + 1) {
-                let f = r[c] / pivot;
-                r[c] = f;
-                for k in c + 1..6 {
-                    r[k] -= f * row[k];
-                }
-            }
-        }
-        true
+        let perm = &mut self.perm;
+        eliminate::<0>(m, perm)
+            && eliminate::<1>(m, perm)
+            && eliminate::<2>(m, perm)
+            && eliminate::<3>(m, perm)
+            && eliminate::<4>(m, perm)
+            && eliminate::<5>(m, perm)
     }
 
     /// `A⁻¹·b` into `x`.
@@ -557,6 +602,34 @@ impl Lu6 {
             x[i] = t / m[i][i];
         }
     }
+}
+
+/// Step `C` of [`Lu6::factor`]: the pivot of column `C` (the largest magnitude, the last
+/// of equals, as `Iterator::max_by` picks it), its row exchanged into place, and the
+/// rows below it eliminated. `false` where the pivot is zero or not finite. A constant
+/// column lets the compiler unroll the loops.
+fn eliminate<const C: usize>(m: &mut [[f64; 6]; 6], perm: &mut [usize; 6]) -> bool {
+    let mut p = C;
+    for r in C + 1..6 {
+        if m[r][C].abs().total_cmp(&m[p][C].abs()).is_ge() {
+            p = r;
+        }
+    }
+    m.swap(C, p);
+    perm.swap(C, p);
+    let pivot = m[C][C];
+    if pivot == 0.0 || !pivot.is_finite() {
+        return false;
+    }
+    let row = m[C];
+    for r in m.iter_mut().skip(C + 1) {
+        let f = r[C] / pivot;
+        r[C] = f;
+        for k in C + 1..6 {
+            r[k] -= f * row[k];
+        }
+    }
+    true
 }
 
 impl Factored {
@@ -818,6 +891,11 @@ fn factor(geom: &CustomGeometry, coords: &[f64; 6], columns: &[[Vector6<f64>; 6]
 /// a few times, and a grid has millions of poses.
 struct NewtonWork {
     columns: Vec<[Vector6<f64>; 6]>,
+    /// Per limb, its joints as the last closure evaluated crossed them.
+    crossed: Vec<[Crossing; 6]>,
+    /// Whether the last Newton solve converged: `columns` and `crossed` are then those
+    /// of the configuration it returned.
+    converged: bool,
     dofs: Vec<usize>,
     r: Vec<Vector6<f64>>,
     dx: Vec<f64>,
@@ -828,6 +906,8 @@ impl NewtonWork {
     fn new(k: usize, limbs: usize, unknowns: usize) -> Self {
         Self {
             columns: vec![[Vector6::zeros(); 6]; limbs],
+            crossed: vec![[Crossing::default(); 6]; limbs],
+            converged: false,
             dofs: vec![0; limbs],
             r: vec![Vector6::zeros(); limbs],
             dx: vec![0.0; unknowns],
@@ -873,13 +953,14 @@ fn newton_in(
     let mut moved = 0.0f64;
     let home = placement(&geom.home).inverse();
     let k = geom.parasitic.len();
-    let NewtonWork { columns, dofs, r, dx, f } = work;
+    let NewtonWork { columns, crossed, converged, dofs, r, dx, f } = work;
+    *converged = false;
     let mut last = f64::INFINITY;
     for _ in 0..NEWTON_STEPS {
         let d = placement(coords).then(&home);
         let mut size = 0.0f64;
         for (l, limb) in geom.limbs.iter().enumerate() {
-            let (g, n) = closure(limb, &states[l], &mut columns[l])?;
+            let (g, n) = closure(limb, &states[l], &mut columns[l], &mut crossed[l])?;
             dofs[l] = n;
             r[l] = residual(&g, &d);
             for (i, v) in r[l].iter().enumerate() {
@@ -887,6 +968,7 @@ fn newton_in(
             }
         }
         if size < 1e-14 {
+            *converged = true;
             return Some(moved);
         }
         // A residual that grows while far above round-off is not converging: the
@@ -1036,7 +1118,24 @@ pub fn custom_posture_near(
     near: Option<&Configuration>,
 ) -> Result<CustomPosture, Unsolved> {
     let (coords, states) = solve_configuration_near(geom, target, near)?;
-    Ok(posture_at(geom, coords, states, rates))
+    // The last Newton solve of this thread is the one that reached `states` (either
+    // way `solve_configuration_near` goes, the accepted solve is its last): its closure
+    // crossed every joint at them already.
+    let chains = NEWTON_WORK.with(|cell| {
+        let cell = cell.borrow();
+        let work = cell.as_ref().filter(|w| w.converged && w.crossed.len() == geom.limbs.len())?;
+        Some(
+            geom.limbs
+                .iter()
+                .enumerate()
+                .map(|(l, limb)| Crossing::chain(limb, &work.crossed[l], &work.columns[l]))
+                .unzip(),
+        )
+    });
+    Ok(match chains {
+        Some((motions, joints)) => posture_of(geom, coords, states, rates, motions, joints),
+        None => posture_at(geom, coords, states, rates),
+    })
 }
 
 /// The posture of a solved configuration.
@@ -1046,18 +1145,30 @@ pub fn posture_at(
     states: Vec<Vec<JointState>>,
     rates: Option<(&[f64], &[f64])>,
 ) -> CustomPosture {
-    let mut joints = Vec::with_capacity(geom.limbs.len());
-    let mut motions = Vec::with_capacity(geom.limbs.len());
-    for (limb, st) in geom.limbs.iter().zip(&states) {
-        let (b, j) = chain(limb, st);
-        motions.push(b);
-        joints.push(j);
-    }
+    let (motions, joints) = geom.limbs.iter().zip(&states).map(|(limb, st)| chain(limb, st)).unzip();
+    posture_of(geom, coords, states, rates, motions, joints)
+}
+
+/// [`posture_at`] with every limb's [`chain`] at `states` given: its bodies'
+/// displacements (`motions`) and its posed joints.
+fn posture_of(
+    geom: &CustomGeometry,
+    coords: [f64; 6],
+    states: Vec<Vec<JointState>>,
+    rates: Option<(&[f64], &[f64])>,
+    motions: Vec<Vec<Rigid>>,
+    joints: Vec<Vec<PosedJoint>>,
+) -> CustomPosture {
     let platform = placement(&coords);
     let n_par = geom.parasitic.len();
     let (mut twist, mut accel) = (Vector6::zeros(), Vector6::zeros());
-    let mut rates_of_columns: Vec<Vec<f64>> = geom.limbs.iter().map(|l| vec![0.0; l.dof()]).collect();
-    let mut accels_of_columns = rates_of_columns.clone();
+    // In statics every rate is zero, and so is every body's twist and acceleration
+    // (+0, as the products with zero rates give for the finite screws of a solved pose).
+    let moving = rates.is_some();
+    let per_column = || -> Vec<Vec<f64>> {
+        if moving { geom.limbs.iter().map(|l| vec![0.0; l.dof()]).collect() } else { Vec::new() }
+    };
+    let (mut rates_of_columns, mut accels_of_columns) = (per_column(), per_column());
     if let Some((vel, acc)) = rates {
         let mut columns = vec![[Vector6::zeros(); 6]; geom.limbs.len()];
         let mut dofs = vec![0; geom.limbs.len()];
@@ -1123,7 +1234,7 @@ pub fn posture_at(
         let (mut v, mut a) = (Vector6::zeros(), Vector6::zeros());
         let mut col = 0;
         for (j, pj) in joints[l].iter().enumerate() {
-            for s in &pj.columns {
+            for s in pj.columns.iter().filter(|_| moving) {
                 let rate = rates_of_columns[l][col];
                 a += s * accels_of_columns[l][col] + bracket(&v, s) * rate;
                 v += s * rate;
@@ -1158,4 +1269,80 @@ fn column_drift(joints: &[PosedJoint], rates: &[f64]) -> Vector6<f64> {
         }
     }
     drift
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The factorisation as first written (a pivot by `Iterator::max_by`, loops over
+    /// ranges): the reference the unrolled [`eliminate`] steps must equal bit for bit.
+    fn reference(cols: &[Vector6<f64>; 6]) -> Option<([[f64; 6]; 6], [usize; 6])> {
+        let mut m = [[0.0; 6]; 6];
+        for (c, col) in cols.iter().enumerate() {
+            for r in 0..6 {
+                m[r][c] = col[r];
+            }
+        }
+        let mut perm = [0, 1, 2, 3, 4, 5];
+        for c in 0..6 {
+            let p = (c..6).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs())).unwrap_or(c);
+            m.swap(c, p);
+            perm.swap(c, p);
+            let pivot = m[c][c];
+            if pivot == 0.0 || !pivot.is_finite() {
+                return None;
+            }
+            let row = m[c];
+            for r in m.iter_mut().skip(c + 1) {
+                let f = r[c] / pivot;
+                r[c] = f;
+                for k in c + 1..6 {
+                    r[k] -= f * row[k];
+                }
+            }
+        }
+        Some((m, perm))
+    }
+
+    #[test]
+    fn lu6_is_the_reference_factorisation_and_solves() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for trial in 0..3000 {
+            // Random columns; one in three with entries of equal magnitude (ties of the
+            // pivot), one in ten with a zero column (no factorisation).
+            let mut cols: [Vector6<f64>; 6] =
+                std::array::from_fn(|_| Vector6::from_fn(|_, _| rng.random_range(-1.0..1.0)));
+            if trial % 3 == 0 {
+                for c in cols.iter_mut() {
+                    for v in c.iter_mut() {
+                        *v = if rng.random_bool(0.5) { 0.5 } else { -0.5 }
+                            * if rng.random_bool(0.3) { 0.0 } else { 1.0 };
+                    }
+                }
+            }
+            if trial % 10 == 1 {
+                cols[rng.random_range(0..6)] = Vector6::zeros();
+            }
+            let mut lu = Lu6::default();
+            let ok = lu.factor(&cols);
+            let expected = reference(&cols);
+            assert_eq!(ok, expected.is_some(), "trial {trial}");
+            let Some((m, perm)) = expected else { continue };
+            assert_eq!(perm, lu.perm, "trial {trial}");
+            let bits = |m: &[[f64; 6]; 6]| m.map(|row| row.map(f64::to_bits));
+            assert_eq!(bits(&m), bits(&lu.m), "trial {trial}");
+            // And it solves: A·x = b to round-off of the conditioning.
+            let a = Matrix6::from_columns(&cols);
+            let b = Vector6::from_fn(|_, _| rng.random_range(-1.0..1.0));
+            let mut x = [0.0; 6];
+            lu.solve(&b, &mut x);
+            let x = Vector6::from_column_slice(&x);
+            let Some(inv) = a.try_inverse() else { continue };
+            let kappa = a.norm() * inv.norm();
+            assert!((a * x - b).norm() <= 1e-13 * kappa * (a.norm() * x.norm() + b.norm()), "trial {trial}");
+        }
+    }
 }
