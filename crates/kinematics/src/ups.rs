@@ -203,8 +203,13 @@ struct Legs<T> {
 }
 
 fn legs<T: Real>(geom: &UpsGeometry, inputs: [T; 6]) -> Result<Legs<T>, Unreachable> {
-    let [x, y, z, phi, psi, theta] = inputs;
-    let rot = rotation(phi, psi, theta);
+    let [_, _, _, phi, psi, theta] = inputs;
+    legs_turned(geom, inputs, rotation(phi, psi, theta))
+}
+
+/// [`legs`] with the platform's rotation `rot` given.
+fn legs_turned<T: Real>(geom: &UpsGeometry, inputs: [T; 6], rot: [[T; 3]; 3]) -> Result<Legs<T>, Unreachable> {
+    let [x, y, z, ..] = inputs;
     let p = [x, y, z];
     let zero = T::constant(0.0);
     let (mut a, mut q, mut e) = ([[zero; 3]; 6], [zero; 6], [[zero; 3]; 6]);
@@ -255,7 +260,32 @@ fn posture_of<T: Real>(geom: &UpsGeometry, inputs: [f64; 6], l: &Legs<T>) -> Ups
 
 /// The posture at `(x, y, z, Φ, Ψ, Θ)`, or the first leg outside its stroke.
 pub fn ups_inverse_kinematics(geom: &UpsGeometry, inputs: [f64; 6]) -> Result<UpsPosture, Unreachable> {
-    Ok(posture_of(geom, inputs, &legs(geom, inputs)?))
+    let rot = same_rotation(inputs[3], inputs[4], inputs[5]);
+    Ok(posture_of(geom, inputs, &legs_turned(geom, inputs, rot)?))
+}
+
+/// Three angles (as bits) and their rotation.
+type Turned = ([u64; 3], [[f64; 3]; 3]);
+
+thread_local! {
+    /// The angles and the rotation [`same_rotation`] computed last.
+    static LAST_ROTATION: std::cell::Cell<Option<Turned>> = const { std::cell::Cell::new(None) };
+}
+
+/// [`rotation`] of the angles, the last one again where the angles are the last ones,
+/// bit for bit: a position grid at a fixed orientation, and the search along its lines,
+/// solve every pose at the same angles, whose three sines and cosines took a few
+/// per cent of a 6-UPS run.
+fn same_rotation(phi: f64, psi: f64, theta: f64) -> [[f64; 3]; 3] {
+    let key = [phi.to_bits(), psi.to_bits(), theta.to_bits()];
+    LAST_ROTATION.with(|last| match last.get() {
+        Some((k, rot)) if k == key => rot,
+        _ => {
+            let rot = rotation(phi, psi, theta);
+            last.set(Some((key, rot)));
+            rot
+        }
+    })
 }
 
 /// The posture and its exact rates, from each input's `[value, rate, acceleration]`
