@@ -446,17 +446,17 @@ fn chain(limb: &LimbGeom, states: &[JointState]) -> (Vec<Rigid>, Vec<PosedJoint>
     let mut joints = Vec::with_capacity(limb.joints.len());
     for (j, s) in limb.joints.iter().zip(states) {
         let c = cross(j, s, &mut g);
-        let normal = if j.joint == JointType::U { c.axis.cross(&c.axis2) } else { V3::zeros() };
-        joints.push(PosedJoint {
-            centre: c.centre,
-            axis: c.axis,
-            axis2: c.axis2,
-            normal,
-            columns: Screws::of(&c.columns[..c.n]),
-        });
+        joints.push(posed(j, &c.centre, &c.axis, &c.axis2, &c.columns[..c.n]));
         bodies.push(g);
     }
     (bodies, joints)
+}
+
+/// Joint `j` at a pose, from what crossing it gave: its centre, axes and columns (a U
+/// joint's normal `a1 × a2` from its two axes).
+fn posed(j: &JointGeom, centre: &V3, axis: &V3, axis2: &V3, columns: &[Vector6<f64>]) -> PosedJoint {
+    let normal = if j.joint == JointType::U { axis.cross(axis2) } else { V3::zeros() };
+    PosedJoint { centre: *centre, axis: *axis, axis2: *axis2, normal, columns: Screws::of(columns) }
 }
 
 /// The displacement of a limb's last body and its columns (in `columns`, at most six:
@@ -516,14 +516,7 @@ impl Crossing {
         let mut joints = Vec::with_capacity(limb.joints.len());
         let mut at = 0;
         for (j, c) in limb.joints.iter().zip(crossed) {
-            let normal = if j.joint == JointType::U { c.axis.cross(&c.axis2) } else { V3::zeros() };
-            joints.push(PosedJoint {
-                centre: c.centre,
-                axis: c.axis,
-                axis2: c.axis2,
-                normal,
-                columns: Screws::of(&columns[at..at + c.n]),
-            });
+            joints.push(posed(j, &c.centre, &c.axis, &c.axis2, &columns[at..at + c.n]));
             bodies.push(c.body);
             at += c.n;
         }
@@ -1234,11 +1227,13 @@ fn posture_of(
         let (mut v, mut a) = (Vector6::zeros(), Vector6::zeros());
         let mut col = 0;
         for (j, pj) in joints[l].iter().enumerate() {
-            for s in pj.columns.iter().filter(|_| moving) {
-                let rate = rates_of_columns[l][col];
-                a += s * accels_of_columns[l][col] + bracket(&v, s) * rate;
-                v += s * rate;
-                col += 1;
+            if moving {
+                for s in &pj.columns {
+                    let rate = rates_of_columns[l][col];
+                    a += s * accels_of_columns[l][col] + bracket(&v, s) * rate;
+                    v += s * rate;
+                    col += 1;
+                }
             }
             if let Some(body) = limb.bodies.get(j) {
                 let g = motions[l][j];
