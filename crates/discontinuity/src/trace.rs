@@ -216,6 +216,47 @@ pub fn keep_local_minima_of(
     let settled = settled_bits(None);
     // The bits of inputs that do not vary: no path follows them.
     let unused = axes.iter().fold(settled, |m, a| m & !settled_bits(Some(a.along)));
+    // Per load `q = 3d + j` (the slot of `Decider::ALL[d]`, limb `j`) a bit `q`:
+    // its determinate bit is bit `1 + q` of a trace (the deciders' kinds are the
+    // first three of `KINDS`), its candidate bits along an input `mins + q` and
+    // `turns + q` (the vector loads, `q < 6`).
+    debug_assert!((0..9).all(|q| det_bit(Decider::ALL[q / 3].kind(), q % 3) == 1 << (1 + q)));
+    // The loads whose minimum at magnitudes `here` the neighbour `k` does not rule
+    // out: every one where it is not in hand or unsolvable; else those indeterminate
+    // there and those whose magnitude there is not below.
+    let allowed = |k: Option<usize>, here: &[f64; 9]| -> Trace {
+        let Some(k) = k.filter(|&k| k < n) else { return LOADS };
+        let tk = traces[k];
+        if tk & SOLVABLE == 0 {
+            return LOADS;
+        }
+        let there = &loads[k].magnitude;
+        let mut not_below = 0;
+        for q in 0..9 {
+            not_below |= Trace::from(here[q] <= there[q] * (1.0 + SLACK)) << q;
+        }
+        (!(tk >> 1) | not_below) & LOADS
+    };
+    // The vector loads whose direction may turn on the interval to the next sample
+    // `k` from directions `here`: every one past the path's end; none where `k` is
+    // unsolvable (no interval); else those indeterminate there (the interval skips
+    // it) and those turning by about 90° or more.
+    let turning = |k: usize, here: &[[f32; 3]; 6]| -> Trace {
+        if k >= n {
+            return VECTORS;
+        }
+        let tk = traces[k];
+        if tk & SOLVABLE == 0 {
+            return 0;
+        }
+        let there = &loads[k].direction;
+        let mut turn = 0;
+        for q in 0..6 {
+            let (u, v) = (here[q], there[q]);
+            turn |= Trace::from(u[0] * v[0] + u[1] * v[1] + u[2] * v[2] < TURN_SLACK) << q;
+        }
+        (!(tk >> 1) | turn) & VECTORS
+    };
     which
         .into_par_iter()
         .with_min_len(4096)
@@ -226,63 +267,37 @@ pub fn keep_local_minima_of(
             }
             t &= !unused;
             let global = first + i as u64;
+            let here = &loads[i];
             for a in axes {
+                let x = slot(a.along);
+                let (mins, turns) = (16 + 9 * x, 43 + 6 * x);
                 let s = a.stride as usize;
-                // The neighbours along this axis (in hand or not) where the sample is
-                // interior, and whether there is a next node.
-                let interior = !a.is_end(global);
-                let (before, after) = (i.checked_sub(s), i + s);
-                let ahead = (global / a.stride) % a.n + 1 < a.n;
-                for j in 0..3 {
-                    for d in Decider::ALL {
-                        let det = det_bit(d.kind(), j);
-                        let slot = d.slot(j);
-                        let bit = min_bit(d, j, a.along);
-                        if t & bit != 0 {
-                            let here = loads[i].magnitude[slot];
-                            // Whether the sample `k` (if in hand) does not rule out a minimum here.
-                            let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
-                                Some(k) => {
-                                    traces[k] & SOLVABLE == 0
-                                        || traces[k] & det == 0
-                                        || here <= loads[k].magnitude[slot] * (1.0 + SLACK)
-                                }
-                                None => true,
-                            };
-                            if !(interior && allows(before) && allows(Some(after))) {
-                                t &= !bit;
-                            }
-                        }
-                        if d == Decider::Axial || t & turn_bit(d, j, a.along) == 0 {
-                            continue;
-                        }
-                        let u = loads[i].direction[slot];
-                        // Whether the interval to the next sample may turn: an
-                        // unsolvable one ends the segment (no interval), an
-                        // indeterminate one is skipped by it.
-                        let turns = |k: usize| {
-                            if k >= n {
-                                return true;
-                            }
-                            if traces[k] & SOLVABLE == 0 {
-                                return false;
-                            }
-                            if traces[k] & det == 0 {
-                                return true;
-                            }
-                            let v = loads[k].direction[slot];
-                            u[0] * v[0] + u[1] * v[1] + u[2] * v[2] < TURN_SLACK
-                        };
-                        if !(ahead && turns(after)) {
-                            t &= !turn_bit(d, j, a.along);
-                        }
-                    }
+                if t & (LOADS << mins) != 0 {
+                    // A minimum only at an interior sample that neither neighbour along
+                    // this axis rules out.
+                    let keep = if a.is_end(global) {
+                        0
+                    } else {
+                        allowed(i.checked_sub(s), &here.magnitude) & allowed(Some(i + s), &here.magnitude)
+                    };
+                    t &= !((LOADS & !keep) << mins);
+                }
+                if t & (VECTORS << turns) != 0 {
+                    // A turn only towards a next node.
+                    let ahead = (global / a.stride) % a.n + 1 < a.n;
+                    let keep = if ahead { turning(i + s, &here.direction) } else { 0 };
+                    t &= !((VECTORS & !keep) << turns);
                 }
             }
             t
         })
         .collect()
 }
+
+/// The bits of the nine loads a trace follows the magnitude of, and of the six
+/// vector loads among them, as [`keep_local_minima_of`] sets them out.
+const LOADS: Trace = 0x1ff;
+const VECTORS: Trace = 0x3f;
 
 /// Samples whose traces [`traces`] settles together: bounds the memory of their loads.
 const TRACE_CHUNK: u64 = 1 << 16;
@@ -313,4 +328,168 @@ pub fn traces(
         out.extend(keep_local_minima(&axes, first, &t, &loads));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    /// [`keep_local_minima_of`] as it was first written, a candidate bit at a time
+    /// through `min_bit` and `turn_bit`: the reference the table-driven loops must
+    /// equal.
+    fn reference(
+        axes: &[Axis],
+        first: u64,
+        traces: &[Trace],
+        loads: &[Loads],
+        which: std::ops::Range<usize>,
+    ) -> Vec<Trace> {
+        let n = traces.len();
+        let settled = settled_bits(None);
+        let unused = axes.iter().fold(settled, |m, a| m & !settled_bits(Some(a.along)));
+        which
+            .into_iter()
+            .map(|i| {
+                let mut t = traces[i];
+                if t & settled == 0 {
+                    return t;
+                }
+                t &= !unused;
+                let global = first + i as u64;
+                for a in axes {
+                    let s = a.stride as usize;
+                    // The neighbours along this axis (in hand or not) where the sample is
+                    // interior, and whether there is a next node.
+                    let interior = !a.is_end(global);
+                    let (before, after) = (i.checked_sub(s), i + s);
+                    let ahead = (global / a.stride) % a.n + 1 < a.n;
+                    for j in 0..3 {
+                        for d in Decider::ALL {
+                            let det = det_bit(d.kind(), j);
+                            let slot = d.slot(j);
+                            let bit = min_bit(d, j, a.along);
+                            if t & bit != 0 {
+                                let here = loads[i].magnitude[slot];
+                                // Whether the sample `k` (if in hand) does not rule out a minimum here.
+                                let allows = |k: Option<usize>| match k.filter(|&k| k < n) {
+                                    Some(k) => {
+                                        traces[k] & SOLVABLE == 0
+                                            || traces[k] & det == 0
+                                            || here <= loads[k].magnitude[slot] * (1.0 + SLACK)
+                                    }
+                                    None => true,
+                                };
+                                if !(interior && allows(before) && allows(Some(after))) {
+                                    t &= !bit;
+                                }
+                            }
+                            if d == Decider::Axial || t & turn_bit(d, j, a.along) == 0 {
+                                continue;
+                            }
+                            let u = loads[i].direction[slot];
+                            // Whether the interval to the next sample may turn: an
+                            // unsolvable one ends the segment (no interval), an
+                            // indeterminate one is skipped by it.
+                            let turns = |k: usize| {
+                                if k >= n {
+                                    return true;
+                                }
+                                if traces[k] & SOLVABLE == 0 {
+                                    return false;
+                                }
+                                if traces[k] & det == 0 {
+                                    return true;
+                                }
+                                let v = loads[k].direction[slot];
+                                u[0] * v[0] + u[1] * v[1] + u[2] * v[2] < TURN_SLACK
+                            };
+                            if !(ahead && turns(after)) {
+                                t &= !turn_bit(d, j, a.along);
+                            }
+                        }
+                    }
+                }
+                t
+            })
+            .collect()
+    }
+
+    /// A small generator (the crate takes no random-number dependency).
+    struct Lcg(u64);
+
+    impl Lcg {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            self.0 >> 11
+        }
+
+        fn pick<T: Copy>(&mut self, from: &[T]) -> T {
+            from[(self.next() % from.len() as u64) as usize]
+        }
+    }
+
+    /// Bit for bit the reference, on grids of one to three varying inputs with
+    /// samples that are unsolvable, indeterminate, tied (within the slack or not),
+    /// NaN, turning by about 90° or exactly opposite, settled whole or in part.
+    #[test]
+    fn the_settled_bits_are_the_reference_bits() {
+        let mut rng = Lcg(7);
+        let magnitudes = [0.0, 1.0, 1.0 + 5e-10, 1.0 + 2e-9, 2.0, 3.0, f64::NAN];
+        let components: [f32; 5] = [-1.0, -0.01, 0.0, 0.01, 1.0];
+        let grids: [&[(Along, u64)]; 4] = [
+            &[(Along::Psi, 7)],
+            &[(Along::T, 9)],
+            &[(Along::Psi, 5), (Along::Theta, 6)],
+            &[(Along::Z, 3), (Along::Psi, 4), (Along::Theta, 5)],
+        ];
+        let mut cleared = 0;
+        for grid in grids {
+            let mut stride = 1;
+            let mut axes: Vec<Axis> = grid
+                .iter()
+                .rev()
+                .map(|&(along, n)| {
+                    let a = Axis { along, stride, n, params: Arc::from((0..n).map(|k| k as f64).collect::<Vec<_>>()) };
+                    stride *= n;
+                    a
+                })
+                .collect();
+            axes.reverse();
+            let total = stride as usize;
+            for round in 0..200 {
+                let traces: Vec<Trace> = (0..total)
+                    .map(|_| {
+                        let bits = rng.next() | rng.next() << 53;
+                        match rng.next() % 8 {
+                            0 => bits & !SOLVABLE,
+                            1 => 0,
+                            _ => bits | SOLVABLE,
+                        }
+                    })
+                    .collect();
+                let loads: Vec<Loads> = (0..total)
+                    .map(|_| Loads {
+                        magnitude: std::array::from_fn(|_| rng.pick(&magnitudes)),
+                        direction: std::array::from_fn(|_| std::array::from_fn(|_| rng.pick(&components))),
+                    })
+                    .collect();
+                // The whole grid in hand from its first sample, or a part of it
+                // settled with a later first sample.
+                let (first, which) = if round % 2 == 0 {
+                    (0, 0..total)
+                } else {
+                    let lo = (rng.next() % total as u64) as usize;
+                    let hi = lo + (rng.next() % (total - lo) as u64) as usize;
+                    (rng.next() % (3 * stride), lo..hi)
+                };
+                let ours = keep_local_minima_of(&axes, first, &traces, &loads, which.clone());
+                let theirs = reference(&axes, first, &traces, &loads, which.clone());
+                assert_eq!(ours, theirs, "grid {grid:?}, round {round}");
+                cleared += which.zip(&ours).map(|(i, t)| (traces[i] & !t).count_ones()).sum::<u32>();
+            }
+        }
+        // The cases clear bits, not only keep them.
+        assert!(cleared > 10_000, "{cleared} bits cleared");
+    }
 }
