@@ -7,7 +7,7 @@ use clearance_solver::{Model, PoseResult, solve_in_blocks};
 use rayon::prelude::*;
 
 use crate::paths::{Along, Axis, axes};
-use crate::{SearchOptions, axial, margin, solvable, vector};
+use crate::{SearchOptions, axial, norm, solvable, vector};
 
 /// One sample's [`Trace`], as bits. Bit 0: the sample is solvable. Per kind `k`
 /// (order of `KINDS`) and limb `j`, bit `1 + 3k + j`: the deciding load is above
@@ -136,37 +136,38 @@ pub fn trace_into(r: &PoseResult, model: &Model, loads: &mut Loads) -> Trace {
     }
     let reactions = &r.reactions;
     let mut t = SOLVABLE;
-    for kind in KINDS {
-        for j in 0..3 {
-            if margin(reactions, model, kind, j) > model.indeterminate_floor {
+    // Every candidate bit of one load, along each input.
+    let mins = |d: Decider, j: usize| INPUTS.iter().fold(0, |m, &a| m | min_bit(d, j, a));
+    let turns = |d: Decider, j: usize| INPUTS.iter().fold(0, |m, &a| m | turn_bit(d, j, a));
+    for j in 0..3 {
+        // Each deciding load once: its magnitude is the kind's margin (`margin`).
+        let s = axial(reactions, model, j);
+        let vectors = [Decider::SRadial, Decider::RRadial].map(|d| {
+            let v = vector(reactions, model, d.kind(), j);
+            (d, v, norm(v))
+        });
+        let m = reactions.m_r[j];
+        let margins = [vectors[0].2, vectors[1].2, s.abs(), norm([m.x, m.y, m.z])];
+        for (kind, margin) in KINDS.into_iter().zip(margins) {
+            if margin > model.indeterminate_floor {
                 t |= det_bit(kind, j);
             }
         }
-    }
-    for j in 0..3 {
-        for d in Decider::ALL {
-            let determinate = t & det_bit(d.kind(), j) != 0;
-            let magnitude = if d == Decider::Axial {
-                let s = axial(reactions, model, j);
-                if s.is_sign_negative() {
-                    t |= neg_bit(j);
-                }
-                s.abs()
-            } else {
-                let v = vector(reactions, model, d.kind(), j);
-                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                if n > 0.0 {
-                    loads.direction[d.slot(j)] = v.map(|x| (x / n) as f32);
-                }
-                if determinate {
-                    t |= INPUTS.iter().fold(0, |m, &a| m | turn_bit(d, j, a));
-                }
-                n
-            };
-            loads.magnitude[d.slot(j)] = magnitude;
-            if determinate {
-                t |= INPUTS.iter().fold(0, |m, &a| m | min_bit(d, j, a));
+        if s.is_sign_negative() {
+            t |= neg_bit(j);
+        }
+        for (d, v, n) in vectors {
+            if n > 0.0 {
+                loads.direction[d.slot(j)] = v.map(|x| (x / n) as f32);
             }
+            loads.magnitude[d.slot(j)] = n;
+            if t & det_bit(d.kind(), j) != 0 {
+                t |= turns(d, j) | mins(d, j);
+            }
+        }
+        loads.magnitude[Decider::Axial.slot(j)] = s.abs();
+        if t & det_bit(Decider::Axial.kind(), j) != 0 {
+            t |= mins(Decider::Axial, j);
         }
     }
     t
@@ -333,6 +334,7 @@ pub fn traces(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::margin;
     use std::sync::Arc;
 
     /// [`keep_local_minima_of`] as it was first written, a candidate bit at a time
@@ -413,6 +415,84 @@ mod tests {
                 t
             })
             .collect()
+    }
+
+    /// [`trace_into`] as it was first written, each kind's margin and each load
+    /// computed on its own: the reference the one-pass form must equal.
+    fn trace_reference(r: &PoseResult, model: &Model, loads: &mut Loads) -> Trace {
+        *loads = Loads::default();
+        if !solvable(r) {
+            return 0;
+        }
+        let reactions = &r.reactions;
+        let mut t = SOLVABLE;
+        for kind in KINDS {
+            for j in 0..3 {
+                if margin(reactions, model, kind, j) > model.indeterminate_floor {
+                    t |= det_bit(kind, j);
+                }
+            }
+        }
+        for j in 0..3 {
+            for d in Decider::ALL {
+                let determinate = t & det_bit(d.kind(), j) != 0;
+                let magnitude = if d == Decider::Axial {
+                    let s = axial(reactions, model, j);
+                    if s.is_sign_negative() {
+                        t |= neg_bit(j);
+                    }
+                    s.abs()
+                } else {
+                    let v = vector(reactions, model, d.kind(), j);
+                    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                    if n > 0.0 {
+                        loads.direction[d.slot(j)] = v.map(|x| (x / n) as f32);
+                    }
+                    if determinate {
+                        t |= INPUTS.iter().fold(0, |m, &a| m | turn_bit(d, j, a));
+                    }
+                    n
+                };
+                loads.magnitude[d.slot(j)] = magnitude;
+                if determinate {
+                    t |= INPUTS.iter().fold(0, |m, &a| m | min_bit(d, j, a));
+                }
+            }
+        }
+        t
+    }
+
+    /// Bit for bit the reference, traces and loads, on a grid of poses with
+    /// indeterminate take-ups (a floor at the loads' own scale), negative axial loads
+    /// and unsolvable poses beyond reach.
+    #[test]
+    fn a_trace_is_the_reference_trace() {
+        use clearance_grid::SampleSource;
+        use clearance_model::JobSpec;
+        use clearance_solver::{Workspace, solve_pose};
+        let text = "[mass]\npoints = [{ mass = 30.0, at = [0.1, 0.0, 1.0] }]\n\
+            [clearance]\ns_radial = 1e-4\nr_radial = 1e-4\nr_axial = 1e-4\nr_angular = 1e-4\n\
+            [analysis]\nindeterminate_load_fraction = 0.05\nsingular_cond = 40.0\n\
+            [grid]\nz = { start = 1.2, stop = 3.2, n = 4 }\n\
+            psi = { start = -1.5, stop = 1.5, n = 31 }\ntheta = { start = -1.5, stop = 1.5, n = 31 }\n";
+        let job = JobSpec::from_toml_str(text, "case.toml").unwrap();
+        let model = Model::from_job(&job);
+        let source = SampleSource::new(&job);
+        let mut ws = Workspace::new();
+        let (mut unsolvable, mut indeterminate, mut negative) = (0, 0, 0);
+        for i in 0..source.len() {
+            let r = solve_pose(&model, &source.sample(i), Mode::Kinetostatic, &mut ws);
+            let mut ours = Loads::default();
+            let mut theirs = Loads { magnitude: [1.0; 9], direction: [[1.0; 3]; 6] };
+            let t = trace_into(&r, &model, &mut ours);
+            assert_eq!(t, trace_reference(&r, &model, &mut theirs), "sample {i}");
+            let bits = |l: &Loads| (l.magnitude.map(f64::to_bits), l.direction.map(|d| d.map(f32::to_bits)));
+            assert_eq!(bits(&ours), bits(&theirs), "sample {i}");
+            unsolvable += usize::from(t == 0);
+            indeterminate += usize::from(t != 0 && (t >> 1) & 0xfff != 0xfff);
+            negative += usize::from(t & (0b111 << 13) != 0);
+        }
+        assert!(unsolvable > 0 && indeterminate > 0 && negative > 0, "{unsolvable} {indeterminate} {negative}");
     }
 
     /// A small generator (the crate takes no random-number dependency).
