@@ -437,42 +437,63 @@ pub(crate) fn finite_columns<F: Sync>(
 /// for a null). For tables whose columns share work within a row. A block of rows at
 /// a time on the rayon pool, every column of a row while its result is in the cache
 /// (column by column, each pass over a unit's results, some 1 kB a row, read a cache
-/// line a row for one value: a sixth of a 6-UPS run), straight into the columns'
-/// buffers, which become the arrays without a copy.
+/// line a row for one value: a sixth of a 6-UPS run), gathered a tile of rows at a time
+/// and copied into the columns' buffers, which become the arrays without a copy.
 pub(crate) fn finite_rows(len: usize, columns: usize, fill: impl Fn(usize, &mut [f64]) + Sync) -> Vec<ArrayRef> {
     const BLOCK: usize = 1024;
+    /// Rows gathered before they go to the columns: a row's values go to a tile that
+    /// stays in the cache, column by column, and each column's run of the tile to its
+    /// buffer in one copy (each value stored straight into its column, a row touched
+    /// as many lines of memory as it has columns).
+    const TILE: usize = 32;
     if columns == 0 {
         return Vec::new();
     }
-    // Each column's values (0 under a null) and validity, written in place: every block
-    // of rows, on the pool, gets its rows' slice of every column.
+    // Each column's values, written in place (every block of rows, on the pool, gets
+    // its rows' slice of every column), and whether it holds one that is not finite.
     let mut values: Vec<Vec<f64>> = (0..columns).map(|_| vec![0.0; len]).collect();
-    let mut valid: Vec<Vec<bool>> = (0..columns).map(|_| vec![true; len]).collect();
-    let mut blocks: Vec<Vec<(&mut [f64], &mut [bool])>> =
-        (0..len.div_ceil(BLOCK)).map(|_| Vec::with_capacity(columns)).collect();
-    for (v, ok) in values.iter_mut().zip(&mut valid) {
-        for (block, slices) in blocks.iter_mut().zip(v.chunks_mut(BLOCK).zip(ok.chunks_mut(BLOCK))) {
-            block.push(slices);
+    let nulls: Vec<AtomicBool> = (0..columns).map(|_| AtomicBool::new(false)).collect();
+    let mut blocks: Vec<Vec<&mut [f64]>> = (0..len.div_ceil(BLOCK)).map(|_| Vec::with_capacity(columns)).collect();
+    for v in &mut values {
+        for (block, slice) in blocks.iter_mut().zip(v.chunks_mut(BLOCK)) {
+            block.push(slice);
         }
     }
     blocks.into_par_iter().enumerate().for_each(|(b, mut block)| {
         let mut row_values = vec![0.0; columns];
-        for i in 0..block[0].0.len() {
-            fill(b * BLOCK + i, &mut row_values);
-            for ((v, ok), &x) in block.iter_mut().zip(&row_values) {
-                if x.is_finite() {
-                    v[i] = x;
-                } else {
-                    ok[i] = false;
+        // Column-major: column c's rows at `c·TILE..`.
+        let mut tile = vec![0.0; columns * TILE];
+        let n = block[0].len();
+        for start in (0..n).step_by(TILE) {
+            let rows = TILE.min(n - start);
+            for k in 0..rows {
+                fill(b * BLOCK + start + k, &mut row_values);
+                for (c, &x) in row_values.iter().enumerate() {
+                    tile[c * TILE + k] = x;
+                }
+            }
+            for ((column, run), null) in block.iter_mut().zip(tile.chunks_exact(TILE)).zip(&nulls) {
+                let run = &run[..rows];
+                column[start..start + rows].copy_from_slice(run);
+                if !run.iter().all(|x| x.is_finite()) {
+                    flag(null);
                 }
             }
         }
     });
+    // A validity bitmap only for a column that holds a value that is not finite, 0
+    // under each null.
     values
         .into_par_iter()
-        .zip(valid)
-        .map(|(v, ok)| -> ArrayRef {
-            let nulls = ok.contains(&false).then(|| NullBuffer::new(BooleanBuffer::from(ok)));
+        .zip(nulls)
+        .map(|(mut v, null)| -> ArrayRef {
+            let nulls = null.into_inner().then(|| {
+                let valid = BooleanBuffer::collect_bool(v.len(), |i| v[i].is_finite());
+                for x in v.iter_mut().filter(|x| !x.is_finite()) {
+                    *x = 0.0;
+                }
+                NullBuffer::new(valid)
+            });
             Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
         })
         .collect()
@@ -900,6 +921,44 @@ impl<'a> BlockSink<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The arrays `Float64Array::from_iter` makes of the finite values (0 under a
+    /// null, a validity bitmap only in a column with a null), for tables of one block
+    /// and of several, their last tile and block partial, with NaN and infinities
+    /// at rows spread over the tiles in some columns and none in others.
+    #[test]
+    fn rows_filled_a_tile_at_a_time_give_the_arrays_of_their_finite_values() {
+        use arrow::array::Array;
+        let value = |row: usize, c: usize| match (row * 7 + c * 13) % 97 {
+            0 if c.is_multiple_of(3) => f64::NAN,
+            1 if c.is_multiple_of(3) => f64::INFINITY,
+            2 if c == 3 => f64::NEG_INFINITY,
+            k => (row as f64 + 0.25) * (c as f64 - 2.5) + k as f64,
+        };
+        let (mut with_nulls, mut without) = (0, 0);
+        for (len, columns) in [(0, 4), (1, 1), (31, 5), (33, 6), (1024, 3), (2_600, 7)] {
+            let arrays = finite_rows(len, columns, |row, out| {
+                for (c, o) in out.iter_mut().enumerate() {
+                    *o = value(row, c);
+                }
+            });
+            assert_eq!(arrays.len(), columns);
+            for (c, array) in arrays.iter().enumerate() {
+                let ours = array.as_any().downcast_ref::<Float64Array>().expect("doubles");
+                let expected =
+                    Float64Array::from_iter((0..len).map(|row| Some(value(row, c)).filter(|v| v.is_finite())));
+                let bits = |a: &Float64Array| a.values().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(ours), bits(&expected), "{len} rows, column {c}: values");
+                assert_eq!(ours.nulls(), expected.nulls(), "{len} rows, column {c}: validity");
+                if ours.null_count() > 0 {
+                    with_nulls += 1;
+                } else {
+                    without += 1;
+                }
+            }
+        }
+        assert!(with_nulls >= 5 && without >= 5, "{with_nulls} columns with nulls, {without} without");
+    }
 
     /// Rows of every status with distinct values, put in an order that breaks the
     /// sink's runs of consecutive rows (and fills its tile more than once), give the
