@@ -372,9 +372,7 @@ impl PoseSchema {
         // A column gets a validity bitmap only if `put` saw a value that is not
         // finite in it: most columns of most parts have none, and are not read again.
         let float = |(v, nulls): (Vec<f64>, &AtomicBool)| -> ArrayRef {
-            let nulls = nulls
-                .load(Ordering::Relaxed)
-                .then(|| NullBuffer::new(BooleanBuffer::collect_bool(v.len(), |i| v[i].is_finite())));
+            let nulls = nulls.load(Ordering::Relaxed).then(|| null_where_not_finite(&v));
             Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
         };
         let (t_nulls, float_nulls) = cols.nulls.split_first().expect("t has a flag");
@@ -406,6 +404,11 @@ impl PoseSchema {
         }
         self.finish(mode, cols)
     }
+}
+
+/// A column's validity: null where its value is not finite.
+fn null_where_not_finite(v: &[f64]) -> NullBuffer {
+    NullBuffer::new(BooleanBuffer::collect_bool(v.len(), |i| v[i].is_finite()))
 }
 
 /// `dominant` of a row without one (not `ok`, or every clearance zero).
@@ -488,11 +491,11 @@ pub(crate) fn finite_rows(len: usize, columns: usize, fill: impl Fn(usize, &mut 
         .zip(nulls)
         .map(|(mut v, null)| -> ArrayRef {
             let nulls = null.into_inner().then(|| {
-                let valid = BooleanBuffer::collect_bool(v.len(), |i| v[i].is_finite());
+                let nulls = null_where_not_finite(&v);
                 for x in v.iter_mut().filter(|x| !x.is_finite()) {
                     *x = 0.0;
                 }
-                NullBuffer::new(valid)
+                nulls
             });
             Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
         })
