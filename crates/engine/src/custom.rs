@@ -43,7 +43,7 @@ const LOCATE_TOL: f64 = 1e-10;
 type Result<T, E = EngineError> = std::result::Result<T, E>;
 
 /// The model of a custom job, or its refusal as a job error (exit 2). A description
-/// that is a built-in 3-PRS's is given that kind's kernel (docs/model.md §12.10).
+/// that is a built-in 3-PRS's or 6-UPS's is given that kind's kernel (docs/model.md §12.10).
 pub(crate) fn model_of(job: &JobSpec, file: &str) -> Result<CustomModel, JobError> {
     let mut model = CustomModel::from_job(job, file)?;
     model.preset = crate::preset::preset_of(job, &model);

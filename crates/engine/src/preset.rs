@@ -1,20 +1,21 @@
-//! Recognising a custom description that is a built-in 3-PRS, so that the 3-limb kernel
-//! solves its poses (docs/model.md §12.10).
+//! Recognising a custom description that is a built-in 3-PRS or 6-UPS, so that that
+//! kind's kernel solves its poses (docs/model.md §12.10).
 //!
-//! The built-in kind's numbers are read off the description (the limb angles from the
-//! R axes, the rails' angle from the P axes, the radii and the leg length from the
-//! joints at home), and the built-in job they make is described again with
+//! The built-in kind's numbers are read off the description (3-PRS: the limb angles
+//! from the R axes, the rails' angle from the P axes, the radii and the leg length from
+//! the joints at home; 6-UPS: the base points and U axes, the platform points, the legs'
+//! lengths, stroke and masses), and the built-in job they make is described again with
 //! [`describe`]: only if that description is the given one, every number to 1e-12 of
 //! its scale (joint names aside), is the kernel used. Angles within 1e-9° of a whole
-//! degree are taken as that degree, so that the prototype's layout keeps its closed
-//! forms.
+//! degree are taken as that degree, so that the 3-PRS prototype's layout keeps its
+//! closed forms.
 
 use std::sync::Arc;
 
 use clearance_kinematics::custom::placement;
 use clearance_model::custom::{JointType, LimbSpec, Magnitude};
 use clearance_model::{ClearanceSpec, JobSpec, MechanismKind, MechanismSpec};
-use clearance_solver::custom::{CustomModel, Preset};
+use clearance_solver::custom::{CustomModel, Preset, PrsPreset, UpsPreset};
 use nalgebra::Vector3;
 
 use crate::describe::describe;
@@ -37,8 +38,80 @@ fn degrees(radians: f64) -> f64 {
     if d < 0.0 { d + 360.0 } else { d }
 }
 
-/// The built-in 3-PRS job whose description `job` is, if there is one.
+/// The built-in job whose description `job` is, if there is one: a 3-PRS's or a 6-UPS's.
 fn builtin_of(job: &JobSpec) -> Option<JobSpec> {
+    match job.mechanism.limb.as_ref()?.len() {
+        3 => prs_of(job),
+        6 => ups_of(job),
+        _ => None,
+    }
+}
+
+/// The built-in 6-UPS job whose description `job` is, if there is one: the base points
+/// and U axes from the U joints, the platform points from the S joints at home, the
+/// cylinder's length from the P joint, the piston's from its centre of mass, the
+/// stroke from the P joint's range and the legs' masses from their bodies.
+fn ups_of(job: &JobSpec) -> Option<JobSpec> {
+    let m = &job.mechanism;
+    let (home, limbs) = (m.home?, m.limb.as_ref()?);
+    let types = [JointType::U, JointType::P, JointType::S];
+    if limbs.iter().any(|l: &LimbSpec| {
+        l.repeat != 1
+            || l.rotate_deg.is_some()
+            || l.bodies.len() != 2
+            || l.joints.len() != 3
+            || l.joints.iter().zip(types).any(|(j, t)| j.joint != t)
+    }) {
+        return None;
+    }
+    let platform = placement(&home);
+    let (mut base, mut top, mut axes) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut cylinder_length, mut piston_length, mut stroke) = (0.0, 0.0, (0.0, 0.0));
+    for l in limbs {
+        let (u, p, s) = (&l.joints[0], &l.joints[1], &l.joints[2]);
+        let (b, a) = (V3::from(u.at), V3::from(s.at));
+        base.push(u.at);
+        axes.push(u.axes?[0]);
+        let local = platform.r.transpose() * (a - platform.t);
+        top.push([local.x, local.y, local.z]);
+        cylinder_length = (V3::from(p.at) - b).norm();
+        piston_length = 2.0 * (a - V3::from(l.bodies[1].com?)).norm();
+        let (q, range) = ((a - b).norm(), p.range?);
+        stroke = (range[0] + q, range[1] + q);
+    }
+    let mut out = job.clone();
+    out.sweep.clear();
+    out.mechanism = MechanismSpec {
+        kind: MechanismKind::Ups6,
+        gravity: m.gravity,
+        base_points: Some(base),
+        platform_points: Some(top),
+        u_axes: Some(axes),
+        cylinder_length: Some(cylinder_length),
+        piston_length: Some(piston_length),
+        min_length: Some(stroke.0),
+        max_length: Some(stroke.1),
+        ..MechanismSpec::of_kind(MechanismKind::Ups6)
+    };
+    out.mass.cylinder = Some(limbs[0].bodies[0].mass);
+    out.mass.piston = Some(limbs[0].bodies[1].mass);
+    out.clearance = ClearanceSpec { ups: true, ..ClearanceSpec::default() };
+    for (key, magnitude) in &job.clearance.given {
+        let Magnitude::All(v) = magnitude else { return None };
+        let slot = match key.as_str() {
+            "s_radial" => &mut out.clearance.s_radial,
+            "u_radial" => &mut out.clearance.u_radial,
+            "u_angular" => &mut out.clearance.u_angular,
+            _ => return None,
+        };
+        *slot = *v;
+    }
+    // Through text, so that it is checked and completed as a job file would be.
+    JobSpec::from_toml_str(&out.to_toml_string(), "preset").ok()
+}
+
+/// The built-in 3-PRS job whose description `job` is, if there is one.
+fn prs_of(job: &JobSpec) -> Option<JobSpec> {
     let m = &job.mechanism;
     let (home, limbs) = (m.home?, m.limb.as_ref()?);
     if limbs.len() != 3 || limbs.iter().any(|l: &LimbSpec| l.repeat != 1 || l.rotate_deg.is_some()) {
@@ -148,11 +221,18 @@ pub(crate) fn preset_of(job: &JobSpec, model: &CustomModel) -> Option<Arc<Preset
         return None;
     }
     let home = job.mechanism.home?;
-    Preset::new(model, clearance_solver::Model::from_job(&builtin), &home).map(Arc::new)
+    let preset = match builtin.mechanism.kind {
+        MechanismKind::Ups6 => UpsPreset::new(model, clearance_solver::ups::UpsModel::from_job(&builtin), &home)
+            .map(|p| Preset::Ups6(Box::new(p))),
+        _ => {
+            PrsPreset::new(model, clearance_solver::Model::from_job(&builtin), &home).map(|p| Preset::Prs3(Box::new(p)))
+        }
+    };
+    preset.map(Arc::new)
 }
 
-/// Whether the fast solver solves `job`'s poses with a built-in kind's kernel (a custom
-/// job that describes a built-in 3-PRS, every variant of it), or its error.
+/// Whether `job`'s poses are solved with a built-in kind's kernel (a custom job that
+/// describes a built-in 3-PRS or 6-UPS, every variant of it), or its error.
 pub fn uses_kernel(job: &JobSpec, file: &str) -> Result<bool, clearance_model::JobError> {
     if job.mechanism.kind != MechanismKind::Custom {
         return Ok(false);

@@ -1,15 +1,16 @@
-//! A custom description of a built-in 3-PRS (as `clearance describe` writes it) is
-//! solved by the 3-PRS kernel (docs/model.md §12.10); the same mechanism written so that
-//! it is not recognised (its legs' centres of mass written out, `common::general_path`)
-//! goes the description's general way. The two must agree: every column
-//! to 1e-12 of its scale (a column's scale is its largest value, or a hundredth of its
-//! family's, loads or errors, where that is larger), the statuses and the dominant
-//! joints exactly, and the same switches, at the same places (within 2.5e-9 of the path
-//! parameter: both bracket a root to 1e-10 of a step) with the same jumps (1e-12 of
-//! their scale). Kinetostatics on a grid and dynamics on a trajectory, on the
-//! prototype's layout (closed forms) and on one with inclined rails and uneven limbs
-//! (Newton for the parasitic motions). A description that is not a built-in's is not
-//! given the kernel.
+//! A custom description of a built-in 3-PRS or 6-UPS (as `clearance describe` writes
+//! it) is solved by that kind's kernel (docs/model.md §12.10); the same mechanism
+//! written so that it is not recognised (a body written another way,
+//! `common::general_path`) goes the description's general way. The two must agree:
+//! every column to 1e-12 of its scale (a column's scale is its largest value, or a
+//! hundredth of its family's, loads or errors, where that is larger), the statuses and
+//! the dominant joints exactly, and the same switches, at the same places (within
+//! 2.5e-9 of the path parameter: both bracket a root to 1e-10 of a step) with the same
+//! jumps (1e-12 of their scale). Kinetostatics on a grid and dynamics on a trajectory:
+//! the 3-PRS on the prototype's layout (closed forms) and on one with inclined rails and
+//! uneven limbs (Newton for the parasitic motions), the 6-UPS with its default legs and
+//! with its own base points, U axes and masses. A description that is not a built-in's
+//! is not given the kernel.
 
 mod common;
 
@@ -111,7 +112,7 @@ fn compare_switches(fast: &RecordBatch, general: &RecordBatch, inputs: &[&str]) 
 }
 
 fn check(job: &JobSpec, inputs: &[&str], min_switches: usize) {
-    assert!(uses_kernel(job, "described.toml").unwrap(), "the description is a built-in 3-PRS's");
+    assert!(uses_kernel(job, "described.toml").unwrap(), "the description is a built-in kind's");
     let (fast_poses, fast_switches) = run_of(job);
     let (general_poses, general_switches) = run_of(&common::general_path(job));
     let (compared, differing) = compare_poses(&fast_poses, &general_poses);
@@ -167,4 +168,57 @@ fn only_a_builtin_description_is_given_the_kernel() {
     }
     let builtin = JobSpec::from_toml_str(&text, "b.toml").unwrap();
     assert!(!uses_kernel(&builtin, "b.toml").unwrap(), "a built-in job has no description");
+}
+
+const UPS_KINDS: &str = "[clearance]\ns_radial = 1e-4\nu_radial = 2e-4\nu_angular = 1e-4\n\
+[mass]\npoints = [{ mass = 5.0, at = [0.05, 0.0, 0.3] }]\n[load]\nforce = [3.0, -2.0, 5.0]\nmoment = [0.4, 0.1, -0.3]\n";
+
+#[test]
+fn the_6ups_kernel_gives_the_general_path_on_a_grid() {
+    let job = described(&format!(
+        "[mechanism]\nkind = \"6-UPS\"\n{UPS_KINDS}[grid]\nx = {{ start = -0.15, stop = 0.15, n = 13 }}\ny = 0.02\nz = 0.7\nphi = 0.05\n\
+         psi = {{ start = -0.2, stop = 0.2, n = 11 }}\ntheta = -0.1\n"
+    ));
+    check(&job, &["x", "psi"], 20);
+}
+
+#[test]
+fn a_6ups_of_its_own_layout_in_dynamics_is_the_general_path() {
+    // Base points, platform points and U axes of its own, other legs, one kind of play.
+    let job = described(
+        "[mechanism]\nkind = \"6-UPS\"\nbase_points = [[0.5, -0.1, 0.0], [0.45, 0.15, 0.02], [-0.1, 0.5, 0.0], [-0.3, 0.38, -0.01], [-0.35, -0.35, 0.0], [-0.1, -0.5, 0.03]]\n\
+         platform_angles_deg = [-40.0, 40.0, 80.0, 160.0, 200.0, 280.0]\nplatform_radius = 0.25\n\
+         u_axes = [[0.2, 1.0, 0.1], [-0.3, 1.0, 0.0], [-1.0, -0.2, 0.0], [-0.8, -0.6, 0.1], [0.7, -0.7, 0.0], [1.0, 0.1, -0.1]]\n\
+         cylinder_length = 0.45\npiston_length = 0.55\n[mass]\ncylinder = 2.0\npiston = 0.5\nplatform = 8.0\n\
+         [clearance]\nu_radial = 1e-4\n[analysis]\nmodes = [\"kinetostatic\", \"dynamic\"]\n\
+         [trajectory]\ntime = { start = 0.0, stop = 1.0, n = 41 }\nx = { offset = 0.0, harmonics = [{ amplitude = 0.05, period = 1.0 }] }\n\
+         y = 0.01\nz = 0.7\nphi = 0.02\npsi = { offset = 0.0, harmonics = [{ amplitude = 0.15, period = 0.5 }] }\ntheta = 0.05\n",
+    );
+    check(&job, &["t"], 0);
+}
+
+#[test]
+fn only_a_builtin_6ups_description_is_given_the_kernel() {
+    let text = format!(
+        "[mechanism]\nkind = \"6-UPS\"\n{UPS_KINDS}[grid]\nx = 0.01\ny = 0.0\nz = 0.75\nphi = 0.0\npsi = 0.1\ntheta = 0.0\n"
+    );
+    let job = described(&text);
+    assert!(uses_kernel(&job, "d.toml").unwrap());
+    let mut moved = job.clone();
+    limbs(&mut moved)[4].joints[2].at[1] += 1e-3;
+    let mut exact = job.clone();
+    exact.analysis.exact = true;
+    let mut heavier = job.clone();
+    limbs(&mut heavier)[2].bodies[1].mass += 0.5;
+    let mut turned = job.clone();
+    // The U joint's axes exchanged: the one fixed in the base is the other.
+    limbs(&mut turned)[0].joints[0].axes.as_mut().unwrap().swap(0, 1);
+    for other in [moved, exact, heavier, turned] {
+        assert!(!uses_kernel(&other, "d.toml").unwrap());
+    }
+}
+
+/// The limbs of a description.
+fn limbs(job: &mut JobSpec) -> &mut Vec<clearance_model::custom::LimbSpec> {
+    job.mechanism.limb.as_mut().unwrap()
 }

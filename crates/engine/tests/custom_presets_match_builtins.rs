@@ -38,11 +38,14 @@ fn check(text: &str) {
     let described = describe(&job, "builtin.toml").unwrap();
     let opts = SolveOptions { columns: ColumnSet::Full, ..SolveOptions::default() };
     let b = solve(&job, "builtin.toml", &opts).unwrap();
-    // The description's own (general) path: a 3-PRS's description as `describe` writes
-    // it goes through the built-in kernel (tested against the general path in
-    // custom_preset_kernel_is_the_general_path.rs).
-    let described =
-        if job.mechanism.kind == MechanismKind::Prs3 { common::general_path(&described) } else { described };
+    // The description's own (general) path: a 3-PRS's or 6-UPS's description as
+    // `describe` writes it goes through the built-in kernel (tested against the general
+    // path in custom_preset_kernel_is_the_general_path.rs).
+    let described = if matches!(job.mechanism.kind, MechanismKind::Prs3 | MechanismKind::Ups6) {
+        common::general_path(&described)
+    } else {
+        described
+    };
     let c = solve(&described, "described.toml", &opts).unwrap();
     assert_eq!(b.len(), c.len());
     let mut compared_columns = 0;

@@ -504,6 +504,14 @@ pub fn group_load_near(
     (load, Some((posture.coords, posture.states)))
 }
 
+/// A description that is a built-in kind's, with that kind's kernel (docs/model.md
+/// §12.10): the 3-PRS's or the 6-UPS's.
+#[derive(Clone, Debug)]
+pub enum Preset {
+    Prs3(Box<PrsPreset>),
+    Ups6(Box<UpsPreset>),
+}
+
 /// A description that is a built-in 3-PRS (as `clearance describe` writes one, docs/model.md
 /// §12.9), with what its kernel needs: the poses that kernel solves cleanly are solved
 /// there and given as the general path gives them, to round-off (docs/model.md §12.10).
@@ -517,7 +525,7 @@ pub fn group_load_near(
 /// every group has play, else computed from `G⁻¹` as the general path does. Any other
 /// pose goes the general way.
 #[derive(Clone, Debug)]
-pub struct Preset {
+pub struct PrsPreset {
     /// The built-in kind's model: the fast solver, with the envelope.
     pub model: crate::Model,
     /// The actuators' positions at home: a custom `q` is measured from there.
@@ -528,7 +536,7 @@ pub struct Preset {
     pub without_play: bool,
 }
 
-impl Preset {
+impl PrsPreset {
     /// The preset for a description whose built-in kind's model is `model`, its joints
     /// in each limb `P, R, S` (the 3-PRS's), at `home`; `None` unless every kind of
     /// `custom` is one of the built-in kind's, on the joints that kind names, and the
@@ -580,7 +588,7 @@ impl Preset {
 /// `y_j` and the leg: `[f; A_j × f]` for `f` in span(`y_j`, `e_j`), made orthonormal.
 /// It is the general path's `G` but for an orthogonal change of basis within each
 /// limb's block, to which `κ₂(G)` and every response are blind.
-fn preset_frame(preset: &Preset, inputs: &[f64]) -> (Posture, Matrix6<f64>) {
+fn preset_frame(preset: &PrsPreset, inputs: &[f64]) -> (Posture, Matrix6<f64>) {
     let geometry = &preset.model.geometry;
     let pose = crate::fast::Pose::<f64>::new(geometry, inputs[0], inputs[1], inputs[2]).posture(0);
     let mut g = Matrix6::zeros();
@@ -606,9 +614,9 @@ fn cond_of(g: &Matrix6<f64>) -> f64 {
 /// Group `group`'s deciding load at a pose of a preset, as [`group_load_near`] reads
 /// it (`Some(None)` where the group cannot move P); `None` where the kernel does not
 /// solve the pose, which the general path then decides.
-fn preset_load(
+fn prs_load(
     model: &CustomModel,
-    preset: &Preset,
+    preset: &PrsPreset,
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
@@ -657,9 +665,9 @@ thread_local! {
 /// A pose of a description that is a preset, solved by the preset's kernel and given
 /// as [`solve_posture`] gives it; `None` where the kernel's answer is not the general
 /// path's (see [`Preset`]): the caller then solves the pose the general way.
-fn preset_result(
+fn prs_result(
     model: &CustomModel,
-    preset: &Preset,
+    preset: &PrsPreset,
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
@@ -681,6 +689,10 @@ pub fn preset_members(
     mode: Mode,
 ) -> Option<Vec<Option<Vec<CustomResult>>>> {
     let presets: Vec<&Preset> = models.iter().map(|m| m.preset.as_deref()).collect::<Option<_>>()?;
+    let presets: Vec<&PrsPreset> = match presets.as_slice() {
+        [Preset::Ups6(_), ..] => return Some(ups_members(models, poses, mode)),
+        _ => presets.iter().map(|p| if let Preset::Prs3(p) = p { Some(&**p) } else { None }).collect::<Option<_>>()?,
+    };
     let dynamic = mode == Mode::Dynamic;
     // Statics has no rates, as `solve_members_near` has none there.
     let samples: Vec<clearance_grid::Sample> =
@@ -702,7 +714,7 @@ pub fn preset_members(
 }
 
 /// [`preset_result`] from the kernel's result `r` at `inputs`.
-fn preset_result_of(model: &CustomModel, preset: &Preset, inputs: &[f64], r: &PoseResult) -> Option<CustomResult> {
+fn preset_result_of(model: &CustomModel, preset: &PrsPreset, inputs: &[f64], r: &PoseResult) -> Option<CustomResult> {
     // Where a take-up is indeterminate, the kernel gives no joint contributions: each
     // group's own response is then computed here, as `take_up` does.
     let indeterminate = match r.status {
@@ -784,6 +796,255 @@ fn preset_result_of(model: &CustomModel, preset: &Preset, inputs: &[f64], r: &Po
     out.env_total = env_total;
     out.dominant = dominant(model, &out.takes);
     Some(out)
+}
+
+/// A pose of a description that is a preset, solved by its kernel and given as
+/// [`solve_posture`] gives it; `None` where the kernel's answer is not the general
+/// path's (see [`PrsPreset`], [`UpsPreset`]): the caller then solves the pose the
+/// general way.
+fn preset_result(
+    model: &CustomModel,
+    preset: &Preset,
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+) -> Option<CustomResult> {
+    match preset {
+        Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode),
+        Preset::Ups6(p) => {
+            let pose = UPS_KERNEL.with(|ws| ups_pose(p, &ups_sample(inputs, rates), mode, &mut ws.borrow_mut()))?;
+            ups_result(model, p, inputs, &pose)
+        }
+    }
+}
+
+/// Group `group`'s deciding load at a pose of a preset, as [`group_load_near`] reads
+/// it (`Some(None)` where the group cannot move P); `None` where the kernel does not
+/// solve the pose, which the general path then decides.
+fn preset_load(
+    model: &CustomModel,
+    preset: &Preset,
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    group: usize,
+) -> Option<Option<[f64; 3]>> {
+    match preset {
+        Preset::Prs3(p) => prs_load(model, p, inputs, rates, mode, group),
+        Preset::Ups6(p) => ups_load(model, p, inputs, rates, mode, group),
+    }
+}
+
+/// A description that is a built-in 6-UPS (as `clearance describe` writes one,
+/// docs/model.md §12.9), with what its kernel needs: the 6-UPS's posture in closed form
+/// and its legs' reactions with the legs eliminated (a 6 × 6 solve). Only these come
+/// from the kernel; the take-up, the errors, the envelope and the dominant joint are
+/// the general path's own code, from the description's wrench basis `G` in
+/// closed form: per leg the one wrench its U and S joints let through, the force along
+/// the leg through `A_i`, `[e_i; A_i × e_i]` made unit. The kernel answers a pose only
+/// where it solves it (`ok`, within its own conditioning limit) and `κ₂(G)` is within
+/// `singular_cond`; any other pose goes the general way.
+#[derive(Clone, Debug)]
+pub struct UpsPreset {
+    /// The built-in kind's model.
+    pub model: crate::ups::UpsModel,
+    /// The legs' lengths at home: a custom `q` is measured from there.
+    pub q_home: [f64; 6],
+    /// Per leg, the P joint's centre at home as its distance from the U joint's
+    /// along the leg (it travels with the piston).
+    pub p_from_b: [f64; 6],
+}
+
+impl UpsPreset {
+    /// The preset for a description whose built-in kind's model is `model`, its joints
+    /// in each limb `U, P*, S` (the 6-UPS's), its inputs the six coordinates, at
+    /// `home`; `None` unless every kind of `custom` is one of the built-in kind's on the
+    /// joint that kind names, and the exact error is off.
+    pub fn new(custom: &CustomModel, mut model: crate::ups::UpsModel, home: &[f64; 6]) -> Option<Self> {
+        if custom.exact || custom.geom.inputs != [0, 1, 2, 3, 4, 5] {
+            return None;
+        }
+        let order = [JointType::U, JointType::P, JointType::S];
+        let limbs_ok = custom.geom.limbs.len() == 6
+            && custom.geom.limbs.iter().all(|l| {
+                l.joints.len() == 3
+                    && l.joints.iter().zip(order).all(|(j, t)| j.joint == t && j.actuated == (t == JointType::P))
+            });
+        let groups_ok = custom.groups.iter().all(|g| {
+            let expected = match custom.kinds[g.kind].as_str() {
+                "s_radial" => (2, Group::Radial),
+                "u_radial" => (0, Group::Radial),
+                "u_angular" => (0, Group::Angular),
+                _ => return false,
+            };
+            (g.joint, g.group) == expected && g.magnitude >= 0.0
+        });
+        if !limbs_ok || !groups_ok {
+            return None;
+        }
+        model.exact = false;
+        model.singular_cond = custom.singular_cond;
+        let at_home = clearance_kinematics::ups_inverse_kinematics(&model.geometry, *home).ok()?;
+        let p_from_b = std::array::from_fn(|l| {
+            let j = &custom.geom.limbs[l].joints;
+            (j[1].centre - j[0].centre).norm()
+        });
+        Some(Self { q_home: at_home.q, p_from_b, model })
+    }
+}
+
+/// The 6-UPS kernel's sample of a preset's inputs (the six coordinates) and their rates.
+fn ups_sample(inputs: &[f64], rates: Option<(&[f64], &[f64])>) -> crate::ups::UpsSample {
+    std::array::from_fn(|i| [inputs[i], rates.map_or(0.0, |r| r.0[i]), rates.map_or(0.0, |r| r.1[i])])
+}
+
+thread_local! {
+    /// The 6-UPS kernel's scratch, per thread (its sizes are the kind's, whatever the model).
+    static UPS_KERNEL: std::cell::RefCell<crate::ups::UpsWorkspace> =
+        std::cell::RefCell::new(crate::ups::UpsWorkspace::new(&crate::ups::UpsModel::default()));
+}
+
+/// What the 6-UPS kernel gives of a pose: per leg its U, S and P centres, the U's
+/// fixed axis and normal, the leg's direction, `q`, and each joint's reaction; P.
+struct UpsPose {
+    p: V3,
+    b: [V3; 6],
+    a: [V3; 6],
+    e: [V3; 6],
+    a1: [V3; 6],
+    n: [V3; 6],
+    c_p: [V3; 6],
+    q: [f64; 6],
+    /// Per leg: U, P, S, each `(f, m)` proximal on distal, `m` about the joint's centre.
+    reactions: [[(V3, V3); 3]; 6],
+}
+
+/// The kernel's posture and reactions of a pose of a 6-UPS preset; `None` where the
+/// kernel does not solve it. The P joint's reaction is the piston's balance: the S
+/// joint's force, which transmits no couple, plus what the piston's weight and inertia
+/// ask (`W_P = W_S + C_piston`, as [`reactions`] carries the bodies beyond a joint).
+fn ups_pose(
+    preset: &UpsPreset,
+    sample: &crate::ups::UpsSample,
+    mode: Mode,
+    ws: &mut crate::ups::UpsWorkspace,
+) -> Option<UpsPose> {
+    let model = &preset.model;
+    let pose = crate::ups::ups_reactions_into(model, sample, mode, ws).ok()?;
+    let gravity = model.assembly.gravity;
+    let (sol, posed) = (&ws.sol, &ws.posed);
+    let c_p: [V3; 6] =
+        std::array::from_fn(|i| pose.b[i] + pose.e[i] * (preset.p_from_b[i] + pose.q[i] - preset.q_home[i]));
+    let reactions = std::array::from_fn(|i| {
+        let piston = &posed.limbs[i].bodies[1];
+        let demand = piston.demand(&gravity);
+        let f_s = sol.f_s[i];
+        let f_p = f_s + demand;
+        let m_p = (pose.a[i] - c_p[i]).cross(&f_s) + (piston.centre - c_p[i]).cross(&demand) + piston.spin();
+        [(sol.f_b[i], sol.m_b[i]), (f_p, m_p), (f_s, V3::zeros())]
+    });
+    Some(UpsPose { p: pose.p, b: pose.b, a: pose.a, e: pose.e, a1: pose.a1, n: pose.n, c_p, q: pose.q, reactions })
+}
+
+/// The description's wrench basis at a 6-UPS preset's pose: column i the unit force
+/// along leg i through `A_i`, `[e_i; A_i × e_i]` normalised (limb i's block is column i).
+fn ups_frame(pose: &UpsPose) -> Matrix6<f64> {
+    let mut g = Matrix6::zeros();
+    for i in 0..6 {
+        g.set_column(i, &six(pose.e[i], pose.a[i].cross(&pose.e[i])).normalize());
+    }
+    g
+}
+
+/// Each joint's centre, axis and normal at a 6-UPS preset's pose, as the general path
+/// poses them (`l` the limb, `j` the joint: U, P, S).
+fn ups_joint_at(pose: &UpsPose, l: usize, j: usize) -> (V3, V3, V3) {
+    match j {
+        0 => (pose.b[l], pose.a1[l], pose.n[l]),
+        1 => (pose.c_p[l], pose.e[l], V3::zeros()),
+        _ => (pose.a[l], V3::zeros(), V3::zeros()),
+    }
+}
+
+/// A pose of a 6-UPS preset from the kernel's `pose`, as [`solve_posture`] gives it;
+/// `None` where `κ₂(G)` is not within `singular_cond` (the general path decides).
+fn ups_result(model: &CustomModel, preset: &UpsPreset, inputs: &[f64], pose: &UpsPose) -> Option<CustomResult> {
+    let g = ups_frame(pose);
+    // NaN is not within the limit.
+    let cond = cond_of(&g);
+    if cond.is_nan() || cond > model.singular_cond {
+        return None;
+    }
+    let gi = g.try_inverse()?;
+    let coords: [f64; 6] = std::array::from_fn(|i| inputs[i]);
+    let mut out = CustomResult {
+        status: Status::Ok,
+        coords,
+        q: (0..6).map(|i| pose.q[i] - preset.q_home[i]).collect(),
+        tau: (0..6).map(|i| pose.reactions[i][1].0.dot(&pose.e[i])).collect(),
+        reactions: pose.reactions.iter().map(|r| r.to_vec()).collect(),
+        cond,
+        ..Default::default()
+    };
+    take_up_at(model, |l, j| ups_joint_at(pose, l, j), (&g, |l| (l, 1), &gi), &pose.p, &coords, &mut out);
+    out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
+    Some(out)
+}
+
+/// Group `group`'s deciding load at a pose of a 6-UPS preset, as [`group_load_near`]
+/// reads it; `None` where the kernel does not solve the pose.
+fn ups_load(
+    model: &CustomModel,
+    preset: &UpsPreset,
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    group: usize,
+) -> Option<Option<[f64; 3]>> {
+    let pose = UPS_KERNEL.with(|ws| ups_pose(preset, &ups_sample(inputs, rates), mode, &mut ws.borrow_mut()))?;
+    let g = ups_frame(&pose);
+    // As `statics` decides without the condition number: a bound where it can.
+    let gi = g.try_inverse()?;
+    let bound = g.norm() * gi.norm();
+    let within = |c: f64| c.is_finite() && c <= model.singular_cond;
+    if !within(bound) && !within(cond_of(&g)) {
+        return None;
+    }
+    let def = &model.groups[group];
+    let joint = model.joint_type(def);
+    let (centre, axis, normal) = ups_joint_at(&pose, def.limb, def.joint);
+    let (f, m) = pose.reactions[def.limb][def.joint];
+    let (load, ..) = deciding_load(joint, def.group, &axis, &normal, &f, &m);
+    let at = (&centre, &axis, &normal);
+    let (.., unit_p, _) = unit_reach(&g, (def.limb, 1), &gi, (joint, def.group), at, &pose.p);
+    Some((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]))
+}
+
+/// [`preset_members`] for 6-UPS presets: per pose, the kernel once (the members differ
+/// only in their clearances), then each member's take-up.
+fn ups_members(models: &[&CustomModel], poses: &[Vec<[f64; 3]>], mode: Mode) -> Vec<Option<Vec<CustomResult>>> {
+    let Some(Preset::Ups6(first)) = models[0].preset.as_deref() else { return vec![None; poses.len()] };
+    let dynamic = mode == Mode::Dynamic;
+    UPS_KERNEL.with(|ws| {
+        let ws = &mut ws.borrow_mut();
+        poses
+            .iter()
+            .map(|p| {
+                // Statics has no rates, as `solve_members_near` has none there.
+                let sample: crate::ups::UpsSample =
+                    std::array::from_fn(|i| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] });
+                let inputs: [f64; 6] = std::array::from_fn(|i| p[i][0]);
+                let pose = ups_pose(first, &sample, mode, ws)?;
+                models
+                    .iter()
+                    .map(|m| match m.preset.as_deref() {
+                        Some(Preset::Ups6(preset)) => ups_result(m, preset, &inputs, &pose),
+                        _ => None,
+                    })
+                    .collect()
+            })
+            .collect()
+    })
 }
 
 /// The reactions (once: the models differ only in their clearances), then each
@@ -1120,7 +1381,25 @@ fn settle(
 }
 
 fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f64>, out: &mut CustomResult) {
-    let pos = p.platform.t;
+    let joint_at = |l: usize, j: usize| {
+        let pj = &p.joints[l][j];
+        (pj.centre, pj.axis, pj.normal)
+    };
+    take_up_at(model, joint_at, (&basis.g, |l| basis.block(l), gi), &p.platform.t, &p.coords, out);
+}
+
+/// [`take_up`] from what it reads of a pose: each joint's centre, axis and normal
+/// (`joint_at(limb, joint)`), `G` with each limb's block of it and `G⁻¹` (`system`), P
+/// (`pos`) and the coordinates; the reactions are `out`'s.
+fn take_up_at(
+    model: &CustomModel,
+    joint_at: impl Fn(usize, usize) -> (V3, V3, V3),
+    (g_matrix, block, gi): (&Matrix6<f64>, impl Fn(usize) -> (usize, usize), &Matrix6<f64>),
+    pos: &V3,
+    coords: &[f64; 6],
+    out: &mut CustomResult,
+) {
+    let pos = *pos;
     let nk = model.kinds.len();
     let mut errors = vec![[0.0f64; 6]; nk];
     let mut indeterminate = vec![false; nk];
@@ -1128,12 +1407,12 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
     out.takes = Vec::with_capacity(model.groups.len());
     for g in &model.groups {
         let joint = model.joint_type(g);
-        let pj = &p.joints[g.limb][g.joint];
-        let at = (&pj.centre, &pj.axis, &pj.normal);
+        let (centre, axis, normal) = joint_at(g.limb, g.joint);
+        let at = (&centre, &axis, &normal);
         let mut t = group_take(model, g, joint, at, out.reactions[g.limb][g.joint]);
         // The admissible set's unit responses: the envelope, and whether it moves P.
         let ((responses, shape, unit_p, unit_a), e) =
-            settle(model, g, joint, at, (&basis.g, basis.block(g.limb), gi), &pos, &mut t);
+            settle(model, g, joint, at, (g_matrix, block(g.limb), gi), &pos, &mut t);
         for c in 0..6 {
             let reach = match shape {
                 Shape::Segment => responses[0][c].abs(),
@@ -1152,7 +1431,7 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
         }
         out.takes.push(t);
     }
-    let nine = nine_at(&p.coords);
+    let nine = nine_at(coords);
     out.kind_errors = (0..nk).map(|k| (!indeterminate[k]).then(|| nine(&errors[k]))).collect();
     out.total = (!indeterminate.iter().any(|&i| i)).then(|| {
         let mut s = [0.0; 6];

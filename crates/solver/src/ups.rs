@@ -308,8 +308,8 @@ impl Default for UpsResult {
 pub struct UpsWorkspace {
     pub data: AssemblyData,
     /// The bodies of the pose being solved, and its loads ([`solve_ups_leg_loads`]).
-    posed: Posed,
-    sol: LimbsSolution,
+    pub(crate) posed: Posed,
+    pub(crate) sol: LimbsSolution,
 }
 
 impl UpsWorkspace {
@@ -467,22 +467,38 @@ pub struct UpsLoads {
 /// [`UpsLoads`] of one sample, with the legs eliminated where that applies.
 pub fn solve_ups_leg_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace) -> UpsLoads {
     let mut out = UpsLoads { status: Status::Unreachable, f_s: [Vector3::zeros(); 6], f_u: [Vector3::zeros(); 6] };
-    let Some(pose) = ups_posture_into(model, sample, mode, &mut ws.posed) else { return out };
-    out.status = Status::NearSingular;
+    match ups_reactions_into(model, sample, mode, ws) {
+        Ok(_) => {
+            out.status = Status::Ok;
+            out.f_s = std::array::from_fn(|i| ws.sol.f_s[i]);
+            out.f_u = std::array::from_fn(|i| ws.sol.f_b[i]);
+        }
+        Err(status) => out.status = status,
+    }
+    out
+}
+
+/// The posture of one sample with its bodies (in `ws.posed`) and the legs' reactions
+/// (`f_s`, `f_b`, `mu`, `m_b` in `ws.sol`), with the legs eliminated where that
+/// applies; else the status, `unreachable` or `near_singular`. What the switch search
+/// evaluates between samples ([`solve_ups_leg_loads`]), and what a custom description
+/// of a 6-UPS takes from this kind's kernel (docs/model.md §12.10).
+pub(crate) fn ups_reactions_into(
+    model: &UpsModel,
+    sample: &UpsSample,
+    mode: Mode,
+    ws: &mut UpsWorkspace,
+) -> Result<UpsPosture, Status> {
+    let pose = ups_posture_into(model, sample, mode, &mut ws.posed).ok_or(Status::Unreachable)?;
     let (_, _, inverse, conditioned) = conditioning(model, &pose);
     if !conditioned {
-        return out;
+        return Err(Status::NearSingular);
     }
     let loaded = model.assembly.reduced_reactions_into(&ws.posed, inverse.as_ref(), &mut ws.sol) || {
         ws.sol = model.assembly.solve_loads(&ws.posed, &mut ws.data);
         ws.sol.status != Status::NearSingular
     };
-    if loaded {
-        out.status = Status::Ok;
-        out.f_s = std::array::from_fn(|i| ws.sol.f_s[i]);
-        out.f_u = std::array::from_fn(|i| ws.sol.f_b[i]);
-    }
-    out
+    if loaded { Ok(pose) } else { Err(Status::NearSingular) }
 }
 
 /// `(cond_a, cond_jp, G⁻¹)` of a posture, and whether it is regular and within the

@@ -58,15 +58,21 @@ pub fn column<'a, T: 'static>(b: &'a RecordBatch, name: &str) -> &'a T {
     b.column_by_name(name).unwrap_or_else(|| panic!("no {name}")).as_any().downcast_ref().unwrap()
 }
 
-/// `job`, a description of a built-in 3-PRS (as `describe` writes it), with each leg's
-/// centre of mass written out where the description leaves the default (the midpoint
-/// of the leg's joints): the same mechanism, which is then not recognised as the
-/// built-in kind's, so that its poses go the description's general way and not
-/// through the 3-PRS kernel (docs/model.md §12.10).
+/// `job`, a description of a built-in 3-PRS or 6-UPS (as `describe` writes it), with a
+/// body written another way: each 3-PRS leg's centre of mass written out where the
+/// description leaves the default (the midpoint of the leg's joints), each 6-UPS
+/// cylinder's inertia left to the default (a slender rod between its U and P joints,
+/// which it is). The same mechanism, which is then not recognised as the built-in
+/// kind's, so that its poses go the description's general way and not through that
+/// kind's kernel (docs/model.md §12.10).
 pub fn general_path(job: &clearance_engine::JobSpec) -> clearance_engine::JobSpec {
     let mut out = job.clone();
     for limb in out.mechanism.limb.as_mut().expect("a description").iter_mut() {
         let n = limb.joints.len();
+        if limb.joints[0].joint == clearance_model::custom::JointType::U {
+            limb.bodies[0].inertia = None;
+            continue;
+        }
         for (k, body) in limb.bodies.iter_mut().enumerate().filter(|(k, _)| k + 1 < n) {
             if body.com.is_none() {
                 let (a, b) = (limb.joints[k].at, limb.joints[k + 1].at);
