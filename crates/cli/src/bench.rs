@@ -198,6 +198,7 @@ pub const SUITE: &[SuiteJob] = &[
     suite_job!("rps_grid", "rps_grid.toml", Standard),
     suite_job!("ups_grid", "ups_grid.toml", Standard),
     suite_job!("prs_described", "prs_described.toml", Standard),
+    suite_job!("ups_described", "ups_described.toml", Standard),
     suite_job!("custom_3rrs", "custom_3rrs.toml", Standard),
     suite_job!("custom_6pus", "custom_6pus.toml", Standard),
 ];

@@ -450,6 +450,7 @@ fn bench_suite_reports_every_job_and_cleans_up() {
                 "rps_grid",
                 "ups_grid",
                 "prs_described",
+                "ups_described",
                 "custom_3rrs",
                 "custom_6pus"
             ]

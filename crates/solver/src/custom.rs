@@ -811,10 +811,10 @@ fn preset_result(
 ) -> Option<CustomResult> {
     match preset {
         Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode),
-        Preset::Ups6(p) => {
-            let pose = UPS_KERNEL.with(|ws| ups_pose(p, &ups_sample(inputs, rates), mode, &mut ws.borrow_mut()))?;
-            ups_result(model, p, inputs, &pose)
-        }
+        Preset::Ups6(p) => UPS_KERNEL.with(|k| {
+            let mut k = k.borrow_mut();
+            ups_result(model, p, inputs, k.pose(p, &ups_sample(inputs, rates), mode)?)
+        }),
     }
 }
 
@@ -898,14 +898,30 @@ fn ups_sample(inputs: &[f64], rates: Option<(&[f64], &[f64])>) -> crate::ups::Up
     std::array::from_fn(|i| [inputs[i], rates.map_or(0.0, |r| r.0[i]), rates.map_or(0.0, |r| r.1[i])])
 }
 
+/// The 6-UPS kernel's scratch and the pose it gives, per thread (its sizes are the
+/// kind's, whatever the model).
+struct UpsKernel {
+    ws: crate::ups::UpsWorkspace,
+    pose: UpsPose,
+}
+
+impl UpsKernel {
+    /// The kernel's pose of `sample` ([`ups_pose`]), or `None`.
+    fn pose(&mut self, preset: &UpsPreset, sample: &crate::ups::UpsSample, mode: Mode) -> Option<&UpsPose> {
+        ups_pose(preset, sample, mode, &mut self.ws, &mut self.pose).then_some(&self.pose)
+    }
+}
+
 thread_local! {
-    /// The 6-UPS kernel's scratch, per thread (its sizes are the kind's, whatever the model).
-    static UPS_KERNEL: std::cell::RefCell<crate::ups::UpsWorkspace> =
-        std::cell::RefCell::new(crate::ups::UpsWorkspace::new(&crate::ups::UpsModel::default()));
+    static UPS_KERNEL: std::cell::RefCell<UpsKernel> = std::cell::RefCell::new(UpsKernel {
+        ws: crate::ups::UpsWorkspace::new(&crate::ups::UpsModel::default()),
+        pose: UpsPose::default(),
+    });
 }
 
 /// What the 6-UPS kernel gives of a pose: per leg its U, S and P centres, the U's
 /// fixed axis and normal, the leg's direction, `q`, and each joint's reaction; P.
+#[derive(Default)]
 struct UpsPose {
     p: V3,
     b: [V3; 6],
@@ -917,6 +933,10 @@ struct UpsPose {
     q: [f64; 6],
     /// Per leg: U, P, S, each `(f, m)` proximal on distal, `m` about the joint's centre.
     reactions: [[(V3, V3); 3]; 6],
+    /// The description's wrench basis `G` (column i: the unit force along leg i through
+    /// `A_i`, `[e_i; A_i × e_i]` made unit; limb i's block) and `G⁻¹`.
+    g: Matrix6<f64>,
+    gi: Matrix6<f64>,
 }
 
 /// The kernel's posture and reactions of a pose of a 6-UPS preset; `None` where the
@@ -928,32 +948,37 @@ fn ups_pose(
     sample: &crate::ups::UpsSample,
     mode: Mode,
     ws: &mut crate::ups::UpsWorkspace,
-) -> Option<UpsPose> {
+    out: &mut UpsPose,
+) -> bool {
     let model = &preset.model;
-    let pose = crate::ups::ups_reactions_into(model, sample, mode, ws).ok()?;
+    let Ok((pose, legs_inverse)) = crate::ups::ups_reactions_into(model, sample, mode, ws) else { return false };
     let gravity = model.assembly.gravity;
     let (sol, posed) = (&ws.sol, &ws.posed);
-    let c_p: [V3; 6] =
-        std::array::from_fn(|i| pose.b[i] + pose.e[i] * (preset.p_from_b[i] + pose.q[i] - preset.q_home[i]));
-    let reactions = std::array::from_fn(|i| {
+    // G⁻¹ from the kernel's: column i of G is leg i's screw about P, `[e_i; (A_i − P)×e_i]`,
+    // moved to O (`T = [I 0; [P]ₓ I]`) and made unit (`D`), so `G⁻¹ = D⁻¹·G_P⁻¹·T⁻¹`.
+    let px = pose.p.cross_matrix();
+    for i in 0..6 {
+        let c_p = pose.b[i] + pose.e[i] * (preset.p_from_b[i] + pose.q[i] - preset.q_home[i]);
         let piston = &posed.limbs[i].bodies[1];
         let demand = piston.demand(&gravity);
         let f_s = sol.f_s[i];
         let f_p = f_s + demand;
-        let m_p = (pose.a[i] - c_p[i]).cross(&f_s) + (piston.centre - c_p[i]).cross(&demand) + piston.spin();
-        [(sol.f_b[i], sol.m_b[i]), (f_p, m_p), (f_s, V3::zeros())]
-    });
-    Some(UpsPose { p: pose.p, b: pose.b, a: pose.a, e: pose.e, a1: pose.a1, n: pose.n, c_p, q: pose.q, reactions })
-}
-
-/// The description's wrench basis at a 6-UPS preset's pose: column i the unit force
-/// along leg i through `A_i`, `[e_i; A_i × e_i]` normalised (limb i's block is column i).
-fn ups_frame(pose: &UpsPose) -> Matrix6<f64> {
-    let mut g = Matrix6::zeros();
-    for i in 0..6 {
-        g.set_column(i, &six(pose.e[i], pose.a[i].cross(&pose.e[i])).normalize());
+        let m_p = (pose.a[i] - c_p).cross(&f_s) + (piston.centre - c_p).cross(&demand) + piston.spin();
+        out.reactions[i] = [(sol.f_b[i], sol.m_b[i]), (f_p, m_p), (f_s, V3::zeros())];
+        out.c_p[i] = c_p;
+        let column = six(pose.e[i], pose.a[i].cross(&pose.e[i]));
+        let norm = column.norm();
+        out.g.set_column(i, &(column / norm));
+        let row = legs_inverse.row(i);
+        let (force, moment) = (row.fixed_columns::<3>(0), row.fixed_columns::<3>(3));
+        let shifted = force - moment * px;
+        for c in 0..3 {
+            out.gi[(i, c)] = norm * shifted[c];
+            out.gi[(i, 3 + c)] = norm * moment[c];
+        }
     }
-    g
+    (out.p, out.b, out.a, out.e, out.a1, out.n, out.q) = (pose.p, pose.b, pose.a, pose.e, pose.a1, pose.n, pose.q);
+    true
 }
 
 /// Each joint's centre, axis and normal at a 6-UPS preset's pose, as the general path
@@ -969,13 +994,12 @@ fn ups_joint_at(pose: &UpsPose, l: usize, j: usize) -> (V3, V3, V3) {
 /// A pose of a 6-UPS preset from the kernel's `pose`, as [`solve_posture`] gives it;
 /// `None` where `κ₂(G)` is not within `singular_cond` (the general path decides).
 fn ups_result(model: &CustomModel, preset: &UpsPreset, inputs: &[f64], pose: &UpsPose) -> Option<CustomResult> {
-    let g = ups_frame(pose);
+    let (g, gi) = (&pose.g, &pose.gi);
     // NaN is not within the limit.
-    let cond = cond_of(&g);
+    let cond = cond_of(g);
     if cond.is_nan() || cond > model.singular_cond {
         return None;
     }
-    let gi = g.try_inverse()?;
     let coords: [f64; 6] = std::array::from_fn(|i| inputs[i]);
     let mut out = CustomResult {
         status: Status::Ok,
@@ -986,7 +1010,7 @@ fn ups_result(model: &CustomModel, preset: &UpsPreset, inputs: &[f64], pose: &Up
         cond,
         ..Default::default()
     };
-    take_up_at(model, |l, j| ups_joint_at(pose, l, j), (&g, |l| (l, 1), &gi), &pose.p, &coords, &mut out);
+    take_up_at(model, |l, j| ups_joint_at(pose, l, j), (g, |l| (l, 1), gi), &pose.p, &coords, &mut out);
     out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
     Some(out)
 }
@@ -1001,22 +1025,25 @@ fn ups_load(
     mode: Mode,
     group: usize,
 ) -> Option<Option<[f64; 3]>> {
-    let pose = UPS_KERNEL.with(|ws| ups_pose(preset, &ups_sample(inputs, rates), mode, &mut ws.borrow_mut()))?;
-    let g = ups_frame(&pose);
+    UPS_KERNEL.with(|k| ups_load_at(model, k.borrow_mut().pose(preset, &ups_sample(inputs, rates), mode)?, group))
+}
+
+/// [`ups_load`] from the kernel's pose.
+fn ups_load_at(model: &CustomModel, pose: &UpsPose, group: usize) -> Option<Option<[f64; 3]>> {
+    let (g, gi) = (&pose.g, &pose.gi);
     // As `statics` decides without the condition number: a bound where it can.
-    let gi = g.try_inverse()?;
     let bound = g.norm() * gi.norm();
     let within = |c: f64| c.is_finite() && c <= model.singular_cond;
-    if !within(bound) && !within(cond_of(&g)) {
+    if !within(bound) && !within(cond_of(g)) {
         return None;
     }
     let def = &model.groups[group];
     let joint = model.joint_type(def);
-    let (centre, axis, normal) = ups_joint_at(&pose, def.limb, def.joint);
+    let (centre, axis, normal) = ups_joint_at(pose, def.limb, def.joint);
     let (f, m) = pose.reactions[def.limb][def.joint];
     let (load, ..) = deciding_load(joint, def.group, &axis, &normal, &f, &m);
     let at = (&centre, &axis, &normal);
-    let (.., unit_p, _) = unit_reach(&g, (def.limb, 1), &gi, (joint, def.group), at, &pose.p);
+    let (.., unit_p, _) = unit_reach(g, (def.limb, 1), gi, (joint, def.group), at, &pose.p);
     Some((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]))
 }
 
@@ -1025,8 +1052,8 @@ fn ups_load(
 fn ups_members(models: &[&CustomModel], poses: &[Vec<[f64; 3]>], mode: Mode) -> Vec<Option<Vec<CustomResult>>> {
     let Some(Preset::Ups6(first)) = models[0].preset.as_deref() else { return vec![None; poses.len()] };
     let dynamic = mode == Mode::Dynamic;
-    UPS_KERNEL.with(|ws| {
-        let ws = &mut ws.borrow_mut();
+    UPS_KERNEL.with(|k| {
+        let k = &mut k.borrow_mut();
         poses
             .iter()
             .map(|p| {
@@ -1034,11 +1061,11 @@ fn ups_members(models: &[&CustomModel], poses: &[Vec<[f64; 3]>], mode: Mode) -> 
                 let sample: crate::ups::UpsSample =
                     std::array::from_fn(|i| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] });
                 let inputs: [f64; 6] = std::array::from_fn(|i| p[i][0]);
-                let pose = ups_pose(first, &sample, mode, ws)?;
+                let pose = k.pose(first, &sample, mode)?;
                 models
                     .iter()
                     .map(|m| match m.preset.as_deref() {
-                        Some(Preset::Ups6(preset)) => ups_result(m, preset, &inputs, &pose),
+                        Some(Preset::Ups6(preset)) => ups_result(m, preset, &inputs, pose),
                         _ => None,
                     })
                     .collect()

@@ -480,7 +480,8 @@ pub fn solve_ups_leg_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws:
 
 /// The posture of one sample with its bodies (in `ws.posed`) and the legs' reactions
 /// (`f_s`, `f_b`, `mu`, `m_b` in `ws.sol`), with the legs eliminated where that
-/// applies; else the status, `unreachable` or `near_singular`. What the switch search
+/// applies, and `G⁻¹` of the legs' screws about P ([`ups_condition`]); else the
+/// status, `unreachable` or `near_singular`. What the switch search
 /// evaluates between samples ([`solve_ups_leg_loads`]), and what a custom description
 /// of a 6-UPS takes from this kind's kernel (docs/model.md §12.10).
 pub(crate) fn ups_reactions_into(
@@ -488,17 +489,15 @@ pub(crate) fn ups_reactions_into(
     sample: &UpsSample,
     mode: Mode,
     ws: &mut UpsWorkspace,
-) -> Result<UpsPosture, Status> {
+) -> Result<(UpsPosture, SMatrix<f64, 6, 6>), Status> {
     let pose = ups_posture_into(model, sample, mode, &mut ws.posed).ok_or(Status::Unreachable)?;
     let (_, _, inverse, conditioned) = conditioning(model, &pose);
-    if !conditioned {
-        return Err(Status::NearSingular);
-    }
-    let loaded = model.assembly.reduced_reactions_into(&ws.posed, inverse.as_ref(), &mut ws.sol) || {
+    let Some(inverse) = inverse.filter(|_| conditioned) else { return Err(Status::NearSingular) };
+    let loaded = model.assembly.reduced_reactions_into(&ws.posed, Some(&inverse), &mut ws.sol) || {
         ws.sol = model.assembly.solve_loads(&ws.posed, &mut ws.data);
         ws.sol.status != Status::NearSingular
     };
-    if loaded { Ok(pose) } else { Err(Status::NearSingular) }
+    if loaded { Ok((pose, inverse)) } else { Err(Status::NearSingular) }
 }
 
 /// `(cond_a, cond_jp, G⁻¹)` of a posture, and whether it is regular and within the
