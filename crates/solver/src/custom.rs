@@ -546,12 +546,7 @@ impl PrsPreset {
         if model.geometry.kind != MechanismKind::Prs3 || custom.exact || custom.geom.inputs != [2, 4, 5] {
             return None;
         }
-        let order = [JointType::P, JointType::R, JointType::S];
-        let limbs_ok = custom.geom.limbs.len() == 3
-            && custom.geom.limbs.iter().all(|l| {
-                l.joints.len() == 3
-                    && l.joints.iter().zip(order).all(|(j, t)| j.joint == t && j.actuated == (t == JointType::P))
-            });
+        let limbs_ok = limbs_are(custom, 3, [JointType::P, JointType::R, JointType::S]);
         let kinds: Option<Vec<usize>> =
             custom.kinds.iter().map(|k| clearance_model::KINDS.iter().position(|b| b.name() == k.as_str())).collect();
         let kinds = kinds?;
@@ -580,6 +575,16 @@ impl PrsPreset {
         let without_play = custom.groups.iter().any(|g| g.magnitude == 0.0);
         Some(Self { q_home: at_home.q, kinds, model, without_play })
     }
+}
+
+/// Whether `custom` has `limbs` limbs, each of the joints `order` with its P joint, and
+/// only it, actuated: the built-in kinds' limbs (3-PRS `P*–R–S`, 6-UPS `U–P*–S`).
+fn limbs_are(custom: &CustomModel, limbs: usize, order: [JointType; 3]) -> bool {
+    custom.geom.limbs.len() == limbs
+        && custom.geom.limbs.iter().all(|l| {
+            l.joints.len() == 3
+                && l.joints.iter().zip(order).all(|(j, t)| j.joint == t && j.actuated == (t == JointType::P))
+        })
 }
 
 /// The posture of a preset's pose and the description's wrench basis `G` there, limb
@@ -864,12 +869,7 @@ impl UpsPreset {
         if custom.exact || custom.geom.inputs != [0, 1, 2, 3, 4, 5] {
             return None;
         }
-        let order = [JointType::U, JointType::P, JointType::S];
-        let limbs_ok = custom.geom.limbs.len() == 6
-            && custom.geom.limbs.iter().all(|l| {
-                l.joints.len() == 3
-                    && l.joints.iter().zip(order).all(|(j, t)| j.joint == t && j.actuated == (t == JointType::P))
-            });
+        let limbs_ok = limbs_are(custom, 6, [JointType::U, JointType::P, JointType::S]);
         let groups_ok = custom.groups.iter().all(|g| {
             let expected = match custom.kinds[g.kind].as_str() {
                 "s_radial" => (2, Group::Radial),
