@@ -939,8 +939,8 @@ struct UpsPose {
     gi: Matrix6<f64>,
 }
 
-/// The kernel's posture and reactions of a pose of a 6-UPS preset; `None` where the
-/// kernel does not solve it. The P joint's reaction is the piston's balance: the S
+/// The kernel's posture and reactions of a pose of a 6-UPS preset, into `out`; `false`
+/// where the kernel does not solve it. The P joint's reaction is the piston's balance: the S
 /// joint's force, which transmits no couple, plus what the piston's weight and inertia
 /// ask (`W_P = W_S + C_piston`, as [`reactions`] carries the bodies beyond a joint).
 fn ups_pose(
