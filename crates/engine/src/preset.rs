@@ -95,17 +95,7 @@ fn ups_of(job: &JobSpec) -> Option<JobSpec> {
     };
     out.mass.cylinder = Some(limbs[0].bodies[0].mass);
     out.mass.piston = Some(limbs[0].bodies[1].mass);
-    out.clearance = ClearanceSpec { ups: true, ..ClearanceSpec::default() };
-    for (key, magnitude) in &job.clearance.given {
-        let Magnitude::All(v) = magnitude else { return None };
-        let slot = match key.as_str() {
-            "s_radial" => &mut out.clearance.s_radial,
-            "u_radial" => &mut out.clearance.u_radial,
-            "u_angular" => &mut out.clearance.u_angular,
-            _ => return None,
-        };
-        *slot = *v;
-    }
+    out.clearance = builtin_clearance(job, &["s_radial", "u_radial", "u_angular"], true)?;
     // Through text, so that it is checked and completed as a job file would be.
     JobSpec::from_toml_str(&out.to_toml_string(), "preset").ok()
 }
@@ -159,21 +149,22 @@ fn prs_of(job: &JobSpec) -> Option<JobSpec> {
         ..MechanismSpec::of_kind(MechanismKind::Prs3)
     };
     out.mass.leg = Some(leg);
-    let mut clearance = ClearanceSpec::default();
-    for (key, magnitude) in &job.clearance.given {
-        let Magnitude::All(v) = magnitude else { return None };
-        let slot = match key.as_str() {
-            "s_radial" => &mut clearance.s_radial,
-            "r_radial" => &mut clearance.r_radial,
-            "r_axial" => &mut clearance.r_axial,
-            "r_angular" => &mut clearance.r_angular,
-            _ => return None,
-        };
-        *slot = *v;
-    }
-    out.clearance = clearance;
+    out.clearance = builtin_clearance(job, &["s_radial", "r_radial", "r_axial", "r_angular"], false)?;
     // Through text, so that it is checked and completed as a job file would be.
     JobSpec::from_toml_str(&out.to_toml_string(), "preset").ok()
+}
+
+/// A built-in kind's `[clearance]` (`ups` for the 6-UPS's) from a description's, whose
+/// kinds must be among that kind's `keys`, each one number for every limb.
+fn builtin_clearance(job: &JobSpec, keys: &[&str], ups: bool) -> Option<ClearanceSpec> {
+    let mut clearance = ClearanceSpec { ups, ..ClearanceSpec::default() };
+    for (key, magnitude) in &job.clearance.given {
+        if !matches!(magnitude, Magnitude::All(_)) || !keys.contains(&key.as_str()) {
+            return None;
+        }
+        clearance.set(key, magnitude.clone());
+    }
+    Some(clearance)
 }
 
 /// Whether two descriptions' values agree, numbers to [`SAME`], joint names aside.

@@ -493,15 +493,36 @@ pub fn group_load_near(
     let mut out = CustomResult::default();
     let load = statics(model, &posture, &mut out, false).and_then(|(basis, gi)| {
         let g = &model.groups[group];
-        let joint = model.geom.limbs[g.limb].joints[g.joint].joint;
         let pj = &posture.joints[g.limb][g.joint];
-        let (f, m) = out.reactions[g.limb][g.joint];
-        let (load, ..) = deciding_load(joint, g.group, &pj.axis, &pj.normal, &f, &m);
         let at = (&pj.centre, &pj.axis, &pj.normal);
-        let (.., unit_p, _) = unit_reach(&basis.g, basis.block(g.limb), &gi, (joint, g.group), at, &posture.platform.t);
-        (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
+        let system = (&basis.g, basis.block(g.limb), &gi);
+        mobile_load(model, g, out.reactions[g.limb][g.joint], at, system, &posture.platform.t)
     });
     (load, Some((posture.coords, posture.states)))
+}
+
+/// Group `def`'s deciding load from its joint's reaction `(f, m)` and its centre, axis
+/// and normal (`at`), where the group can move P (its unit reach from `G`, the limb's
+/// block of it and `G⁻¹` in `system`, at least [`IMMOBILE`]); else `None`.
+fn mobile_load(
+    model: &CustomModel,
+    def: &GroupDef,
+    (f, m): (V3, V3),
+    at: (&V3, &V3, &V3),
+    (g, block, gi): (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
+    pos: &V3,
+) -> Option<[f64; 3]> {
+    let joint = model.joint_type(def);
+    let (load, ..) = deciding_load(joint, def.group, at.1, at.2, &f, &m);
+    let (.., unit_p, _) = unit_reach(g, block, gi, (joint, def.group), at, pos);
+    (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
+}
+
+/// Whether a preset's pose is within `singular_cond` as [`statics`] decides it without
+/// the condition number: by the bound `‖G‖_F·‖G⁻¹‖_F` where that suffices, else `κ₂(G)`.
+fn bounded(model: &CustomModel, g: &Matrix6<f64>, gi: &Matrix6<f64>) -> bool {
+    let within = |c: f64| c.is_finite() && c <= model.singular_cond;
+    within(g.norm() * gi.norm()) || within(cond_of(g))
 }
 
 /// A description that is a built-in kind's, with that kind's kernel (docs/model.md
@@ -616,9 +637,7 @@ fn cond_of(g: &Matrix6<f64>) -> f64 {
     if lo > 0.0 { hi / lo } else { f64::INFINITY }
 }
 
-/// Group `group`'s deciding load at a pose of a preset, as [`group_load_near`] reads
-/// it (`Some(None)` where the group cannot move P); `None` where the kernel does not
-/// solve the pose, which the general path then decides.
+/// [`preset_load`] for a 3-PRS preset.
 fn prs_load(
     model: &CustomModel,
     preset: &PrsPreset,
@@ -631,23 +650,18 @@ fn prs_load(
     let r = KERNEL
         .with(|ws| crate::pose::solve_reactions_if_solvable(&preset.model, &sample, mode, &mut ws.borrow_mut()))?;
     let (pose, g) = preset_frame(preset, inputs);
-    // As `statics` decides without the condition number: a bound where it can.
     let gi = g.try_inverse()?;
-    let bound = g.norm() * gi.norm();
-    let within = |c: f64| c.is_finite() && c <= model.singular_cond;
-    if !within(bound) && !within(cond_of(&g)) {
+    if !bounded(model, &g, &gi) {
         return None;
     }
     let def = &model.groups[group];
-    let (l, joint) = (def.limb, model.joint_type(def));
-    let (f, m, centre, axis) = match joint {
-        JointType::S => (r.f_s[l], V3::zeros(), pose.a[l], V3::zeros()),
-        _ => (r.f_r[l], r.m_r[l], pose.b[l], preset.model.geometry.y[l]),
+    let l = def.limb;
+    let (reaction, centre, axis) = match model.joint_type(def) {
+        JointType::S => ((r.f_s[l], V3::zeros()), pose.a[l], V3::zeros()),
+        _ => ((r.f_r[l], r.m_r[l]), pose.b[l], preset.model.geometry.y[l]),
     };
-    let (load, ..) = deciding_load(joint, def.group, &axis, &V3::zeros(), &f, &m);
     let at = (&centre, &axis, &V3::zeros());
-    let (.., unit_p, _) = unit_reach(&g, (2 * l, 2), &gi, (joint, def.group), at, &pose.p);
-    Some((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]))
+    Some(mobile_load(model, def, reaction, at, (&g, (2 * l, 2), &gi), &pose.p))
 }
 
 /// The kernel's sample of a preset's inputs (`z`, `ψ`, `θ`) and their rates.
@@ -667,9 +681,7 @@ thread_local! {
     static KERNEL: std::cell::RefCell<Workspace> = std::cell::RefCell::new(Workspace::new());
 }
 
-/// A pose of a description that is a preset, solved by the preset's kernel and given
-/// as [`solve_posture`] gives it; `None` where the kernel's answer is not the general
-/// path's (see [`Preset`]): the caller then solves the pose the general way.
+/// [`preset_result`] for a 3-PRS preset.
 fn prs_result(
     model: &CustomModel,
     preset: &PrsPreset,
@@ -1011,7 +1023,6 @@ fn ups_result(model: &CustomModel, preset: &UpsPreset, inputs: &[f64], pose: &Up
         ..Default::default()
     };
     take_up_at(model, |l, j| ups_joint_at(pose, l, j), (g, |l| (l, 1), gi), &pose.p, &coords, &mut out);
-    out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
     Some(out)
 }
 
@@ -1030,21 +1041,14 @@ fn ups_load(
 
 /// [`ups_load`] from the kernel's pose.
 fn ups_load_at(model: &CustomModel, pose: &UpsPose, group: usize) -> Option<Option<[f64; 3]>> {
-    let (g, gi) = (&pose.g, &pose.gi);
-    // As `statics` decides without the condition number: a bound where it can.
-    let bound = g.norm() * gi.norm();
-    let within = |c: f64| c.is_finite() && c <= model.singular_cond;
-    if !within(bound) && !within(cond_of(g)) {
+    if !bounded(model, &pose.g, &pose.gi) {
         return None;
     }
     let def = &model.groups[group];
-    let joint = model.joint_type(def);
     let (centre, axis, normal) = ups_joint_at(pose, def.limb, def.joint);
-    let (f, m) = pose.reactions[def.limb][def.joint];
-    let (load, ..) = deciding_load(joint, def.group, &axis, &normal, &f, &m);
     let at = (&centre, &axis, &normal);
-    let (.., unit_p, _) = unit_reach(g, (def.limb, 1), gi, (joint, def.group), at, &pose.p);
-    Some((unit_p >= IMMOBILE).then_some([load.x, load.y, load.z]))
+    let system = (&pose.g, (def.limb, 1), &pose.gi);
+    Some(mobile_load(model, def, pose.reactions[def.limb][def.joint], at, system, &pose.p))
 }
 
 /// [`preset_members`] for 6-UPS presets: per pose, the kernel once (the members differ
@@ -1084,8 +1088,6 @@ fn solve_posture(models: &[&CustomModel], posture: &CustomPosture, mut out: Cust
     if let Some((basis, gi)) = statics {
         for (model, out) in models.iter().zip(&mut all) {
             take_up(model, posture, &basis, &gi, out);
-            out.status =
-                if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
             if model.exact && out.status == Status::Ok {
                 out.exact = exact_error(model, posture, &basis, &gi, out);
             }
@@ -1417,7 +1419,8 @@ fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f
 
 /// [`take_up`] from what it reads of a pose: each joint's centre, axis and normal
 /// (`joint_at(limb, joint)`), `G` with each limb's block of it and `G⁻¹` (`system`), P
-/// (`pos`) and the coordinates; the reactions are `out`'s.
+/// (`pos`) and the coordinates; the reactions are `out`'s. Sets the status: `ok`, or
+/// `indeterminate_contact` where a take-up is.
 fn take_up_at(
     model: &CustomModel,
     joint_at: impl Fn(usize, usize) -> (V3, V3, V3),
@@ -1478,6 +1481,7 @@ fn take_up_at(
     out.envelope = envelope;
     out.env_total = total;
     out.dominant = dominant(model, &out.takes);
+    out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
 }
 
 /// Relative tolerance of a tie between two joints' contributions (docs/model.md §12.7).
