@@ -218,6 +218,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
         schemas: models.iter().map(|m| CustomSchema::new(m, opts.columns, job.analysis.exact)).collect(),
         models,
         search: opts.search,
+        poses: opts.poses,
         tables: HashMap::new(),
         kept: 0,
     };
@@ -236,6 +237,8 @@ struct CustomRun<'a> {
     sources: Vec<SampleSource>,
     schemas: Vec<CustomSchema>,
     search: bool,
+    /// Whether the units' part files are written (their rows built).
+    poses: bool,
     /// What the search reads of each sample, kept from the pose pass where every unit
     /// of a (variant, mode) is computed here and the table fits (else the search
     /// solves them).
@@ -244,28 +247,74 @@ struct CustomRun<'a> {
     kept: u64,
 }
 
+/// Rows of a work solved at a time: each block's results become its rows of the
+/// work's columns, statistics and search table before the next block is solved. A
+/// result is some 2 kB of vectors; a whole part's (65 536 rows) held at once came as
+/// fresh pages, a fault every few poses, and was freed on the pool afterwards. A
+/// multiple of [`RUN`], so that no run of continued samples straddles two blocks (a
+/// sample's result depends only on its run).
+const BLOCK: u64 = 8 * 1024;
+
+/// One member's unit of a solved work: its rows' record batches (one a block), its
+/// statistics (every pose pushed in sample order) and what the search reads of each
+/// of its samples (when the run searches).
+#[derive(Default)]
+struct MemberSolved {
+    batches: Vec<RecordBatch>,
+    stats: Option<CustomStats>,
+    sampled: Vec<Sampled>,
+}
+
 impl UnitRun for CustomRun<'_> {
-    /// The work's rows and each member's results (taken out by its unit).
-    type Solved = (Vec<CustomRow>, Vec<Vec<CustomResult>>);
+    /// Per member (unit of the work), in unit order.
+    type Solved = Vec<MemberSolved>;
     type Found = HashMap<(u64, Mode), Vec<CustomSwitch>>;
 
     fn solve(&self, w: &Work, _spare: Option<Self::Solved>) -> Self::Solved {
         let first = &w.units[0];
         let members: Vec<&CustomModel> = w.units.iter().map(|u| &self.models[u.variant as usize]).collect();
         let source = Samples::Job(&self.sources[first.variant as usize]);
-        solve_members(&members, source, first.range.clone(), first.mode)
+        let mut out: Vec<MemberSolved> = members
+            .iter()
+            .map(|m| MemberSolved {
+                stats: Some(CustomStats::new(m.kinds.len(), m.groups.len())),
+                ..Default::default()
+            })
+            .collect();
+        let range = first.range.clone();
+        let mut start = range.start;
+        while start < range.end {
+            let end = (start - start % BLOCK + BLOCK).min(range.end);
+            let (rows, results) = solve_members(&members, source, start..end, first.mode);
+            for (((u, model), part), results) in w.units.iter().zip(&members).zip(&mut out).zip(results) {
+                let schema = &self.schemas[u.variant as usize];
+                // The statistics and the search's samples on this thread while the pool
+                // builds the columns.
+                let (batch, ()) = rayon::join(
+                    || self.poses.then(|| schema.batch(u.mode, &rows, &results)),
+                    || {
+                        let stats = part.stats.as_mut().expect("statistics until the unit is built");
+                        for r in &results {
+                            stats.push(r);
+                        }
+                        if self.search {
+                            part.sampled.extend(results.iter().map(|r| Sampled::of(model, r)));
+                        }
+                    },
+                );
+                part.batches.extend(batch);
+                // Each result holds a few vectors: freed on the pool, not on this thread.
+                results.into_par_iter().with_min_len(RUN as usize).for_each(drop);
+            }
+            start = end;
+        }
+        out
     }
 
-    fn unit(
-        &mut self,
-        w: &Work,
-        k: usize,
-        (rows, shared): &mut Self::Solved,
-        poses: bool,
-    ) -> (Option<RecordBatch>, Vec<u8>) {
+    fn unit(&mut self, w: &Work, k: usize, solved: &mut Self::Solved, poses: bool) -> (Option<RecordBatch>, Vec<u8>) {
         let u = &w.units[k];
         let v = u.variant as usize;
-        let results = std::mem::take(&mut shared[k]);
+        let MemberSolved { batches, stats, sampled } = std::mem::take(&mut solved[k]);
         let bytes = self.sources[v].len().saturating_mul(table_entry(&self.models[v]));
         if self.search
             && !self.tables.contains_key(&(u.variant, u.mode))
@@ -274,28 +323,17 @@ impl UnitRun for CustomRun<'_> {
             self.kept += bytes;
             self.tables.insert((u.variant, u.mode), (0..self.sources[v].len()).map(|_| None).collect());
         }
-        // The statistics and the search's table on this thread while the pool builds
-        // the columns.
-        let (model, schema) = (&self.models[v], &self.schemas[v]);
-        let table = self.tables.get_mut(&(u.variant, u.mode));
-        let (batch, stats) = rayon::join(
-            || poses.then(|| schema.batch(u.mode, rows, &results)),
-            || {
-                let mut stats = CustomStats::new(model.kinds.len(), model.groups.len());
-                for r in &results {
-                    stats.push(r);
-                }
-                stats.flush();
-                if let Some(table) = table {
-                    for (i, r) in u.range.clone().zip(&results) {
-                        table[i as usize] = Some(Sampled::of(model, r));
-                    }
-                }
-                stats
-            },
-        );
-        // Each result holds a few vectors: freed on the pool, not on this thread.
-        results.into_par_iter().with_min_len(RUN as usize).for_each(drop);
+        if let Some(table) = self.tables.get_mut(&(u.variant, u.mode)) {
+            for (i, s) in u.range.clone().zip(sampled) {
+                table[i as usize] = Some(s);
+            }
+        }
+        let mut stats = stats.expect("a solved unit has statistics");
+        stats.flush();
+        let batch = poses.then(|| match batches.as_slice() {
+            [one] => one.clone(),
+            _ => arrow::compute::concat_batches(&self.schemas[v].schema(), &batches).expect("blocks share the schema"),
+        });
         (batch, serde_json::to_vec(&stats).expect("statistics are plain numbers"))
     }
 

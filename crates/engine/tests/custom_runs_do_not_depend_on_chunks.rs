@@ -4,7 +4,9 @@
 //! a run in parts of 37 samples (runs cut mid-way), in three shards (the last one
 //! solves the search's table itself) and in one part give the same poses and
 //! switches, bit for bit, and the same summary (its sums merged part by part) to
-//! round-off, on a grid and on a trajectory in both modes.
+//! round-off, on a grid and on a trajectory in both modes. A part is solved a block
+//! of 8 192 samples at a time (its columns, statistics and search table built block
+//! by block): a part of several blocks gives the same as parts of one.
 
 mod common;
 
@@ -95,4 +97,22 @@ fn a_grid_gives_the_same_bits_in_any_parts() {
 #[test]
 fn a_trajectory_in_both_modes_gives_the_same_bits_in_any_parts() {
     same_every_way(&job(Some(TRAJECTORY)));
+}
+
+#[test]
+fn a_part_of_several_blocks_gives_the_same_bits_as_parts_of_one() {
+    // 2 × 8 192 + 517 samples: whole, one part of three blocks (the last partial);
+    // in parts of 4 000, each within one block or across a block's end.
+    let long = TRAJECTORY.replace("n = 301", "n = 16901").replace(r#"["kinetostatic", "dynamic"]"#, r#"["dynamic"]"#);
+    let job = job(Some(&long));
+    assert_eq!(job.sample_count(), 16_901);
+    let dir = tempfile::tempdir().unwrap();
+    let (whole, parts) = (dir.path().join("whole"), dir.path().join("parts"));
+    run(&job, "job.toml", &options(&whole, 65536, None)).unwrap();
+    run(&job, "job.toml", &options(&parts, 4000, None)).unwrap();
+    assert_eq!(poses(&parts, &job, 4000), poses(&whole, &job, 65536));
+    let switches = read(&whole.join("discontinuities.parquet"));
+    assert!(switches.num_rows() > 0, "no switch to compare");
+    assert_eq!(read(&parts.join("discontinuities.parquet")), switches);
+    summaries_agree(&read(&parts.join("summary.parquet")), &read(&whole.join("summary.parquet")));
 }
