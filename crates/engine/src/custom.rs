@@ -80,15 +80,17 @@ fn inputs_of(model: &CustomModel, source: Samples, i: u64) -> (Option<f64>, Vec<
 }
 
 /// Solves one pose from its inputs' values, rates and accelerations, its configuration
-/// continued from `near` where that is close (see [`solve_custom_near`]).
+/// continued from `near` where that is close (see [`solve_custom_near`]); `κ₂` only
+/// where it decides without `with_cond` ([`solve_members_near`]).
 fn solve_inputs(
     models: &[&CustomModel],
     inputs: &[[f64; 3]],
     mode: Mode,
     near: Option<&Configuration>,
+    with_cond: bool,
 ) -> (Vec<CustomResult>, Option<Configuration>) {
     let [x, v, a] = split(inputs);
-    solve_members_near(models, &x, Some((&v, &a)), mode, near)
+    solve_members_near(models, &x, Some((&v, &a)), mode, near, with_cond)
 }
 
 /// The inputs' values, rates and accelerations, each in canonical order.
@@ -152,13 +154,13 @@ fn solve_members(
                 if i < range.start {
                     // Continuation runs from the run's first sample, whatever the range.
                     let (_, inputs) = inputs_of(models[0], source, i);
-                    near = solve_inputs(models, &inputs, mode, near.as_ref()).1;
+                    near = solve_inputs(models, &inputs, mode, near.as_ref(), false).1;
                     continue;
                 }
                 let k = (i - run.start) as usize;
                 let (r, reached) = match fast.get_mut(k).and_then(Option::take) {
                     Some(r) => (r, None),
-                    None => solve_inputs(models, &inputs[k], mode, near.as_ref()),
+                    None => solve_inputs(models, &inputs[k], mode, near.as_ref(), true),
                 };
                 near = reached;
                 out.push((CustomRow { sample: i, t: times[k] }, r));
@@ -513,9 +515,11 @@ fn search(
                 let inputs: Vec<[f64; 3]> = model.geom.inputs.iter().map(|&k| s[k]).collect();
                 (t, s, inputs)
             };
+            // What the search reads of a pose (its status, coordinates, loads and errors)
+            // needs no condition number.
             let solve_at = |p: f64| {
                 let (t, s, inputs) = point(p);
-                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p));
+                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p), false);
                 trail.borrow_mut().keep(p, reached);
                 (t, s, r)
             };
@@ -701,4 +705,78 @@ fn vector_switches(
             })
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A job of `jobs/` as its custom description, and its model (a preset where the
+    /// description is a built-in's).
+    fn described(file: &str) -> CustomModel {
+        let text = std::fs::read_to_string(format!("{}/../../jobs/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+        let job = JobSpec::from_toml_str(&text, file).unwrap();
+        let job = if job.mechanism.kind == clearance_model::MechanismKind::Custom {
+            job
+        } else {
+            crate::describe(&job, file).unwrap()
+        };
+        model_of(&job, file).unwrap()
+    }
+
+    /// What the search solves without the condition number (`with_cond` false) is the
+    /// whole pose's solve, bit for bit, but for `cond`: NaN where the bound accepted the
+    /// pose, else `κ₂` itself. `singular_cond` is set among the poses' own condition
+    /// numbers so that poses are accepted by the bound, by `κ₂` and refused, on a
+    /// 3-PRS and a 6-UPS (their kernels) and a 3-RRS (the general path), in both modes.
+    #[test]
+    fn the_search_solves_poses_as_the_pass_but_for_the_condition_number() {
+        for (file, preset) in
+            [("fig08_r_radial.toml", true), ("ups_orientation_grid.toml", true), ("custom_3rrs_grid.toml", false)]
+        {
+            let mut model = described(file);
+            assert_eq!(model.preset.is_some(), preset, "{file}");
+            let n = model.geom.inputs.len();
+            let home: Vec<f64> = model.geom.inputs.iter().map(|&k| model.geom.home[k]).collect();
+            let poses: Vec<Vec<f64>> = (0..60)
+                .map(|i| {
+                    let t = i as f64 / 59.0;
+                    (0..n).map(|k| home[k] + if k < n.saturating_sub(2) { 0.0 } else { 0.9 * (t - 0.5) }).collect()
+                })
+                .collect();
+            let rates: Vec<f64> = (0..n).map(|k| 0.2 + 0.05 * k as f64).collect();
+            let solve = |m: &CustomModel, x: &[f64], mode: Mode, with_cond: bool| {
+                solve_members_near(&[m], x, Some((&rates, &rates)), mode, None, with_cond).0.pop().unwrap()
+            };
+            let mut conds: Vec<f64> = poses
+                .iter()
+                .map(|x| solve(&model, x, Mode::Kinetostatic, true).cond)
+                .filter(|c| c.is_finite())
+                .collect();
+            conds.sort_by(f64::total_cmp);
+            assert!(conds.len() > 40 && conds[conds.len() - 1] < model.singular_cond, "{file}: {conds:?}");
+            // The description's limit (the bound accepts every pose), then half the
+            // poses above the limit (the bound, which exceeds κ₂ by up to six times,
+            // decides none of the rest).
+            let (mut by_bound, mut by_cond, mut refused) = (0, 0, 0);
+            for limit in [model.singular_cond, conds[conds.len() / 2]] {
+                model.singular_cond = limit;
+                for mode in [Mode::Kinetostatic, Mode::Dynamic] {
+                    for x in &poses {
+                        let (with, mut without) = (solve(&model, x, mode, true), solve(&model, x, mode, false));
+                        if without.cond.is_nan() && !with.cond.is_nan() {
+                            by_bound += 1;
+                            without.cond = with.cond;
+                        } else if with.loaded() {
+                            by_cond += 1;
+                        } else {
+                            refused += 1;
+                        }
+                        assert_eq!(format!("{without:?}"), format!("{with:?}"), "{file} at {x:?} ({mode:?})");
+                    }
+                }
+            }
+            assert!(by_bound > 0 && by_cond > 0 && refused > 0, "{file}: {by_bound} {by_cond} {refused}");
+        }
+    }
 }

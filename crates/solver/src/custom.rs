@@ -424,7 +424,7 @@ pub fn solve_custom_near(
     mode: Mode,
     near: Option<&Configuration>,
 ) -> (CustomResult, Option<Configuration>) {
-    let (mut all, configuration) = solve_members_near(&[model], inputs, rates, mode, near);
+    let (mut all, configuration) = solve_members_near(&[model], inputs, rates, mode, near, true);
     (all.pop().expect("one model, one result"), configuration)
 }
 
@@ -432,18 +432,26 @@ pub fn solve_custom_near(
 /// their clearances (with the same kinds). The kinematics and the reactions are solved
 /// once; each member takes up its own clearances. Each result is, bit for bit, the
 /// member's solved alone.
+///
+/// Without `with_cond` (the switch search, which writes no condition number) `κ₂(G)`
+/// is computed only where it decides: `‖G‖_F·‖G⁻¹‖_F` bounds it from above, and a
+/// bound within `singular_cond` accepts the pose as `κ₂` would (its `cond` is then
+/// NaN). Every other value is the same, bit for bit.
 pub fn solve_members_near(
     models: &[&CustomModel],
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
     near: Option<&Configuration>,
+    with_cond: bool,
 ) -> (Vec<CustomResult>, Option<Configuration>) {
     let model = models[0];
     let rates = if mode == Mode::Dynamic { rates } else { None };
     if models.iter().all(|m| m.preset.is_some()) {
-        let fast: Option<Vec<CustomResult>> =
-            models.iter().map(|m| m.preset.as_deref().and_then(|p| preset_result(m, p, inputs, rates, mode))).collect();
+        let fast: Option<Vec<CustomResult>> = models
+            .iter()
+            .map(|m| m.preset.as_deref().and_then(|p| preset_result(m, p, inputs, rates, mode, with_cond)))
+            .collect();
         if let Some(fast) = fast {
             return (fast, None);
         }
@@ -469,7 +477,7 @@ pub fn solve_members_near(
             return (vec![out; models.len()], None);
         }
     };
-    let solved = solve_posture(models, &posture, out);
+    let solved = solve_posture(models, &posture, out, with_cond);
     (solved, Some((posture.coords, posture.states)))
 }
 
@@ -521,8 +529,28 @@ fn mobile_load(
 /// Whether a preset's pose is within `singular_cond` as [`statics`] decides it without
 /// the condition number: by the bound `‖G‖_F·‖G⁻¹‖_F` where that suffices, else `κ₂(G)`.
 fn bounded(model: &CustomModel, g: &Matrix6<f64>, gi: &Matrix6<f64>) -> bool {
-    let within = |c: f64| c.is_finite() && c <= model.singular_cond;
-    within(g.norm() * gi.norm()) || within(cond_of(g))
+    frobenius_bounded(model, g, gi) || within_limit(model, cond_of(g))
+}
+
+/// Whether `‖G‖_F·‖G⁻¹‖_F`, which bounds `κ₂(G)` from above, is within `singular_cond`.
+fn frobenius_bounded(model: &CustomModel, g: &Matrix6<f64>, gi: &Matrix6<f64>) -> bool {
+    within_limit(model, g.norm() * gi.norm())
+}
+
+/// Whether a condition number is within `singular_cond` (NaN is not).
+fn within_limit(model: &CustomModel, cond: f64) -> bool {
+    cond.is_finite() && cond <= model.singular_cond
+}
+
+/// A preset pose's `cond`: `κ₂(G)` where it is within `singular_cond` (`None` beyond),
+/// or NaN where `G⁻¹` is given and [`frobenius_bounded`] accepts the pose without it.
+fn accepted_cond(model: &CustomModel, g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>) -> Option<f64> {
+    if gi.is_some_and(|gi| frobenius_bounded(model, g, gi)) {
+        return Some(f64::NAN);
+    }
+    let cond = cond_of(g);
+    // NaN is not within the limit; an infinite one is not either.
+    (!cond.is_nan() && cond <= model.singular_cond).then_some(cond)
 }
 
 /// A description that is a built-in kind's, with that kind's kernel (docs/model.md
@@ -688,10 +716,11 @@ fn prs_result(
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
+    with_cond: bool,
 ) -> Option<CustomResult> {
     let sample = kernel_sample(inputs, rates);
     let r = KERNEL.with(|ws| solve_pose(&preset.model, &sample, mode, &mut ws.borrow_mut()));
-    preset_result_of(model, preset, inputs, &r)
+    preset_result_of(model, preset, inputs, &r, with_cond)
 }
 
 /// [`solve_members_near`] for a run of poses of a description that is a preset, every
@@ -722,7 +751,7 @@ pub fn preset_members(
         for ((pose, r), slot) in poses.iter().zip(&kernel).zip(&mut out) {
             let inputs: [f64; 3] = std::array::from_fn(|i| pose[i][0]);
             *slot = slot.take().and_then(|mut members| {
-                members.push(preset_result_of(model, preset, &inputs, r)?);
+                members.push(preset_result_of(model, preset, &inputs, r, true)?);
                 Some(members)
             });
         }
@@ -731,7 +760,13 @@ pub fn preset_members(
 }
 
 /// [`preset_result`] from the kernel's result `r` at `inputs`.
-fn preset_result_of(model: &CustomModel, preset: &PrsPreset, inputs: &[f64], r: &PoseResult) -> Option<CustomResult> {
+fn preset_result_of(
+    model: &CustomModel,
+    preset: &PrsPreset,
+    inputs: &[f64],
+    r: &PoseResult,
+    with_cond: bool,
+) -> Option<CustomResult> {
     // Where a take-up is indeterminate, the kernel gives no joint contributions: each
     // group's own response is then computed here, as `take_up` does.
     let indeterminate = match r.status {
@@ -741,13 +776,14 @@ fn preset_result_of(model: &CustomModel, preset: &PrsPreset, inputs: &[f64], r: 
     };
     let geometry = &preset.model.geometry;
     let (pose, g) = preset_frame(preset, inputs);
-    // NaN is not within the limit.
-    let cond = cond_of(&g);
-    if cond.is_nan() || cond > model.singular_cond {
-        return None;
-    }
+    let inverse = if with_cond { None } else { g.try_inverse() };
+    let cond = accepted_cond(model, &g, inverse.as_ref())?;
     // A group without play is not proved mobile by its (zero) error: then too.
-    let gi = if indeterminate || preset.without_play { Some(g.try_inverse()?) } else { None };
+    let gi = match inverse {
+        Some(gi) if indeterminate || preset.without_play => Some(gi),
+        _ if indeterminate || preset.without_play => Some(g.try_inverse()?),
+        _ => None,
+    };
     let coords = [r.x, r.y, inputs[0], r.phi, inputs[1], inputs[2]];
     let mut out = CustomResult {
         status: Status::Ok,
@@ -825,12 +861,13 @@ fn preset_result(
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
+    with_cond: bool,
 ) -> Option<CustomResult> {
     match preset {
-        Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode),
+        Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode, with_cond),
         Preset::Ups6(p) => UPS_KERNEL.with(|k| {
             let mut k = k.borrow_mut();
-            ups_result(model, p, inputs, k.pose(p, &ups_sample(inputs, rates), mode)?)
+            ups_result(model, p, inputs, k.pose(p, &ups_sample(inputs, rates), mode)?, with_cond)
         }),
     }
 }
@@ -1005,13 +1042,15 @@ fn ups_joint_at(pose: &UpsPose, l: usize, j: usize) -> (V3, V3, V3) {
 
 /// A pose of a 6-UPS preset from the kernel's `pose`, as [`solve_posture`] gives it;
 /// `None` where `κ₂(G)` is not within `singular_cond` (the general path decides).
-fn ups_result(model: &CustomModel, preset: &UpsPreset, inputs: &[f64], pose: &UpsPose) -> Option<CustomResult> {
+fn ups_result(
+    model: &CustomModel,
+    preset: &UpsPreset,
+    inputs: &[f64],
+    pose: &UpsPose,
+    with_cond: bool,
+) -> Option<CustomResult> {
     let (g, gi) = (&pose.g, &pose.gi);
-    // NaN is not within the limit.
-    let cond = cond_of(g);
-    if cond.is_nan() || cond > model.singular_cond {
-        return None;
-    }
+    let cond = accepted_cond(model, g, (!with_cond).then_some(gi))?;
     let coords: [f64; 6] = std::array::from_fn(|i| inputs[i]);
     let mut out = CustomResult {
         status: Status::Ok,
@@ -1069,7 +1108,7 @@ fn ups_members(models: &[&CustomModel], poses: &[Vec<[f64; 3]>], mode: Mode) -> 
                 models
                     .iter()
                     .map(|m| match m.preset.as_deref() {
-                        Some(Preset::Ups6(preset)) => ups_result(m, preset, &inputs, pose),
+                        Some(Preset::Ups6(preset)) => ups_result(m, preset, &inputs, pose, true),
                         _ => None,
                     })
                     .collect()
@@ -1080,10 +1119,15 @@ fn ups_members(models: &[&CustomModel], poses: &[Vec<[f64; 3]>], mode: Mode) -> 
 
 /// The reactions (once: the models differ only in their clearances), then each
 /// model's take-up and errors, at a solved posture.
-fn solve_posture(models: &[&CustomModel], posture: &CustomPosture, mut out: CustomResult) -> Vec<CustomResult> {
+fn solve_posture(
+    models: &[&CustomModel],
+    posture: &CustomPosture,
+    mut out: CustomResult,
+    with_cond: bool,
+) -> Vec<CustomResult> {
     out.coords = posture.coords;
     out.q = posture.actuators(&models[0].geom);
-    let statics = statics(models[0], posture, &mut out, true);
+    let statics = statics(models[0], posture, &mut out, with_cond);
     let mut all = vec![out; models.len()];
     if let Some((basis, gi)) = statics {
         for (model, out) in models.iter().zip(&mut all) {
@@ -1116,10 +1160,7 @@ fn statics(
         return None;
     };
     let inverse = (!with_cond).then(|| basis.g.try_inverse()).flatten();
-    let bounded = inverse.as_ref().is_some_and(|gi| {
-        let bound = basis.g.norm() * gi.norm();
-        bound.is_finite() && bound <= model.singular_cond
-    });
+    let bounded = inverse.as_ref().is_some_and(|gi| frobenius_bounded(model, &basis.g, gi));
     let gi = if bounded {
         out.cond = f64::NAN;
         inverse
