@@ -1531,9 +1531,8 @@ pub const DOMINANT_TIE: f64 = 1e-9;
 /// The group whose own take-up moves P most; ties go to the first in the canonical
 /// order (joint type S, U, R, P; place in the limb; group; limb).
 fn dominant(model: &CustomModel, takes: &[GroupTake]) -> Option<usize> {
-    let candidates: Vec<usize> =
-        (0..model.groups.len()).filter(|&i| model.groups[i].magnitude > 0.0 && takes[i].mobile).collect();
-    let best = candidates.iter().map(|&i| takes[i].dp).fold(f64::NEG_INFINITY, f64::max);
+    let candidates = || (0..model.groups.len()).filter(|&i| model.groups[i].magnitude > 0.0 && takes[i].mobile);
+    let best = candidates().map(|i| takes[i].dp).fold(f64::NEG_INFINITY, f64::max);
     if best.is_nan() || best <= 0.0 {
         return None;
     }
@@ -1542,7 +1541,7 @@ fn dominant(model: &CustomModel, takes: &[GroupTake]) -> Option<usize> {
         let j = &model.geom.limbs[g.limb].joints[g.joint];
         (j.joint.tie_rank(), g.joint, g.group, g.limb)
     };
-    candidates.into_iter().filter(|&i| takes[i].dp >= best * (1.0 - DOMINANT_TIE)).min_by_key(|&i| key(i))
+    candidates().filter(|&i| takes[i].dp >= best * (1.0 - DOMINANT_TIE)).min_by_key(|&i| key(i))
 }
 
 /// The exact error (docs/model.md §12.7): the take-ups as finite rigid motions, the
