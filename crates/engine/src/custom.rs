@@ -23,7 +23,7 @@ use clearance_grid::SampleSource;
 use clearance_kinematics::custom::Configuration;
 use clearance_model::{JobError, JobSpec, Mode, Variant};
 use clearance_parquet::{
-    ColumnSet, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
+    ColumnSet, CustomPart, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
 use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, preset_members, solve_members_near};
@@ -250,19 +250,20 @@ struct CustomRun<'a> {
 }
 
 /// Rows of a work solved at a time: each block's results become its rows of the
-/// work's columns, statistics and search table before the next block is solved. A
-/// result is some 2 kB of vectors; a whole part's (65 536 rows) held at once came as
-/// fresh pages, a fault every few poses, and was freed on the pool afterwards. A
+/// part's columns (filled in place), statistics and search table before the next
+/// block is solved. A result is some 2 kB of vectors; a whole part's (65 536 rows)
+/// held at once came as fresh pages, a fault every few poses, and was freed on the
+/// pool afterwards. A
 /// multiple of [`RUN`], so that no run of continued samples straddles two blocks (a
 /// sample's result depends only on its run).
 const BLOCK: u64 = 8 * 1024;
 
-/// One member's unit of a solved work: its rows' record batches (one a block), its
-/// statistics (every pose pushed in sample order) and what the search reads of each
-/// of its samples (when the run searches).
+/// One member's unit of a solved work: its part's rows (when written), its statistics
+/// (every pose pushed in sample order) and what the search reads of each of its
+/// samples (when the run searches).
 #[derive(Default)]
 struct MemberSolved {
-    batches: Vec<RecordBatch>,
+    part: Option<CustomPart>,
     stats: Option<CustomStats>,
     sampled: Vec<Sampled>,
 }
@@ -276,14 +277,17 @@ impl UnitRun for CustomRun<'_> {
         let first = &w.units[0];
         let members: Vec<&CustomModel> = w.units.iter().map(|u| &self.models[u.variant as usize]).collect();
         let source = Samples::Job(&self.sources[first.variant as usize]);
-        let mut out: Vec<MemberSolved> = members
+        let range = first.range.clone();
+        let mut out: Vec<MemberSolved> = w
+            .units
             .iter()
-            .map(|m| MemberSolved {
+            .zip(&members)
+            .map(|(u, m)| MemberSolved {
+                part: self.poses.then(|| self.schemas[u.variant as usize].part(u.mode, (range.end - range.start) as usize)),
                 stats: Some(CustomStats::new(m.kinds.len(), m.groups.len())),
-                ..Default::default()
+                sampled: Vec::new(),
             })
             .collect();
-        let range = first.range.clone();
         let mut start = range.start;
         while start < range.end {
             let end = (start - start % BLOCK + BLOCK).min(range.end);
@@ -292,19 +296,23 @@ impl UnitRun for CustomRun<'_> {
                 let schema = &self.schemas[u.variant as usize];
                 // The statistics and the search's samples on this thread while the pool
                 // builds the columns.
-                let (batch, ()) = rayon::join(
-                    || self.poses.then(|| schema.batch(u.mode, &rows, &results)),
+                let MemberSolved { part, stats, sampled } = part;
+                rayon::join(
                     || {
-                        let stats = part.stats.as_mut().expect("statistics until the unit is built");
+                        if let Some(part) = part {
+                            schema.fill(part, &rows, &results);
+                        }
+                    },
+                    || {
+                        let stats = stats.as_mut().expect("statistics until the unit is built");
                         for r in &results {
                             stats.push(r);
                         }
                         if self.search {
-                            part.sampled.extend(results.iter().map(|r| Sampled::of(model, r)));
+                            sampled.extend(results.iter().map(|r| Sampled::of(model, r)));
                         }
                     },
                 );
-                part.batches.extend(batch);
                 // Each result holds a few vectors: freed on the pool, not on this thread.
                 results.into_par_iter().with_min_len(RUN as usize).for_each(drop);
             }
@@ -316,7 +324,7 @@ impl UnitRun for CustomRun<'_> {
     fn unit(&mut self, w: &Work, k: usize, solved: &mut Self::Solved, poses: bool) -> (Option<RecordBatch>, Vec<u8>) {
         let u = &w.units[k];
         let v = u.variant as usize;
-        let MemberSolved { batches, stats, sampled } = std::mem::take(&mut solved[k]);
+        let MemberSolved { part, stats, sampled } = std::mem::take(&mut solved[k]);
         let bytes = self.sources[v].len().saturating_mul(table_entry(&self.models[v]));
         if self.search
             && !self.tables.contains_key(&(u.variant, u.mode))
@@ -332,10 +340,7 @@ impl UnitRun for CustomRun<'_> {
         }
         let mut stats = stats.expect("a solved unit has statistics");
         stats.flush();
-        let batch = poses.then(|| match batches.as_slice() {
-            [one] => one.clone(),
-            _ => arrow::compute::concat_batches(&self.schemas[v].schema(), &batches).expect("blocks share the schema"),
-        });
+        let batch = poses.then(|| self.schemas[v].finish(part.expect("a part where its rows are written")));
         (batch, serde_json::to_vec(&stats).expect("statistics are plain numbers"))
     }
 

@@ -17,7 +17,7 @@ use clearance_solver::Status;
 use clearance_solver::custom::{CustomModel, CustomResult};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, finite_columns};
+use crate::schema::{ColumnSet, ENVELOPE_PARTS, ERR_PARTS, FiniteRows};
 use crate::summary::{Series, SummaryTable};
 use crate::ups::{INPUT_UNITS, SixSwitch, six_coordinate_switch_batch};
 
@@ -178,23 +178,74 @@ impl CustomSchema {
     /// The record batch of one mode's rows (`rows` and `results` of the same length).
     #[track_caller]
     pub fn batch(&self, mode: Mode, rows: &[CustomRow], results: &[CustomResult]) -> RecordBatch {
+        let mut part = self.part(mode, rows.len());
+        self.fill(&mut part, rows, results);
+        self.finish(part)
+    }
+
+    /// A part of `len` rows of `mode` to be filled a run of rows at a time
+    /// ([`CustomSchema::fill`]), then made a record batch ([`CustomSchema::finish`]): the
+    /// batch of [`CustomSchema::batch`], without the part's results all at hand at once.
+    pub fn part(&self, mode: Mode, len: usize) -> CustomPart {
+        CustomPart {
+            mode,
+            len,
+            sample: Vec::with_capacity(len),
+            t: Vec::with_capacity(len),
+            status: Vec::with_capacity(len),
+            dominant: Vec::with_capacity(if self.dominant.is_some() { len } else { 0 }),
+            floats: FiniteRows::new(len, self.floats.len()),
+        }
+    }
+
+    /// The part's next rows (`rows` and `results` of the same length).
+    #[track_caller]
+    pub fn fill(&self, part: &mut CustomPart, rows: &[CustomRow], results: &[CustomResult]) {
         assert_eq!(rows.len(), results.len(), "one result per row");
+        let start = part.sample.len();
+        assert!(start + rows.len() <= part.len, "rows beyond the part's length");
+        part.sample.extend(rows.iter().map(|s| s.sample));
+        part.t.extend(rows.iter().map(|s| s.t.filter(|t| t.is_finite())));
+        part.status.extend(results.iter().map(|r| r.status));
+        if self.dominant.is_some() {
+            part.dominant.extend(results.iter().map(|r| (r.status == Status::Ok).then_some(r.dominant).flatten()));
+        }
+        let floats = &self.floats;
+        part.floats.fill(start..start + rows.len(), |i, out| {
+            for (o, f) in out.iter_mut().zip(floats) {
+                *o = f(&results[i - start]).unwrap_or(f64::NAN);
+            }
+        });
+    }
+
+    /// The part's record batch, once every row is filled.
+    #[track_caller]
+    pub fn finish(&self, part: CustomPart) -> RecordBatch {
+        assert_eq!(part.sample.len(), part.len, "every row of the part filled");
         let mut out: Vec<ArrayRef> = vec![
-            Arc::new(StringArray::from_iter_values(rows.iter().map(|_| mode.name()))),
-            Arc::new(UInt64Array::from_iter_values(rows.iter().map(|s| s.sample))),
-            Arc::new(Float64Array::from_iter(rows.iter().map(|s| s.t.filter(|t| t.is_finite())))),
-            Arc::new(StringArray::from_iter_values(results.iter().map(|r| r.status.name()))),
+            Arc::new(StringArray::from_iter_values(part.sample.iter().map(|_| part.mode.name()))),
+            Arc::new(UInt64Array::from(part.sample)),
+            Arc::new(Float64Array::from_iter(part.t)),
+            Arc::new(StringArray::from_iter_values(part.status.iter().map(|s| s.name()))),
         ];
         if let Some(names) = &self.dominant {
-            out.push(Arc::new(StringArray::from_iter(
-                results
-                    .iter()
-                    .map(|r| (r.status == Status::Ok).then(|| r.dominant.map(|g| names[g].as_str())).flatten()),
-            )));
+            out.push(Arc::new(StringArray::from_iter(part.dominant.iter().map(|g| g.map(|g| names[g].as_str())))));
         }
-        out.extend(finite_columns(results.len(), &self.floats, |f, i| f(&results[i])));
+        out.extend(part.floats.finish());
         RecordBatch::try_new(self.schema.clone(), out).expect("columns match the schema")
     }
+}
+
+/// A part's rows being filled ([`CustomSchema::part`]).
+pub struct CustomPart {
+    mode: Mode,
+    len: usize,
+    sample: Vec<u64>,
+    t: Vec<Option<f64>>,
+    status: Vec<Status>,
+    /// Each row's dominant group (where the set has the column).
+    dominant: Vec<Option<usize>>,
+    floats: FiniteRows,
 }
 
 /// The partial statistics of a set of custom poses of one (variant, mode).

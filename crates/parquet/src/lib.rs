@@ -41,7 +41,7 @@ mod ups;
 mod writer;
 
 pub use custom::{
-    CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, custom_discontinuity_batch,
+    CustomPart, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, custom_discontinuity_batch,
     custom_summary_batch,
 };
 pub use output::Landing;

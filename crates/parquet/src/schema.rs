@@ -419,87 +419,103 @@ pub(crate) fn joint_names() -> [String; 12] {
     std::array::from_fn(|i| clearance_solver::joint_name(i / 3, i % 3))
 }
 
-/// Float columns of `len` rows, `value(fill, row)` the value of the column of `fill`
-/// at `row`, null where it is `None` or not finite: the arrays `Float64Array::from_iter`
-/// makes (0 under a null, a validity bitmap only where there is a null). Filled as
-/// [`finite_rows`] fills them.
-pub(crate) fn finite_columns<F: Sync>(
-    len: usize,
-    fills: &[F],
-    value: impl Fn(&F, usize) -> Option<f64> + Sync,
-) -> Vec<ArrayRef> {
-    finite_rows(len, fills.len(), |row, out| {
-        for (o, f) in out.iter_mut().zip(fills) {
-            *o = value(f, row).unwrap_or(f64::NAN);
-        }
-    })
+/// Float columns of `len` rows from a function that writes every column's value of a
+/// row at once (`row`, and a slice of `columns` values), null where a value is not
+/// finite (NaN for one that has none): the arrays `Float64Array::from_iter` makes of the
+/// finite values (0 under a null, a validity bitmap only where there is a null). For
+/// tables whose columns share work within a row. A block of rows at a time on the rayon
+/// pool, every column of a row while its result is in the cache (column by column, each
+/// pass over a unit's results, some 1 kB a row, read a cache line a row for one value:
+/// a sixth of a 6-UPS run), gathered a tile of rows at a time and copied into the
+/// columns' buffers, which become the arrays without a copy.
+pub(crate) fn finite_rows(len: usize, columns: usize, fill: impl Fn(usize, &mut [f64]) + Sync) -> Vec<ArrayRef> {
+    let mut rows = FiniteRows::new(len, columns);
+    rows.fill(0..len, fill);
+    rows.finish()
 }
 
-/// [`finite_columns`] from a function that writes every column's value of a row at
-/// once (`row`, and a slice of `columns` values: NaN, or any value that is not finite,
-/// for a null). For tables whose columns share work within a row. A block of rows at
-/// a time on the rayon pool, every column of a row while its result is in the cache
-/// (column by column, each pass over a unit's results, some 1 kB a row, read a cache
-/// line a row for one value: a sixth of a 6-UPS run), gathered a tile of rows at a time
-/// and copied into the columns' buffers, which become the arrays without a copy.
-pub(crate) fn finite_rows(len: usize, columns: usize, fill: impl Fn(usize, &mut [f64]) + Sync) -> Vec<ArrayRef> {
-    const BLOCK: usize = 1024;
-    /// Rows gathered before they go to the columns: a row's values go to a tile that
-    /// stays in the cache, column by column, and each column's run of the tile to its
-    /// buffer in one copy (each value stored straight into its column, a row touched
-    /// as many lines of memory as it has columns).
-    const TILE: usize = 32;
-    if columns == 0 {
-        return Vec::new();
-    }
-    // Each column's values, written in place (every block of rows, on the pool, gets
-    // its rows' slice of every column), and whether it holds one that is not finite.
-    let mut values: Vec<Vec<f64>> = (0..columns).map(|_| vec![0.0; len]).collect();
-    let nulls: Vec<AtomicBool> = (0..columns).map(|_| AtomicBool::new(false)).collect();
-    let mut blocks: Vec<Vec<&mut [f64]>> = (0..len.div_ceil(BLOCK)).map(|_| Vec::with_capacity(columns)).collect();
-    for v in &mut values {
-        for (block, slice) in blocks.iter_mut().zip(v.chunks_mut(BLOCK)) {
-            block.push(slice);
+/// [`finite_rows`] a run of rows at a time: the columns' buffers of the whole table,
+/// each run of rows filled when its values are at hand ([`FiniteRows::fill`]), then the
+/// arrays ([`FiniteRows::finish`]): the same arrays, whatever the runs.
+pub(crate) struct FiniteRows {
+    /// Each column's values, written in place.
+    values: Vec<Vec<f64>>,
+    /// Whether each column holds a value that is not finite.
+    nulls: Vec<AtomicBool>,
+}
+
+impl FiniteRows {
+    /// `columns` columns of `len` rows, to be filled.
+    pub(crate) fn new(len: usize, columns: usize) -> Self {
+        FiniteRows {
+            values: (0..columns).map(|_| vec![0.0; len]).collect(),
+            nulls: (0..columns).map(|_| AtomicBool::new(false)).collect(),
         }
     }
-    blocks.into_par_iter().enumerate().for_each(|(b, mut block)| {
-        let mut row_values = vec![0.0; columns];
-        // Column-major: column c's rows at `c·TILE..`.
-        let mut tile = vec![0.0; columns * TILE];
-        let n = block[0].len();
-        for start in (0..n).step_by(TILE) {
-            let rows = TILE.min(n - start);
-            for k in 0..rows {
-                fill(b * BLOCK + start + k, &mut row_values);
-                for (c, &x) in row_values.iter().enumerate() {
-                    tile[c * TILE + k] = x;
-                }
-            }
-            for ((column, run), null) in block.iter_mut().zip(tile.chunks_exact(TILE)).zip(&nulls) {
-                let run = &run[..rows];
-                column[start..start + rows].copy_from_slice(run);
-                if !run.iter().all(|x| x.is_finite()) {
-                    flag(null);
-                }
+
+    /// Fills rows `range` (`fill(row, values)` as for [`finite_rows`]).
+    pub(crate) fn fill(&mut self, range: std::ops::Range<usize>, fill: impl Fn(usize, &mut [f64]) + Sync) {
+        const BLOCK: usize = 1024;
+        /// Rows gathered before they go to the columns: a row's values go to a tile that
+        /// stays in the cache, column by column, and each column's run of the tile to its
+        /// buffer in one copy (each value stored straight into its column, a row touched
+        /// as many lines of memory as it has columns).
+        const TILE: usize = 32;
+        let columns = self.values.len();
+        if columns == 0 || range.is_empty() {
+            return;
+        }
+        // Every block of rows, on the pool, gets its rows' slice of every column.
+        let mut blocks: Vec<Vec<&mut [f64]>> =
+            (0..range.len().div_ceil(BLOCK)).map(|_| Vec::with_capacity(columns)).collect();
+        for v in &mut self.values {
+            for (block, slice) in blocks.iter_mut().zip(v[range.clone()].chunks_mut(BLOCK)) {
+                block.push(slice);
             }
         }
-    });
-    // A validity bitmap only for a column that holds a value that is not finite, 0
-    // under each null.
-    values
-        .into_par_iter()
-        .zip(nulls)
-        .map(|(mut v, null)| -> ArrayRef {
-            let nulls = null.into_inner().then(|| {
-                let nulls = null_where_not_finite(&v);
-                for x in v.iter_mut().filter(|x| !x.is_finite()) {
-                    *x = 0.0;
+        let nulls = &self.nulls;
+        blocks.into_par_iter().enumerate().for_each(|(b, mut block)| {
+            let mut row_values = vec![0.0; columns];
+            // Column-major: column c's rows at `c·TILE..`.
+            let mut tile = vec![0.0; columns * TILE];
+            let n = block[0].len();
+            for start in (0..n).step_by(TILE) {
+                let rows = TILE.min(n - start);
+                for k in 0..rows {
+                    fill(range.start + b * BLOCK + start + k, &mut row_values);
+                    for (c, &x) in row_values.iter().enumerate() {
+                        tile[c * TILE + k] = x;
+                    }
                 }
-                nulls
-            });
-            Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
-        })
-        .collect()
+                for ((column, run), null) in block.iter_mut().zip(tile.chunks_exact(TILE)).zip(nulls) {
+                    let run = &run[..rows];
+                    column[start..start + rows].copy_from_slice(run);
+                    if !run.iter().all(|x| x.is_finite()) {
+                        flag(null);
+                    }
+                }
+            }
+        });
+    }
+
+    /// The arrays: a validity bitmap only for a column that holds a value that is not
+    /// finite, 0 under each null.
+    pub(crate) fn finish(self) -> Vec<ArrayRef> {
+        self.values
+            .into_par_iter()
+            .zip(self.nulls)
+            .map(|(mut v, null)| -> ArrayRef {
+                let nulls = null.into_inner().then(|| {
+                    let nulls = null_where_not_finite(&v);
+                    for x in v.iter_mut().filter(|x| !x.is_finite()) {
+                        *x = 0.0;
+                    }
+                    nulls
+                });
+                Arc::new(Float64Array::new(ScalarBuffer::from(v), nulls))
+            })
+            .collect()
+    }
 }
 
 /// The `dominant` column from each row's `3·kind + limb` ([`NO_JOINT`]: null).
@@ -946,6 +962,36 @@ mod tests {
                 }
             });
             assert_eq!(arrays.len(), columns);
+            // The same table filled in runs of uneven length (within and across tiles
+            // and blocks, one row, none), as a custom part is filled a block at a time.
+            let mut runs = FiniteRows::new(len, columns);
+            let mut start = 0;
+            for step in [1, 700, 0, 33, 1024].into_iter().cycle().take(4 * len + 5) {
+                let end = (start + step).min(len);
+                runs.fill(start..end, |row, out| {
+                    for (c, o) in out.iter_mut().enumerate() {
+                        *o = value(row, c);
+                    }
+                });
+                start = end;
+            }
+            let runs = runs.finish();
+            assert_eq!(runs.len(), columns);
+            for (c, array) in arrays.iter().enumerate() {
+                let (ours, theirs) = (
+                    array.as_any().downcast_ref::<Float64Array>().unwrap(),
+                    runs[c].as_any().downcast_ref::<Float64Array>().unwrap(),
+                );
+                assert!(
+                    ours.values().iter().zip(theirs.values().iter()).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{len} rows, column {c}: runs' values"
+                );
+                assert_eq!(
+                    (ours.len(), ours.nulls()),
+                    (theirs.len(), theirs.nulls()),
+                    "{len} rows, column {c}: runs' validity"
+                );
+            }
             for (c, array) in arrays.iter().enumerate() {
                 let ours = array.as_any().downcast_ref::<Float64Array>().expect("doubles");
                 let expected =
