@@ -283,7 +283,9 @@ impl UnitRun for CustomRun<'_> {
             .iter()
             .zip(&members)
             .map(|(u, m)| MemberSolved {
-                part: self.poses.then(|| self.schemas[u.variant as usize].part(u.mode, (range.end - range.start) as usize)),
+                part: self
+                    .poses
+                    .then(|| self.schemas[u.variant as usize].part(u.mode, (range.end - range.start) as usize)),
                 stats: Some(CustomStats::new(m.kinds.len(), m.groups.len())),
                 sampled: Vec::new(),
             })
