@@ -253,19 +253,34 @@ struct CustomRun<'a> {
 /// part's columns (filled in place), statistics and search table before the next
 /// block is solved. A result is some 2 kB of vectors; a whole part's (65 536 rows)
 /// held at once came as fresh pages, a fault every few poses, and was freed on the
-/// pool afterwards. A
-/// multiple of [`RUN`], so that no run of continued samples straddles two blocks (a
-/// sample's result depends only on its run).
+/// pool afterwards. A multiple of [`RUN`], so that no run of continued samples
+/// straddles two blocks (a sample's result depends only on its run).
 const BLOCK: u64 = 8 * 1024;
 
 /// One member's unit of a solved work: its part's rows (when written), its statistics
 /// (every pose pushed in sample order) and what the search reads of each of its
-/// samples (when the run searches).
+/// samples (where the pass keeps it: [`CustomRun::keeps_table`]).
 #[derive(Default)]
 struct MemberSolved {
     part: Option<CustomPart>,
-    stats: Option<CustomStats>,
-    sampled: Vec<Sampled>,
+    stats: CustomStats,
+    sampled: Option<Vec<Sampled>>,
+}
+
+impl CustomRun<'_> {
+    /// The bytes of the search's table of variant `v`'s samples, about.
+    fn table_bytes(&self, v: usize) -> u64 {
+        self.sources[v].len().saturating_mul(table_entry(&self.models[v]))
+    }
+
+    /// Whether the pass keeps what the search reads of unit `u`'s samples: the run
+    /// searches, and the table of its (variant, mode) is kept already or fits beside
+    /// those kept.
+    fn keeps_table(&self, u: &Unit) -> bool {
+        self.search
+            && (self.tables.contains_key(&(u.variant, u.mode))
+                || self.kept.saturating_add(self.table_bytes(u.variant as usize)) <= SHARED_BYTES)
+    }
 }
 
 impl UnitRun for CustomRun<'_> {
@@ -286,8 +301,8 @@ impl UnitRun for CustomRun<'_> {
                 part: self
                     .poses
                     .then(|| self.schemas[u.variant as usize].part(u.mode, (range.end - range.start) as usize)),
-                stats: Some(CustomStats::new(m.kinds.len(), m.groups.len())),
-                sampled: Vec::new(),
+                stats: CustomStats::new(m.kinds.len(), m.groups.len()),
+                sampled: self.keeps_table(u).then(Vec::new),
             })
             .collect();
         let mut start = range.start;
@@ -306,11 +321,10 @@ impl UnitRun for CustomRun<'_> {
                         }
                     },
                     || {
-                        let stats = stats.as_mut().expect("statistics until the unit is built");
                         for r in &results {
                             stats.push(r);
                         }
-                        if self.search {
+                        if let Some(sampled) = sampled {
                             sampled.extend(results.iter().map(|r| Sampled::of(model, r)));
                         }
                     },
@@ -326,21 +340,21 @@ impl UnitRun for CustomRun<'_> {
     fn unit(&mut self, w: &Work, k: usize, solved: &mut Self::Solved, poses: bool) -> (Option<RecordBatch>, Vec<u8>) {
         let u = &w.units[k];
         let v = u.variant as usize;
-        let MemberSolved { part, stats, sampled } = std::mem::take(&mut solved[k]);
-        let bytes = self.sources[v].len().saturating_mul(table_entry(&self.models[v]));
-        if self.search
-            && !self.tables.contains_key(&(u.variant, u.mode))
-            && self.kept.saturating_add(bytes) <= SHARED_BYTES
-        {
-            self.kept += bytes;
-            self.tables.insert((u.variant, u.mode), (0..self.sources[v].len()).map(|_| None).collect());
-        }
-        if let Some(table) = self.tables.get_mut(&(u.variant, u.mode)) {
-            for (i, s) in u.range.clone().zip(sampled) {
-                table[i as usize] = Some(s);
+        let MemberSolved { part, mut stats, sampled } = std::mem::take(&mut solved[k]);
+        // Kept where `solve` judged it would be: the tables kept since only grow, so a
+        // table it judged not to fit does not fit now.
+        if let Some(sampled) = sampled {
+            let key = (u.variant, u.mode);
+            if self.keeps_table(u) && !self.tables.contains_key(&key) {
+                self.kept += self.table_bytes(v);
+                self.tables.insert(key, (0..self.sources[v].len()).map(|_| None).collect());
+            }
+            if let Some(table) = self.tables.get_mut(&key) {
+                for (i, s) in u.range.clone().zip(sampled) {
+                    table[i as usize] = Some(s);
+                }
             }
         }
-        let mut stats = stats.expect("a solved unit has statistics");
         stats.flush();
         let batch = poses.then(|| self.schemas[v].finish(part.expect("a part where its rows are written")));
         (batch, serde_json::to_vec(&stats).expect("statistics are plain numbers"))

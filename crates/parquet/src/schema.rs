@@ -965,15 +965,18 @@ mod tests {
             // The same table filled in runs of uneven length (within and across tiles
             // and blocks, one row, none), as a custom part is filled a block at a time.
             let mut runs = FiniteRows::new(len, columns);
-            let mut start = 0;
-            for step in [1, 700, 0, 33, 1024].into_iter().cycle().take(4 * len + 5) {
-                let end = (start + step).min(len);
+            let (mut start, mut steps) = (0, [1, 700, 0, 33, 1024].into_iter().cycle());
+            loop {
+                let end = (start + steps.next().expect("endless")).min(len);
                 runs.fill(start..end, |row, out| {
                     for (c, o) in out.iter_mut().enumerate() {
                         *o = value(row, c);
                     }
                 });
                 start = end;
+                if start == len {
+                    break;
+                }
             }
             let runs = runs.finish();
             assert_eq!(runs.len(), columns);

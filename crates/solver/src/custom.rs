@@ -542,15 +542,21 @@ fn within_limit(model: &CustomModel, cond: f64) -> bool {
     cond.is_finite() && cond <= model.singular_cond
 }
 
-/// A preset pose's `cond`: `κ₂(G)` where it is within `singular_cond` (`None` beyond),
-/// or NaN where `G⁻¹` is given and [`frobenius_bounded`] accepts the pose without it.
-fn accepted_cond(model: &CustomModel, g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>) -> Option<f64> {
+/// A pose's `cond` and whether the pose is within `singular_cond`: NaN and within where
+/// `G⁻¹` is given and [`frobenius_bounded`] accepts the pose without `κ₂(G)`; else
+/// `κ₂(G)`, within where it is at most the limit (NaN is not).
+fn decided_cond(model: &CustomModel, g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>) -> (f64, bool) {
     if gi.is_some_and(|gi| frobenius_bounded(model, g, gi)) {
-        return Some(f64::NAN);
+        return (f64::NAN, true);
     }
     let cond = cond_of(g);
-    // NaN is not within the limit; an infinite one is not either.
-    (!cond.is_nan() && cond <= model.singular_cond).then_some(cond)
+    (cond, !cond.is_nan() && cond <= model.singular_cond)
+}
+
+/// A preset pose's `cond` ([`decided_cond`]), `None` where the pose is beyond the limit.
+fn accepted_cond(model: &CustomModel, g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>) -> Option<f64> {
+    let (cond, within) = decided_cond(model, g, gi);
+    within.then_some(cond)
 }
 
 /// A description that is a built-in kind's, with that kind's kernel (docs/model.md
@@ -779,11 +785,7 @@ fn preset_result_of(
     let inverse = if with_cond { None } else { g.try_inverse() };
     let cond = accepted_cond(model, &g, inverse.as_ref())?;
     // A group without play is not proved mobile by its (zero) error: then too.
-    let gi = match inverse {
-        Some(gi) if indeterminate || preset.without_play => Some(gi),
-        _ if indeterminate || preset.without_play => Some(g.try_inverse()?),
-        _ => None,
-    };
+    let gi = if indeterminate || preset.without_play { Some(inverse.or_else(|| g.try_inverse())?) } else { None };
     let coords = [r.x, r.y, inputs[0], r.phi, inputs[1], inputs[2]];
     let mut out = CustomResult {
         status: Status::Ok,
@@ -1160,17 +1162,9 @@ fn statics(
         return None;
     };
     let inverse = (!with_cond).then(|| basis.g.try_inverse()).flatten();
-    let bounded = inverse.as_ref().is_some_and(|gi| frobenius_bounded(model, &basis.g, gi));
-    let gi = if bounded {
-        out.cond = f64::NAN;
-        inverse
-    } else {
-        out.cond = basis.cond();
-        (!out.cond.is_nan() && out.cond <= model.singular_cond)
-            .then(|| inverse.or_else(|| basis.g.try_inverse()))
-            .flatten()
-    };
-    let Some(gi) = gi else {
+    let (cond, within) = decided_cond(model, &basis.g, inverse.as_ref());
+    out.cond = cond;
+    let Some(gi) = within.then(|| inverse.or_else(|| basis.g.try_inverse())).flatten() else {
         out.status = Status::NearSingular;
         return None;
     };
