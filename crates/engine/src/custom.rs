@@ -122,19 +122,23 @@ fn solve_rows(
     source: Samples,
     range: std::ops::Range<u64>,
     mode: Mode,
+    each_cond: bool,
 ) -> (Vec<CustomRow>, Vec<CustomResult>) {
-    let (rows, mut results) = solve_members(&[model], source, range, mode);
+    let (rows, mut results) = solve_members(&[model], source, range, mode, each_cond);
     (rows, results.pop().expect("one model"))
 }
 
 /// [`solve_rows`] for the members of a clearance sweep (models equal but for their
 /// clearances): each pose's kinematics and reactions once, each member's take-up.
-/// Returns the rows and, per member, its results.
+/// Returns the rows and, per member, its results. Without `each_cond`, a pose that a
+/// preset's kernel solves has its `cond` only where it may be the largest of its run
+/// ([`preset_members`]): all that the statistics read of it where no column holds it.
 fn solve_members(
     models: &[&CustomModel],
     source: Samples,
     range: std::ops::Range<u64>,
     mode: Mode,
+    each_cond: bool,
 ) -> (Vec<CustomRow>, Vec<Vec<CustomResult>>) {
     let first = range.start - range.start % RUN;
     let runs: Vec<Vec<(CustomRow, Vec<CustomResult>)>> = (first..range.end)
@@ -147,7 +151,7 @@ fn solve_members(
                 run.clone().map(|i| inputs_of(models[0], source, i)).unzip();
             // A preset's kernel solves the run at once; a pose it does not answer, and
             // every pose of another description, goes through `solve_inputs`.
-            let mut fast = preset_members(models, &inputs, mode).unwrap_or_default();
+            let mut fast = preset_members(models, &inputs, mode, each_cond).unwrap_or_default();
             let mut near = None;
             let mut out = Vec::with_capacity(RUN as usize);
             for i in start..run.end {
@@ -199,7 +203,8 @@ pub(crate) fn solve_custom_job(
             None => Samples::Job(&own),
         };
         for &mode in &v.job.analysis.modes {
-            let (rows, results) = solve_rows(&model, source, range.clone().unwrap_or(0..source.len()), mode);
+            let (rows, results) =
+                solve_rows(&model, source, range.clone().unwrap_or(0..source.len()), mode, columns >= ColumnSet::Full);
             out.push(crate::solve::with_variant(&schema.batch(mode, &rows, &results), v.index));
         }
     }
@@ -221,6 +226,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
         models,
         search: opts.search,
         poses: opts.poses,
+        each_cond: opts.poses && opts.columns >= ColumnSet::Full,
         tables: HashMap::new(),
         kept: 0,
     };
@@ -241,6 +247,9 @@ struct CustomRun<'a> {
     search: bool,
     /// Whether the units' part files are written (their rows built).
     poses: bool,
+    /// Whether they hold each pose's condition number (else the statistics read only
+    /// the largest: [`solve_members`]).
+    each_cond: bool,
     /// What the search reads of each sample, kept from the pose pass where every unit
     /// of a (variant, mode) is computed here and the table fits (else the search
     /// solves them).
@@ -308,7 +317,7 @@ impl UnitRun for CustomRun<'_> {
         let mut start = range.start;
         while start < range.end {
             let end = (start - start % BLOCK + BLOCK).min(range.end);
-            let (rows, results) = solve_members(&members, source, start..end, first.mode);
+            let (rows, results) = solve_members(&members, source, start..end, first.mode, self.each_cond);
             for (((u, model), part), results) in w.units.iter().zip(&members).zip(&mut out).zip(results) {
                 let schema = &self.schemas[u.variant as usize];
                 // The statistics and the search's samples on this thread while the pool
@@ -519,7 +528,7 @@ fn search(
     let shared: Option<Vec<Vec<Sampled>>> = match tables.into_iter().collect::<Option<Vec<_>>>() {
         Some(kept) => Some(kept),
         None => (bytes <= SHARED_BYTES).then(|| {
-            let (_, results) = solve_members(models, Samples::Job(source), 0..n, mode);
+            let (_, results) = solve_members(models, Samples::Job(source), 0..n, mode, false);
             results.iter().zip(models).map(|(rs, m)| rs.iter().map(|r| Sampled::of(m, r)).collect()).collect()
         }),
     };
@@ -731,10 +740,16 @@ fn vector_switches(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use clearance_solver::Status;
 
     /// A job of `jobs/` as its custom description, and its model (a preset where the
     /// description is a built-in's).
     fn described(file: &str) -> CustomModel {
+        described_job(file).1
+    }
+
+    /// The job of [`described`] too.
+    fn described_job(file: &str) -> (JobSpec, CustomModel) {
         let text = std::fs::read_to_string(format!("{}/../../jobs/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap();
         let job = JobSpec::from_toml_str(&text, file).unwrap();
         let job = if job.mechanism.kind == clearance_model::MechanismKind::Custom {
@@ -742,7 +757,61 @@ mod tests {
         } else {
             crate::describe(&job, file).unwrap()
         };
-        model_of(&job, file).unwrap()
+        let model = model_of(&job, file).unwrap();
+        (job, model)
+    }
+
+    /// Where no column holds the condition number, a run of a preset's poses computes
+    /// it only where it may be the largest of its run of [`RUN`]: every field of every
+    /// result the same bits as with each pose's but `cond`, each run's largest `cond`
+    /// the same bits, and every pose left without one below it. Most poses are left
+    /// without. The 3-PRS and the 6-UPS (their kernels), two members of a clearance
+    /// sweep, `singular_cond` among the poses' own condition numbers so that some poses
+    /// are refused (and solved the general way).
+    #[test]
+    fn a_run_without_its_condition_numbers_keeps_each_runs_largest() {
+        for file in ["fig08_r_radial.toml", "ups_orientation_grid.toml"] {
+            let (job, mut model) = described_job(file);
+            assert!(model.preset.is_some(), "{file}");
+            let source = SampleSource::new(&job);
+            let n = source.len().min(8 * RUN);
+            let (_, all) = solve_members(&[&model], Samples::Job(&source), 0..n, Mode::Kinetostatic, true);
+            let mut conds: Vec<f64> = all[0].iter().map(|r| r.cond).filter(|c| c.is_finite()).collect();
+            conds.sort_by(f64::total_cmp);
+            assert!(conds.len() as u64 == n && conds[0] < conds[conds.len() - 1], "{file}: {conds:?}");
+            model.singular_cond = conds[conds.len() * 9 / 10];
+            let mut loose = model.clone();
+            for g in &mut loose.groups {
+                g.magnitude *= 2.0;
+            }
+            let members = [&model, &loose];
+            let solved = |each: bool| solve_members(&members, Samples::Job(&source), 0..n, Mode::Kinetostatic, each).1;
+            let (with, without) = (solved(true), solved(false));
+            let (mut open, mut refused) = (0, 0);
+            for (with, without) in with.iter().zip(&without) {
+                for (run, (a, b)) in with.chunks(RUN as usize).zip(without.chunks(RUN as usize)).enumerate() {
+                    let largest = |rs: &[CustomResult]| {
+                        rs.iter()
+                            .filter(|r| r.status != Status::Unreachable && r.cond.is_finite())
+                            .map(|r| r.cond)
+                            .fold(f64::NEG_INFINITY, f64::max)
+                    };
+                    let top = largest(a);
+                    assert_eq!(top.to_bits(), largest(b).to_bits(), "{file}: run {run}");
+                    for (a, b) in a.iter().zip(b) {
+                        let mut b = b.clone();
+                        if b.cond.is_nan() && !a.cond.is_nan() {
+                            assert!(a.cond < top, "{file}: run {run}: {} left open, the largest {top}", a.cond);
+                            open += 1;
+                            b.cond = a.cond;
+                        }
+                        refused += usize::from(a.status == Status::NearSingular);
+                        assert_eq!(format!("{b:?}"), format!("{a:?}"), "{file}: run {run}");
+                    }
+                }
+            }
+            assert!(open as u64 > n && refused > 0, "{file}: {open} open, {refused} refused of {n}");
+        }
     }
 
     /// What the search solves without the condition number (`with_cond` false) is the
