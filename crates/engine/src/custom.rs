@@ -26,7 +26,9 @@ use clearance_parquet::{
     ColumnSet, CustomPart, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
-use clearance_solver::custom::{CustomModel, CustomResult, group_load_near, preset_members, solve_members_near};
+use clearance_solver::custom::{
+    CustomModel, CustomResult, group_load_near, preset_members, solve_kind_near, solve_members_near,
+};
 use rayon::prelude::*;
 
 use crate::error::EngineError;
@@ -553,6 +555,14 @@ fn search(
                 trail.borrow_mut().keep(p, reached);
                 (t, s, r)
             };
+            // At a switch and where its jump is read, the search reads one kind.
+            let solve_kind_at = |p: f64, kind: usize| {
+                let (t, s, inputs) = point(p);
+                let [x, v, a] = split(&inputs);
+                let (r, reached) = solve_kind_near(models, &x, Some((&v, &a)), mode, trail.borrow().nearest(p), kind);
+                trail.borrow_mut().keep(p, reached);
+                (t, s, r)
+            };
             // Per member, its samples along the path.
             let own: Vec<Vec<Sampled>>;
             let samples: Vec<Vec<&Sampled>> = match &shared {
@@ -577,6 +587,7 @@ fn search(
                     trail.borrow_mut().keep(p, reached);
                     load
                 };
+                let solve_at = |p: f64| solve_kind_at(p, def.kind);
                 let found = if model.scalar(g) {
                     scalar_switches(path, &loads, floor, def.limb, &at, &solve_at, def.kind, g)
                 } else {
@@ -759,6 +770,58 @@ mod tests {
         };
         let model = model_of(&job, file).unwrap();
         (job, model)
+    }
+
+    /// What the search reads of one kind at a pose (`solve_kind_near`) is what the whole
+    /// pose's solve gives: the coordinates, whether it has loads, each group of the
+    /// kind's take-up and the kind's error, bit for bit, for every kind; on a 3-PRS and
+    /// a 6-UPS (their kernels) and a 3-RRS (the general path), both modes, two members
+    /// of a clearance sweep.
+    #[test]
+    fn the_search_reads_one_kind_as_the_whole_pose_gives_it() {
+        for file in ["fig08_r_radial.toml", "ups_orientation_grid.toml", "custom_3rrs_grid.toml"] {
+            let model = described(file);
+            let mut loose = model.clone();
+            for g in &mut loose.groups {
+                g.magnitude *= 2.0;
+            }
+            let members = [&model, &loose];
+            let n = model.geom.inputs.len();
+            let home: Vec<f64> = model.geom.inputs.iter().map(|&k| model.geom.home[k]).collect();
+            let rates: Vec<f64> = (0..n).map(|k| 0.2 + 0.05 * k as f64).collect();
+            let mut read = 0;
+            for i in 0..40 {
+                let t = i as f64 / 39.0;
+                let x: Vec<f64> =
+                    (0..n).map(|k| home[k] + if k < n.saturating_sub(2) { 0.0 } else { 0.9 * (t - 0.5) }).collect();
+                for mode in [Mode::Kinetostatic, Mode::Dynamic] {
+                    let (whole, _) = solve_members_near(&members, &x, Some((&rates, &rates)), mode, None, false);
+                    for kind in 0..model.kinds.len() {
+                        let (one, _) = solve_kind_near(&members, &x, Some((&rates, &rates)), mode, None, kind);
+                        for (w, o) in whole.iter().zip(&one) {
+                            let at = format!("{file} at {x:?} ({mode:?}), kind {kind}");
+                            assert_eq!(o.loaded(), w.loaded(), "{at}");
+                            assert_eq!(o.coords.map(f64::to_bits), w.coords.map(f64::to_bits), "{at}");
+                            let bits = |e: Option<[f64; 9]>| e.map(|e| e.map(f64::to_bits));
+                            if !w.loaded() {
+                                continue;
+                            }
+                            assert_eq!(bits(o.kind_errors[kind]), bits(w.kind_errors[kind]), "{at}");
+                            for (g, def) in model.groups.iter().enumerate().filter(|(_, d)| d.kind == kind) {
+                                assert_eq!(
+                                    format!("{:?}", o.takes[g]),
+                                    format!("{:?}", w.takes[g]),
+                                    "{at}: {}",
+                                    def.label
+                                );
+                            }
+                            read += usize::from(w.kind_errors[kind].is_some());
+                        }
+                    }
+                }
+            }
+            assert!(read > 40 * 2 * model.kinds.len(), "{file}: {read} kinds' errors read");
+        }
     }
 
     /// Where no column holds the condition number, a run of a preset's poses computes

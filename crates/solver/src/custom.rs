@@ -445,12 +445,45 @@ pub fn solve_members_near(
     near: Option<&Configuration>,
     with_cond: bool,
 ) -> (Vec<CustomResult>, Option<Configuration>) {
+    solve_near(models, inputs, rates, mode, near, with_cond, None)
+}
+
+/// What the switch search reads of a pose for the switches and jumps of kind `kind`
+/// ([`solve_members_near`] without the condition number): the coordinates, whether the
+/// pose has loads, the take-up of each group of that kind and the kind's error, the
+/// same bits as the whole solve's. Every other group's take-up is left default (so the
+/// status is `ok` where only another kind's take-up is indeterminate), every other
+/// kind's error `None`, the total and the dominant joint `None`, the envelope the
+/// kind's alone. The take-up of the other kinds' groups (their unit responses and
+/// envelope) is most of a whole solve where the kernel does not give it.
+pub fn solve_kind_near(
+    models: &[&CustomModel],
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    near: Option<&Configuration>,
+    kind: usize,
+) -> (Vec<CustomResult>, Option<Configuration>) {
+    solve_near(models, inputs, rates, mode, near, false, Some(kind))
+}
+
+/// [`solve_members_near`], with the take-up of kind `only` alone where it is given
+/// ([`solve_kind_near`]).
+fn solve_near(
+    models: &[&CustomModel],
+    inputs: &[f64],
+    rates: Option<(&[f64], &[f64])>,
+    mode: Mode,
+    near: Option<&Configuration>,
+    with_cond: bool,
+    only: Option<usize>,
+) -> (Vec<CustomResult>, Option<Configuration>) {
     let model = models[0];
     let rates = if mode == Mode::Dynamic { rates } else { None };
     if models.iter().all(|m| m.preset.is_some()) {
         let fast: Option<Vec<CustomResult>> = models
             .iter()
-            .map(|m| m.preset.as_deref().and_then(|p| preset_result(m, p, inputs, rates, mode, with_cond)))
+            .map(|m| m.preset.as_deref().and_then(|p| preset_result(m, p, inputs, rates, mode, with_cond, only)))
             .collect();
         if let Some(fast) = fast {
             return (fast, None);
@@ -477,7 +510,7 @@ pub fn solve_members_near(
             return (vec![out; models.len()], None);
         }
     };
-    let solved = solve_posture(models, &posture, out, with_cond);
+    let solved = solve_posture(models, &posture, out, with_cond, only);
     (solved, Some((posture.coords, posture.states)))
 }
 
@@ -1044,12 +1077,16 @@ fn preset_result(
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
     with_cond: bool,
+    only: Option<usize>,
 ) -> Option<CustomResult> {
     match preset {
+        // The 3-PRS's kernel gives every kind's error at once, and whether its answer
+        // is the description's is judged on every group: it solves the whole pose.
         Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode, with_cond),
         Preset::Ups6(p) => UPS_KERNEL.with(|k| {
             let mut k = k.borrow_mut();
-            ups_result(model, p, inputs, k.pose(p, &ups_sample(inputs, rates), mode)?, CondOf::of(with_cond), &mut None)
+            let pose = k.pose(p, &ups_sample(inputs, rates), mode)?;
+            ups_result(model, p, inputs, pose, CondOf::of(with_cond), &mut None, only)
         }),
     }
 }
@@ -1231,6 +1268,7 @@ fn ups_result(
     pose: &UpsPose,
     cond_of: CondOf,
     open: &mut Option<Open>,
+    only: Option<usize>,
 ) -> Option<CustomResult> {
     let (g, gi) = (&pose.g, &pose.gi);
     let cond = given_cond(model, g, Some(gi), cond_of, open)?;
@@ -1244,7 +1282,7 @@ fn ups_result(
         cond,
         ..Default::default()
     };
-    take_up_at(model, |l, j| ups_joint_at(pose, l, j), (g, |l| (l, 1), gi), &pose.p, &coords, &mut out);
+    take_up_at(model, |l, j| ups_joint_at(pose, l, j), (g, |l| (l, 1), gi), &pose.p, &coords, &mut out, only);
     Some(out)
 }
 
@@ -1298,7 +1336,7 @@ fn ups_members(
                 models
                     .iter()
                     .map(|m| match m.preset.as_deref() {
-                        Some(Preset::Ups6(preset)) => ups_result(m, preset, &inputs, pose, cond_of, open),
+                        Some(Preset::Ups6(preset)) => ups_result(m, preset, &inputs, pose, cond_of, open, None),
                         _ => None,
                     })
                     .collect()
@@ -1316,6 +1354,7 @@ fn solve_posture(
     posture: &CustomPosture,
     mut out: CustomResult,
     with_cond: bool,
+    only: Option<usize>,
 ) -> Vec<CustomResult> {
     out.coords = posture.coords;
     out.q = posture.actuators(&models[0].geom);
@@ -1323,8 +1362,8 @@ fn solve_posture(
     let mut all = vec![out; models.len()];
     if let Some((basis, gi)) = statics {
         for (model, out) in models.iter().zip(&mut all) {
-            take_up(model, posture, &basis, &gi, out);
-            if model.exact && out.status == Status::Ok {
+            take_up(model, posture, &basis, &gi, out, only);
+            if model.exact && out.status == Status::Ok && only.is_none() {
                 out.exact = exact_error(model, posture, &basis, &gi, out);
             }
         }
@@ -1634,18 +1673,26 @@ fn settle(
     (reach, e)
 }
 
-fn take_up(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6<f64>, out: &mut CustomResult) {
+fn take_up(
+    model: &CustomModel,
+    p: &CustomPosture,
+    basis: &Basis,
+    gi: &Matrix6<f64>,
+    out: &mut CustomResult,
+    only: Option<usize>,
+) {
     let joint_at = |l: usize, j: usize| {
         let pj = &p.joints[l][j];
         (pj.centre, pj.axis, pj.normal)
     };
-    take_up_at(model, joint_at, (&basis.g, |l| basis.block(l), gi), &p.platform.t, &p.coords, out);
+    take_up_at(model, joint_at, (&basis.g, |l| basis.block(l), gi), &p.platform.t, &p.coords, out, only);
 }
 
 /// [`take_up`] from what it reads of a pose: each joint's centre, axis and normal
 /// (`joint_at(limb, joint)`), `G` with each limb's block of it and `G⁻¹` (`system`), P
 /// (`pos`) and the coordinates; the reactions are `out`'s. Sets the status: `ok`, or
-/// `indeterminate_contact` where a take-up is.
+/// `indeterminate_contact` where a take-up is. With `only`, that kind's groups alone
+/// ([`solve_kind_near`]).
 fn take_up_at(
     model: &CustomModel,
     joint_at: impl Fn(usize, usize) -> (V3, V3, V3),
@@ -1653,6 +1700,7 @@ fn take_up_at(
     pos: &V3,
     coords: &[f64; 6],
     out: &mut CustomResult,
+    only: Option<usize>,
 ) {
     let pos = *pos;
     let nk = model.kinds.len();
@@ -1660,7 +1708,12 @@ fn take_up_at(
     let mut indeterminate = vec![false; nk];
     let mut envelope = vec![[0.0f64; 8]; nk];
     out.takes = Vec::with_capacity(model.groups.len());
+    let read = |k: usize| only.is_none_or(|o| o == k);
     for g in &model.groups {
+        if !read(g.kind) {
+            out.takes.push(GroupTake::default());
+            continue;
+        }
         let joint = model.joint_type(g);
         let (centre, axis, normal) = joint_at(g.limb, g.joint);
         let at = (&centre, &axis, &normal);
@@ -1687,8 +1740,8 @@ fn take_up_at(
         out.takes.push(t);
     }
     let nine = nine_at(coords);
-    out.kind_errors = (0..nk).map(|k| (!indeterminate[k]).then(|| nine(&errors[k]))).collect();
-    out.total = (!indeterminate.iter().any(|&i| i)).then(|| {
+    out.kind_errors = (0..nk).map(|k| (read(k) && !indeterminate[k]).then(|| nine(&errors[k]))).collect();
+    out.total = (only.is_none() && !indeterminate.iter().any(|&i| i)).then(|| {
         let mut s = [0.0; 6];
         for e in &errors {
             for c in 0..6 {
@@ -1705,7 +1758,7 @@ fn take_up_at(
     }
     out.envelope = envelope;
     out.env_total = total;
-    out.dominant = dominant(model, &out.takes);
+    out.dominant = if only.is_none() { dominant(model, &out.takes) } else { None };
     out.status = if out.takes.iter().any(|t| t.indeterminate) { Status::IndeterminateContact } else { Status::Ok };
 }
 
