@@ -27,7 +27,7 @@ use clearance_parquet::{
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
 use clearance_solver::custom::{
-    CustomModel, CustomResult, group_load_near, preset_members, solve_kind_near, solve_members_near,
+    CustomModel, CustomResult, Wanted, group_load_near, preset_members, solve_members_near,
 };
 use rayon::prelude::*;
 
@@ -82,17 +82,17 @@ fn inputs_of(model: &CustomModel, source: Samples, i: u64) -> (Option<f64>, Vec<
 }
 
 /// Solves one pose from its inputs' values, rates and accelerations, its configuration
-/// continued from `near` where that is close (see [`solve_custom_near`]); `κ₂` only
-/// where it decides without `with_cond` ([`solve_members_near`]).
+/// continued from `near` where that is close (see [`solve_custom_near`]), giving what
+/// `wanted` asks ([`solve_members_near`]).
 fn solve_inputs(
     models: &[&CustomModel],
     inputs: &[[f64; 3]],
     mode: Mode,
     near: Option<&Configuration>,
-    with_cond: bool,
+    wanted: Wanted,
 ) -> (Vec<CustomResult>, Option<Configuration>) {
     let [x, v, a] = split(inputs);
-    solve_members_near(models, &x, Some((&v, &a)), mode, near, with_cond)
+    solve_members_near(models, &x, Some((&v, &a)), mode, near, wanted)
 }
 
 /// The inputs' values, rates and accelerations, each in canonical order.
@@ -160,13 +160,13 @@ fn solve_members(
                 if i < range.start {
                     // Continuation runs from the run's first sample, whatever the range.
                     let (_, inputs) = inputs_of(models[0], source, i);
-                    near = solve_inputs(models, &inputs, mode, near.as_ref(), false).1;
+                    near = solve_inputs(models, &inputs, mode, near.as_ref(), Wanted::WithoutCond).1;
                     continue;
                 }
                 let k = (i - run.start) as usize;
                 let (r, reached) = match fast.get_mut(k).and_then(Option::take) {
                     Some(r) => (r, None),
-                    None => solve_inputs(models, &inputs[k], mode, near.as_ref(), true),
+                    None => solve_inputs(models, &inputs[k], mode, near.as_ref(), Wanted::Whole),
                 };
                 near = reached;
                 out.push((CustomRow { sample: i, t: times[k] }, r));
@@ -551,15 +551,14 @@ fn search(
             // needs no condition number.
             let solve_at = |p: f64| {
                 let (t, s, inputs) = point(p);
-                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p), false);
+                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p), Wanted::WithoutCond);
                 trail.borrow_mut().keep(p, reached);
                 (t, s, r)
             };
             // At a switch and where its jump is read, the search reads one kind.
             let solve_kind_at = |p: f64, kind: usize| {
                 let (t, s, inputs) = point(p);
-                let [x, v, a] = split(&inputs);
-                let (r, reached) = solve_kind_near(models, &x, Some((&v, &a)), mode, trail.borrow().nearest(p), kind);
+                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p), Wanted::Kind(kind));
                 trail.borrow_mut().keep(p, reached);
                 (t, s, r)
             };
@@ -772,7 +771,7 @@ mod tests {
         (job, model)
     }
 
-    /// What the search reads of one kind at a pose (`solve_kind_near`) is what the whole
+    /// What the search reads of one kind at a pose (`Wanted::Kind`) is what the whole
     /// pose's solve gives: the coordinates, whether it has loads, each group of the
     /// kind's take-up and the kind's error, bit for bit, for every kind; on a 3-PRS and
     /// a 6-UPS (their kernels) and a 3-RRS (the general path), both modes, two members
@@ -795,9 +794,10 @@ mod tests {
                 let x: Vec<f64> =
                     (0..n).map(|k| home[k] + if k < n.saturating_sub(2) { 0.0 } else { 0.9 * (t - 0.5) }).collect();
                 for mode in [Mode::Kinetostatic, Mode::Dynamic] {
-                    let (whole, _) = solve_members_near(&members, &x, Some((&rates, &rates)), mode, None, false);
+                    let solve = |wanted| solve_members_near(&members, &x, Some((&rates, &rates)), mode, None, wanted).0;
+                    let whole = solve(Wanted::WithoutCond);
                     for kind in 0..model.kinds.len() {
-                        let (one, _) = solve_kind_near(&members, &x, Some((&rates, &rates)), mode, None, kind);
+                        let one = solve(Wanted::Kind(kind));
                         for (w, o) in whole.iter().zip(&one) {
                             let at = format!("{file} at {x:?} ({mode:?}), kind {kind}");
                             assert_eq!(o.loaded(), w.loaded(), "{at}");
@@ -877,7 +877,7 @@ mod tests {
         }
     }
 
-    /// What the search solves without the condition number (`with_cond` false) is the
+    /// What the search solves without the condition number (`Wanted::WithoutCond`) is the
     /// whole pose's solve, bit for bit, but for `cond`: NaN where the bound accepted the
     /// pose, else `κ₂` itself. `singular_cond` is set among the poses' own condition
     /// numbers so that poses are accepted by the bound, by `κ₂` and refused, on a
@@ -899,7 +899,8 @@ mod tests {
                 .collect();
             let rates: Vec<f64> = (0..n).map(|k| 0.2 + 0.05 * k as f64).collect();
             let solve = |m: &CustomModel, x: &[f64], mode: Mode, with_cond: bool| {
-                solve_members_near(&[m], x, Some((&rates, &rates)), mode, None, with_cond).0.pop().unwrap()
+                let wanted = if with_cond { Wanted::Whole } else { Wanted::WithoutCond };
+                solve_members_near(&[m], x, Some((&rates, &rates)), mode, None, wanted).0.pop().unwrap()
             };
             let mut conds: Vec<f64> = poses
                 .iter()

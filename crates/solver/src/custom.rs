@@ -424,60 +424,48 @@ pub fn solve_custom_near(
     mode: Mode,
     near: Option<&Configuration>,
 ) -> (CustomResult, Option<Configuration>) {
-    let (mut all, configuration) = solve_members_near(&[model], inputs, rates, mode, near, true);
+    let (mut all, configuration) = solve_members_near(&[model], inputs, rates, mode, near, Wanted::Whole);
     (all.pop().expect("one model, one result"), configuration)
 }
 
+/// What a solve gives of a pose ([`solve_members_near`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wanted {
+    /// Every field, with `κ₂(G)` (`cond`).
+    Whole,
+    /// Every field the same bits, but `κ₂(G)` only where it decides (the switch
+    /// search, which writes no condition number): `‖G‖_F·‖G⁻¹‖_F` bounds it from above,
+    /// and a bound within `singular_cond` accepts the pose as `κ₂` would (its `cond` is
+    /// then NaN).
+    WithoutCond,
+    /// What the switch search reads of a pose for the switches and jumps of one kind,
+    /// [`Wanted::WithoutCond`]'s bits: the coordinates, whether the pose has loads, the
+    /// take-up of each group of that kind and the kind's error. Every other group's
+    /// take-up is left default (so the status is `ok` where only another kind's
+    /// take-up is indeterminate), every other kind's error `None`, the total and the
+    /// dominant joint `None`, the envelope the kind's alone. The take-up of the other
+    /// kinds' groups (their unit responses and envelope) is most of a whole solve
+    /// where the kernel does not give it.
+    Kind(usize),
+}
+
 /// [`solve_custom_near`] for the members of a clearance sweep: models equal but for
-/// their clearances (with the same kinds). The kinematics and the reactions are solved
-/// once; each member takes up its own clearances. Each result is, bit for bit, the
-/// member's solved alone.
-///
-/// Without `with_cond` (the switch search, which writes no condition number) `κ₂(G)`
-/// is computed only where it decides: `‖G‖_F·‖G⁻¹‖_F` bounds it from above, and a
-/// bound within `singular_cond` accepts the pose as `κ₂` would (its `cond` is then
-/// NaN). Every other value is the same, bit for bit.
+/// their clearances (with the same kinds), giving what `wanted` asks. The kinematics
+/// and the reactions are solved once; each member takes up its own clearances. Each
+/// result is, bit for bit, the member's solved alone.
 pub fn solve_members_near(
     models: &[&CustomModel],
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
     near: Option<&Configuration>,
-    with_cond: bool,
+    wanted: Wanted,
 ) -> (Vec<CustomResult>, Option<Configuration>) {
-    solve_near(models, inputs, rates, mode, near, with_cond, None)
-}
-
-/// What the switch search reads of a pose for the switches and jumps of kind `kind`
-/// ([`solve_members_near`] without the condition number): the coordinates, whether the
-/// pose has loads, the take-up of each group of that kind and the kind's error, the
-/// same bits as the whole solve's. Every other group's take-up is left default (so the
-/// status is `ok` where only another kind's take-up is indeterminate), every other
-/// kind's error `None`, the total and the dominant joint `None`, the envelope the
-/// kind's alone. The take-up of the other kinds' groups (their unit responses and
-/// envelope) is most of a whole solve where the kernel does not give it.
-pub fn solve_kind_near(
-    models: &[&CustomModel],
-    inputs: &[f64],
-    rates: Option<(&[f64], &[f64])>,
-    mode: Mode,
-    near: Option<&Configuration>,
-    kind: usize,
-) -> (Vec<CustomResult>, Option<Configuration>) {
-    solve_near(models, inputs, rates, mode, near, false, Some(kind))
-}
-
-/// [`solve_members_near`], with the take-up of kind `only` alone where it is given
-/// ([`solve_kind_near`]).
-fn solve_near(
-    models: &[&CustomModel],
-    inputs: &[f64],
-    rates: Option<(&[f64], &[f64])>,
-    mode: Mode,
-    near: Option<&Configuration>,
-    with_cond: bool,
-    only: Option<usize>,
-) -> (Vec<CustomResult>, Option<Configuration>) {
+    let with_cond = wanted == Wanted::Whole;
+    let only = match wanted {
+        Wanted::Kind(k) => Some(k),
+        _ => None,
+    };
     let model = models[0];
     let rates = if mode == Mode::Dynamic { rates } else { None };
     if models.iter().all(|m| m.preset.is_some()) {
@@ -1692,7 +1680,7 @@ fn take_up(
 /// (`joint_at(limb, joint)`), `G` with each limb's block of it and `G⁻¹` (`system`), P
 /// (`pos`) and the coordinates; the reactions are `out`'s. Sets the status: `ok`, or
 /// `indeterminate_contact` where a take-up is. With `only`, that kind's groups alone
-/// ([`solve_kind_near`]).
+/// ([`Wanted::Kind`]).
 fn take_up_at(
     model: &CustomModel,
     joint_at: impl Fn(usize, usize) -> (V3, V3, V3),
