@@ -548,20 +548,15 @@ fn search(
                 (t, s, inputs)
             };
             // What the search reads of a pose (its status, coordinates, loads and errors)
-            // needs no condition number.
-            let solve_at = |p: f64| {
+            // needs no condition number; at a switch and where its jump is read, it reads
+            // one kind.
+            let solve_wanted = |p: f64, wanted: Wanted| {
                 let (t, s, inputs) = point(p);
-                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p), Wanted::WithoutCond);
+                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p), wanted);
                 trail.borrow_mut().keep(p, reached);
                 (t, s, r)
             };
-            // At a switch and where its jump is read, the search reads one kind.
-            let solve_kind_at = |p: f64, kind: usize| {
-                let (t, s, inputs) = point(p);
-                let (r, reached) = solve_inputs(models, &inputs, mode, trail.borrow().nearest(p), Wanted::Kind(kind));
-                trail.borrow_mut().keep(p, reached);
-                (t, s, r)
-            };
+            let solve_at = |p: f64| solve_wanted(p, Wanted::WithoutCond);
             // Per member, its samples along the path.
             let own: Vec<Vec<Sampled>>;
             let samples: Vec<Vec<&Sampled>> = match &shared {
@@ -586,7 +581,7 @@ fn search(
                     trail.borrow_mut().keep(p, reached);
                     load
                 };
-                let solve_at = |p: f64| solve_kind_at(p, def.kind);
+                let solve_at = |p: f64| solve_wanted(p, Wanted::Kind(def.kind));
                 let found = if model.scalar(g) {
                     scalar_switches(path, &loads, floor, def.limb, &at, &solve_at, def.kind, g)
                 } else {
