@@ -1520,11 +1520,15 @@ enum Shape {
 /// `block` (start, width): `S·G⁻ᵀ·[N_lᵀ·S·ζ]`.
 fn response(g: &Matrix6<f64>, (start, width): (usize, usize), gi: &Matrix6<f64>, zeta: &V6, pos: &V3) -> [f64; 6] {
     let sz = swap(zeta);
-    let mut b = V6::zeros();
-    for k in 0..width {
-        b[start + k] = g.column(start + k).dot(&sz);
+    // `G⁻ᵀ·b` where `b` is zero but in the block: the block's rows of `G⁻¹`, each times
+    // its entry of `b`, in the order of the whole product (whose other terms are zero).
+    let mut y = V6::zeros();
+    for k in start..start + width {
+        let b = g.column(k).dot(&sz);
+        for i in 0..6 {
+            y[i] += gi[(k, i)] * b;
+        }
     }
-    let y = gi.transpose() * b;
     at_p(&swap(&y), pos)
 }
 
