@@ -461,17 +461,17 @@ pub fn solve_members_near(
     near: Option<&Configuration>,
     wanted: Wanted,
 ) -> (Vec<CustomResult>, Option<Configuration>) {
-    let with_cond = wanted == Wanted::Whole;
-    let only = match wanted {
-        Wanted::Kind(k) => Some(k),
-        _ => None,
+    let (cond_of, only) = match wanted {
+        Wanted::Whole => (CondOf::Each, None),
+        Wanted::WithoutCond => (CondOf::Verdict, None),
+        Wanted::Kind(k) => (CondOf::Verdict, Some(k)),
     };
     let model = models[0];
     let rates = if mode == Mode::Dynamic { rates } else { None };
     if models.iter().all(|m| m.preset.is_some()) {
         let fast: Option<Vec<CustomResult>> = models
             .iter()
-            .map(|m| m.preset.as_deref().and_then(|p| preset_result(m, p, inputs, rates, mode, with_cond, only)))
+            .map(|m| m.preset.as_deref().and_then(|p| preset_result(m, p, inputs, rates, mode, cond_of, only)))
             .collect();
         if let Some(fast) = fast {
             return (fast, None);
@@ -498,7 +498,7 @@ pub fn solve_members_near(
             return (vec![out; models.len()], None);
         }
     };
-    let solved = solve_posture(models, &posture, out, with_cond, only);
+    let solved = solve_posture(models, &posture, out, cond_of, only);
     (solved, Some((posture.coords, posture.states)))
 }
 
@@ -520,7 +520,7 @@ pub fn group_load_near(
     }
     let Ok(posture) = custom_posture_near(&model.geom, inputs, rates, near) else { return (None, None) };
     let mut out = CustomResult::default();
-    let load = statics(model, &posture, &mut out, false).and_then(|(basis, gi)| {
+    let load = statics(model, &posture, &mut out, CondOf::Verdict).and_then(|(basis, gi)| {
         let g = &model.groups[group];
         let pj = &posture.joints[g.limb][g.joint];
         let at = (&pj.centre, &pj.axis, &pj.normal);
@@ -580,7 +580,7 @@ fn accepted_cond(model: &CustomModel, g: &Matrix6<f64>, gi: Option<&Matrix6<f64>
     within.then_some(cond)
 }
 
-/// What a preset's pose gives of `κ₂(G)` (its `cond`).
+/// What a pose gives of `κ₂(G)` (its `cond`).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum CondOf {
     /// Every pose's.
@@ -594,13 +594,6 @@ enum CondOf {
     /// None where `‖G‖_F·‖G⁻¹‖_F` decides the pose within `singular_cond` (the switch
     /// search, [`decided_cond`]).
     Verdict,
-}
-
-impl CondOf {
-    /// [`CondOf::Each`] with the condition number, else [`CondOf::Verdict`].
-    fn of(with_cond: bool) -> Self {
-        if with_cond { CondOf::Each } else { CondOf::Verdict }
-    }
 }
 
 /// A pose whose `cond` is left NaN under [`CondOf::Largest`]: its [`cond_bound`] and
@@ -649,7 +642,6 @@ const BOUND_VOUCHED: f64 = 1e3;
 /// A margin of 1e-6 covers the round-off, which below [`BOUND_VOUCHED`] is under 1e-8
 /// relative. About a third of the SVD's arithmetic.
 fn cond_bound(g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>) -> f64 {
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     let col = |m: &Matrix6<f64>, j: usize| -> [f64; 6] { std::array::from_fn(|i| m[(i, j)]) };
     let cols: [[f64; 6]; 6] = std::array::from_fn(|j| col(g, j));
     let m = gram(|i, j| dot(&cols[i], &cols[j]));
@@ -690,6 +682,11 @@ fn cond_bound(g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>) -> f64 {
     if bound.is_finite() && bound <= BOUND_VOUCHED { bound * (1.0 + 1e-6) } else { f64::INFINITY }
 }
 
+/// `a·b`, summed in order.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
 /// The symmetric 6 × 6 matrix whose entry `(i, j)`, `i ≥ j`, is `at(i, j)`.
 fn gram(at: impl Fn(usize, usize) -> f64) -> [[f64; 6]; 6] {
     let mut m = [[0.0; 6]; 6];
@@ -704,7 +701,6 @@ fn gram(at: impl Fn(usize, usize) -> f64) -> [[f64; 6]; 6] {
 
 /// `Σλ⁸` of a symmetric `a`: `‖B²‖_F²` for `B = a²`, `Σ_ij (b_i·b_j)²` over its rows.
 fn eighth_powers(a: &[[f64; 6]; 6]) -> f64 {
-    let dot = |x: &[f64; 6], y: &[f64; 6]| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
     let b = gram(|i, j| dot(&a[i], &a[j]));
     let mut sum = 0.0;
     for i in 0..6 {
@@ -914,11 +910,11 @@ fn prs_result(
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
-    with_cond: bool,
+    cond_of: CondOf,
 ) -> Option<CustomResult> {
     let sample = kernel_sample(inputs, rates);
     let r = KERNEL.with(|ws| solve_pose(&preset.model, &sample, mode, &mut ws.borrow_mut()));
-    preset_result_of(model, preset, inputs, &r, CondOf::of(with_cond), &mut None)
+    preset_result_of(model, preset, inputs, &r, cond_of, &mut None)
 }
 
 /// [`solve_members_near`] for a run of poses of a description that is a preset, every
@@ -1064,17 +1060,17 @@ fn preset_result(
     inputs: &[f64],
     rates: Option<(&[f64], &[f64])>,
     mode: Mode,
-    with_cond: bool,
+    cond_of: CondOf,
     only: Option<usize>,
 ) -> Option<CustomResult> {
     match preset {
         // The 3-PRS's kernel gives every kind's error at once, and whether its answer
         // is the description's is judged on every group: it solves the whole pose.
-        Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode, with_cond),
+        Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode, cond_of),
         Preset::Ups6(p) => UPS_KERNEL.with(|k| {
             let mut k = k.borrow_mut();
             let pose = k.pose(p, &ups_sample(inputs, rates), mode)?;
-            ups_result(model, p, inputs, pose, CondOf::of(with_cond), &mut None, only)
+            ups_result(model, p, inputs, pose, cond_of, &mut None, only)
         }),
     }
 }
@@ -1341,12 +1337,12 @@ fn solve_posture(
     models: &[&CustomModel],
     posture: &CustomPosture,
     mut out: CustomResult,
-    with_cond: bool,
+    cond_of: CondOf,
     only: Option<usize>,
 ) -> Vec<CustomResult> {
     out.coords = posture.coords;
     out.q = posture.actuators(&models[0].geom);
-    let statics = statics(models[0], posture, &mut out, with_cond);
+    let statics = statics(models[0], posture, &mut out, cond_of);
     let mut all = vec![out; models.len()];
     if let Some((basis, gi)) = statics {
         for (model, out) in models.iter().zip(&mut all) {
@@ -1359,26 +1355,27 @@ fn solve_posture(
     all
 }
 
-/// The wrench basis, `G⁻¹` and the reactions (into `out`, with `cond` where `with_cond`)
+/// The wrench basis, `G⁻¹` and the reactions (into `out`, with `cond` as `cond_of` asks)
 /// at a posture; `None` where the pose is near-singular (`out.status` says so).
 ///
-/// Without `with_cond` (the switch search, which writes no condition number) the
+/// Under [`CondOf::Verdict`] (the switch search, which writes no condition number) the
 /// singular values are computed only where they could decide: `‖G‖_F·‖G⁻¹‖_F` bounds
 /// the 2-norm condition number from above, so a bound within `singular_cond` accepts
 /// the pose as the condition number would, with the same `G⁻¹`; `out.cond` is then
-/// NaN.
+/// NaN. Otherwise every pose's (only a preset's kernel leaves poses open,
+/// [`CondOf::Largest`]).
 fn statics(
     model: &CustomModel,
     posture: &CustomPosture,
     out: &mut CustomResult,
-    with_cond: bool,
+    cond_of: CondOf,
 ) -> Option<(Basis, Matrix6<f64>)> {
     let Some(basis) = Basis::new(posture, &model.geom) else {
         out.status = Status::NearSingular;
         out.cond = f64::INFINITY;
         return None;
     };
-    let inverse = (!with_cond).then(|| basis.g.try_inverse()).flatten();
+    let inverse = (cond_of == CondOf::Verdict).then(|| basis.g.try_inverse()).flatten();
     let (cond, within) = decided_cond(model, &basis.g, inverse.as_ref());
     out.cond = cond;
     let Some(gi) = within.then(|| inverse.or_else(|| basis.g.try_inverse())).flatten() else {
