@@ -405,8 +405,7 @@ def main():
     ap.add_argument("--verbose", action="store_true", help="a line for every job")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
-    keep = args.keep or tempfile.mkdtemp(prefix="fuzz_custom_")
-    os.makedirs(keep, exist_ok=True)
+    keep = args.keep  # made on the first failure: a clean run leaves nothing behind
     work = tempfile.mkdtemp(prefix="fuzz_custom_run_")
     counts = {"accepted": 0, "refused": 0, "failed": 0}
     start = time.time()
@@ -418,6 +417,9 @@ def main():
         if args.verbose and verdict != "failed":
             print(f"job {i} ({tag}): {verdict} {detail[:200]}", flush=True)
         if verdict == "failed":
+            if keep is None:
+                keep = tempfile.mkdtemp(prefix="fuzz_custom_")
+            os.makedirs(keep, exist_ok=True)
             kept = os.path.join(keep, f"failed_{args.seed}_{i:04d}.toml")
             with open(kept, "w") as f:
                 f.write(f"# {tag}\n# {detail[:500]}\n" + cc.to_toml(job))
