@@ -28,7 +28,58 @@ pub struct CustomRow {
     pub t: Option<f64>,
 }
 
-type Fill = Box<dyn Fn(&CustomResult) -> Option<f64> + Send + Sync>;
+/// What a float column of a custom run holds, in [`CustomSchema::new`]'s words: read from
+/// each row's result by one `match` (a boxed closure a column, called for every value,
+/// was most of filling a row).
+#[derive(Clone, Copy, Debug)]
+enum Fill {
+    /// A platform coordinate, known wherever the closure was solved.
+    Coord(usize),
+    /// A component of the total error (`ok` poses).
+    Err(usize),
+    /// An actuator's position from home.
+    Q(usize),
+    /// An actuator's motor load.
+    Tau(usize),
+    /// A component of a kind's error: (kind, component).
+    KindErr(usize, usize),
+    /// A group's margin.
+    Margin(usize),
+    /// A part of the envelope of every kind.
+    Env(usize),
+    /// A part of a kind's envelope: (kind, part).
+    KindEnv(usize, usize),
+    /// A component of a joint's force: (limb, joint, axis).
+    Force(usize, usize, usize),
+    /// A component of a joint's couple: (limb, joint, axis).
+    Moment(usize, usize, usize),
+    /// The condition number (`cond_a` and `cond_jp` both).
+    Cond,
+    /// A component of the exact error.
+    Exact(usize),
+}
+
+impl Fill {
+    /// The column's value in the row of `r` (`loaded`: [`CustomResult::loaded`]); `None`
+    /// where it has none.
+    fn of(self, r: &CustomResult, loaded: bool) -> Option<f64> {
+        let reachable = r.status != Status::Unreachable;
+        match self {
+            Fill::Coord(k) => Some(r.coords[k]),
+            Fill::Err(i) => (r.status == Status::Ok).then(|| r.total.map(|e| e[i])).flatten(),
+            Fill::Q(i) => r.q.get(i).copied().filter(|_| reachable),
+            Fill::Tau(i) => loaded.then(|| r.tau.get(i).copied()).flatten(),
+            Fill::KindErr(k, i) => loaded.then(|| r.kind_errors.get(k).copied().flatten().map(|e| e[i])).flatten(),
+            Fill::Margin(g) => loaded.then(|| r.takes.get(g).map(|t| t.margin)).flatten(),
+            Fill::Env(c) => loaded.then_some(r.env_total[c]),
+            Fill::KindEnv(k, c) => loaded.then(|| r.envelope.get(k).map(|e| e[c])).flatten(),
+            Fill::Force(l, j, a) => loaded.then(|| r.reactions[l][j].0[a]),
+            Fill::Moment(l, j, a) => loaded.then(|| r.reactions[l][j].1[a]),
+            Fill::Cond => reachable.then_some(r.cond),
+            Fill::Exact(i) => r.exact.map(|e| e[i]),
+        }
+    }
+}
 
 /// The `poses` columns of a custom run for one column set.
 pub struct CustomSchema {
@@ -36,10 +87,6 @@ pub struct CustomSchema {
     floats: Vec<Fill>,
     /// The `dominant` column's values, by group, when the set has the column.
     dominant: Option<Vec<String>>,
-}
-
-fn loaded(r: &CustomResult) -> bool {
-    r.loaded()
 }
 
 /// The unit of a group's magnitude and of its deciding load.
@@ -63,50 +110,28 @@ impl CustomSchema {
         let geom = &model.geom;
         // Minimal: the inputs and the total errors; standard adds the parasitic coordinates.
         for &k in &geom.inputs {
-            push(COORDINATES[k].to_string(), INPUT_UNITS[k], Box::new(move |r| Some(r.coords[k])));
+            push(COORDINATES[k].to_string(), INPUT_UNITS[k], Fill::Coord(k));
         }
         for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-            push(
-                format!("err_{c}"),
-                unit,
-                Box::new(move |r| (r.status == Status::Ok).then(|| r.total.map(|e| e[i])).flatten()),
-            );
+            push(format!("err_{c}"), unit, Fill::Err(i));
         }
         if set >= ColumnSet::Standard {
             for &k in &geom.parasitic {
-                push(
-                    COORDINATES[k].to_string(),
-                    INPUT_UNITS[k],
-                    // Known wherever the closure was solved (a joint out of its range too).
-                    Box::new(move |r| Some(r.coords[k])),
-                );
+                // Known wherever the closure was solved (a joint out of its range too).
+                push(COORDINATES[k].to_string(), INPUT_UNITS[k], Fill::Coord(k));
             }
             let actuators = model.actuators();
             for (i, &(l, j)) in actuators.iter().enumerate() {
                 let unit = if geom.limbs[l].joints[j].joint == JointType::R { "rad" } else { "m" };
-                push(
-                    format!("q{}", i + 1),
-                    unit,
-                    Box::new(move |r| r.q.get(i).copied().filter(|_| r.status != Status::Unreachable)),
-                );
+                push(format!("q{}", i + 1), unit, Fill::Q(i));
             }
             for (i, &(l, j)) in actuators.iter().enumerate() {
                 let unit = if geom.limbs[l].joints[j].joint == JointType::R { "N*m" } else { "N" };
-                push(
-                    format!("tau{}", i + 1),
-                    unit,
-                    Box::new(move |r| loaded(r).then(|| r.tau.get(i).copied()).flatten()),
-                );
+                push(format!("tau{}", i + 1), unit, Fill::Tau(i));
             }
             for (k, kind) in model.kinds.iter().enumerate() {
                 for (i, (c, unit)) in ERR_PARTS.iter().enumerate() {
-                    push(
-                        format!("err_{kind}_{c}"),
-                        unit,
-                        Box::new(move |r| {
-                            loaded(r).then(|| r.kind_errors.get(k).copied().flatten().map(|e| e[i])).flatten()
-                        }),
-                    );
+                    push(format!("err_{kind}_{c}"), unit, Fill::KindErr(k, i));
                 }
             }
             // Margins limb by limb, joint by joint, group by group.
@@ -116,21 +141,14 @@ impl CustomSchema {
                 let def = &model.groups[g];
                 let joint = &geom.limbs[def.limb].joints[def.joint];
                 let (_, unit) = group_units(joint.joint, def.group);
-                push(
-                    format!("margin_{}", def.label),
-                    unit,
-                    Box::new(move |r| loaded(r).then(|| r.takes.get(g).map(|t| t.margin)).flatten()),
-                );
+                push(format!("margin_{}", def.label), unit, Fill::Margin(g));
             }
             let kinds = std::iter::once(None).chain(model.kinds.iter().enumerate().map(Some));
             for kind in kinds {
                 for (c, (part, unit)) in ENVELOPE_PARTS.iter().enumerate() {
-                    let (name, f): (String, Fill) = match kind {
-                        None => (format!("env_{part}"), Box::new(move |r| loaded(r).then_some(r.env_total[c]))),
-                        Some((k, kind)) => (
-                            format!("env_{kind}_{part}"),
-                            Box::new(move |r| loaded(r).then(|| r.envelope.get(k).map(|e| e[c])).flatten()),
-                        ),
+                    let (name, f) = match kind {
+                        None => (format!("env_{part}"), Fill::Env(c)),
+                        Some((k, kind)) => (format!("env_{kind}_{part}"), Fill::KindEnv(k, c)),
                     };
                     push(name, unit, f);
                 }
@@ -141,19 +159,19 @@ impl CustomSchema {
                 for (j, joint) in limb.joints.iter().enumerate() {
                     let n = format!("{}{}", joint.name, l + 1);
                     for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
-                        push(format!("f_{n}_{c}"), "N", Box::new(move |r| loaded(r).then(|| r.reactions[l][j].0[a])));
+                        push(format!("f_{n}_{c}"), "N", Fill::Force(l, j, a));
                     }
                     for (a, c) in ["x", "y", "z"].into_iter().enumerate() {
-                        push(format!("m_{n}_{c}"), "N*m", Box::new(move |r| loaded(r).then(|| r.reactions[l][j].1[a])));
+                        push(format!("m_{n}_{c}"), "N*m", Fill::Moment(l, j, a));
                     }
                 }
             }
-            push("cond_a".into(), "1", Box::new(|r| (r.status != Status::Unreachable).then_some(r.cond)));
-            push("cond_jp".into(), "1", Box::new(|r| (r.status != Status::Unreachable).then_some(r.cond)));
+            push("cond_a".into(), "1", Fill::Cond);
+            push("cond_jp".into(), "1", Fill::Cond);
         }
         if exact {
             for (i, (c, unit)) in ERR_PARTS[..6].iter().enumerate() {
-                push(format!("exact_err_{c}"), unit, Box::new(move |r| r.exact.map(|e| e[i])));
+                push(format!("exact_err_{c}"), unit, Fill::Exact(i));
             }
         }
         let unit = |u: &str| HashMap::from([("unit".to_string(), u.to_string())]);
@@ -212,8 +230,10 @@ impl CustomSchema {
         }
         let floats = &self.floats;
         part.floats.fill(start..start + rows.len(), |i, out| {
+            let r = &results[i - start];
+            let loaded = r.loaded();
             for (o, f) in out.iter_mut().zip(floats) {
-                *o = f(&results[i - start]).unwrap_or(f64::NAN);
+                *o = f.of(r, loaded).unwrap_or(f64::NAN);
             }
         });
     }
