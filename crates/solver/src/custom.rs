@@ -348,7 +348,7 @@ pub struct CustomResult {
     pub q: Vec<f64>,
     pub tau: Vec<f64>,
     /// Per limb, per joint: force and couple (about the joint's centre), proximal on distal.
-    pub reactions: Vec<Vec<(V3, V3)>>,
+    pub reactions: Reactions,
     pub takes: Vec<GroupTake>,
     /// Per kind `[Δp; Δα]` then Euler errors: 9 components (`None`: indeterminate).
     pub kind_errors: Vec<Option<[f64; 9]>>,
@@ -360,6 +360,63 @@ pub struct CustomResult {
     pub dominant: Option<usize>,
     pub cond: f64,
     pub exact: Option<[f64; 6]>,
+}
+
+/// A pose's joint reactions, `reactions[limb][joint]`: force and couple (about the
+/// joint's centre), proximal on distal. The limbs' joints one after another in one
+/// buffer: a pose is solved millions of times, and a buffer a limb was most of a
+/// 6-UPS pose's allocations.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Reactions {
+    values: Vec<(V3, V3)>,
+    /// Where each limb's joints end in `values`.
+    ends: Vec<u32>,
+}
+
+impl Reactions {
+    /// Room for `limbs` limbs of `joints` joints in all.
+    pub fn with_capacity(limbs: usize, joints: usize) -> Self {
+        Self { values: Vec::with_capacity(joints), ends: Vec::with_capacity(limbs) }
+    }
+
+    /// The limbs of `limbs`, each its joints' reactions in order.
+    pub fn of<L: AsRef<[(V3, V3)]>>(limbs: &[L]) -> Self {
+        let mut out = Self::with_capacity(limbs.len(), limbs.iter().map(|l| l.as_ref().len()).sum());
+        for l in limbs {
+            out.push_limb(l.as_ref().iter().copied());
+        }
+        out
+    }
+
+    /// Adds the next limb, its joints' reactions in order.
+    pub fn push_limb(&mut self, joints: impl IntoIterator<Item = (V3, V3)>) {
+        self.values.extend(joints);
+        self.ends.push(u32::try_from(self.values.len()).expect("fewer than 2³² joints"));
+    }
+
+    /// The number of limbs.
+    pub fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    /// Whether there is no limb.
+    pub fn is_empty(&self) -> bool {
+        self.ends.is_empty()
+    }
+
+    /// Each limb's joints' reactions, in order.
+    pub fn iter(&self) -> impl Iterator<Item = &[(V3, V3)]> {
+        (0..self.len()).map(|l| &self[l])
+    }
+}
+
+impl std::ops::Index<usize> for Reactions {
+    type Output = [(V3, V3)];
+
+    fn index(&self, limb: usize) -> &[(V3, V3)] {
+        let start = if limb == 0 { 0 } else { self.ends[limb - 1] as usize };
+        &self.values[start..self.ends[limb] as usize]
+    }
 }
 
 impl CustomResult {
@@ -991,12 +1048,10 @@ fn preset_result_of(
         tau: (0..3).map(|j| r.reactions.f_r[j].dot(&geometry.rail(j))).collect(),
         // P (on the massless slider: the R joint's reaction, about the same point),
         // R and S; the S joint transmits no couple.
-        reactions: (0..3)
-            .map(|j| {
-                let (f_r, m_r) = (r.reactions.f_r[j], r.reactions.m_r[j]);
-                vec![(f_r, m_r), (f_r, m_r), (r.reactions.f_s[j], V3::zeros())]
-            })
-            .collect(),
+        reactions: Reactions::of(&std::array::from_fn::<_, 3, _>(|j| {
+            let (f_r, m_r) = (r.reactions.f_r[j], r.reactions.m_r[j]);
+            [(f_r, m_r), (f_r, m_r), (r.reactions.f_s[j], V3::zeros())]
+        })),
         cond,
         ..Default::default()
     };
@@ -1008,7 +1063,9 @@ fn preset_result_of(
         let at = (&centre, &axis, &V3::zeros());
         let mut take = group_take(model, def, joint, at, out.reactions[l][def.joint]);
         if let Some(gi) = &gi {
-            settle(model, def, joint, at, (&g, (2 * l, 2), gi), &pose.p, &mut take);
+            let system = (&g, (2 * l, 2), gi);
+            let reach = unit_reach(system.0, system.1, system.2, (joint, def.group), at, &pose.p);
+            settle(model, def, &reach, system, &pose.p, &mut take);
             undetermined[def.kind] |= take.indeterminate;
         } else {
             // A group's own |Δp| bounds its unit reach from below: at least IMMOBILE
@@ -1028,6 +1085,8 @@ fn preset_result_of(
     let nine = nine_at(&coords);
     let mut sum = [0.0; 6];
     let mut env_total = [0.0; 8];
+    out.kind_errors.reserve_exact(preset.kinds.len());
+    out.envelope.reserve_exact(preset.kinds.len());
     for (&kb, &u) in preset.kinds.iter().zip(&undetermined) {
         let e = &r.errors[kb];
         let six = [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z];
@@ -1262,7 +1321,7 @@ fn ups_result(
         coords,
         q: (0..6).map(|i| pose.q[i] - preset.q_home[i]).collect(),
         tau: (0..6).map(|i| pose.reactions[i][1].0.dot(&pose.e[i])).collect(),
-        reactions: pose.reactions.iter().map(|r| r.to_vec()).collect(),
+        reactions: Reactions::of(&pose.reactions),
         cond,
         ..Default::default()
     };
@@ -1448,7 +1507,7 @@ fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6
         carried.push(c);
     }
     let lambda = gi * rhs;
-    out.reactions = Vec::with_capacity(geom.limbs.len());
+    out.reactions = Reactions::with_capacity(geom.limbs.len(), geom.limbs.iter().map(|l| l.joints.len()).sum());
     out.tau.clear();
     for (l, limb) in geom.limbs.iter().enumerate() {
         let LimbBasis { start, width, .. } = basis.limbs[l];
@@ -1456,22 +1515,21 @@ fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6
         for k in 0..width {
             wl += basis.g.column(start + k) * lambda[start + k];
         }
-        let mut rs = Vec::with_capacity(limb.joints.len());
-        for (j, joint) in limb.joints.iter().enumerate() {
+        let (tau, carried) = (&mut out.tau, &carried[l]);
+        out.reactions.push_limb(limb.joints.iter().enumerate().map(|(j, joint)| {
             // W_J = W_limb + the bodies beyond J (`carried[l][j]` holds them from body j on).
-            let wj = wl + carried[l][j];
+            let wj = wl + carried[j];
             let pj = &p.joints[l][j];
             let f = w(&wj);
             let m = v(&wj) - pj.centre.cross(&f);
             if joint.actuated {
-                out.tau.push(match joint.joint {
+                tau.push(match joint.joint {
                     JointType::R => m.dot(&pj.axis),
                     _ => f.dot(&pj.axis),
                 });
             }
-            rs.push((f, m));
-        }
-        out.reactions.push(rs);
+            (f, m)
+        }));
     }
 }
 
@@ -1643,24 +1701,32 @@ fn group_take(
 }
 
 /// Whether `take`'s group moves P, whether its take-up is indeterminate, and its own
-/// `|Δp|`, from `G⁻¹` (`(G, the limb's block of it, G⁻¹)` in `system`); returns its
-/// admissible set's unit reach ([`unit_reach`], for the envelope) and its error at P.
+/// `|Δp|`, from its admissible set's unit reach (`reach`, [`unit_reach`]) and `G⁻¹`
+/// (`(G, the limb's block of it, G⁻¹)` in `system`); returns its error at P.
 fn settle(
     model: &CustomModel,
     def: &GroupDef,
-    joint: JointType,
-    at: (&V3, &V3, &V3),
+    reach: &Reach,
     (g, block, gi): (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
     pos: &V3,
     take: &mut GroupTake,
-) -> (Reach, [f64; 6]) {
-    let reach = unit_reach(g, block, gi, (joint, def.group), at, pos);
+) -> [f64; 6] {
     take.mobile = reach.2 >= IMMOBILE;
     take.indeterminate = def.magnitude > 0.0 && take.mobile && take.margin <= model.floor;
     let e = response(g, block, gi, &take.twist, pos);
     take.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-    (reach, e)
+    e
 }
+
+/// Whether a group's admissible set is the ball of translations (the radial play of a U
+/// or S joint), whose unit reach depends on its limb alone, not on the joint's place.
+fn translation_ball(joint: JointType, group: Group) -> bool {
+    matches!((joint, group), (JointType::U | JointType::S, Group::Radial))
+}
+
+/// The limbs whose translation balls' reach [`take_up_at`] keeps, computed once a limb:
+/// a 6-UPS or 6-PUS leg's U and S joints have the same, which was a fifth of a pose.
+const KEPT_BALLS: usize = 8;
 
 fn take_up(
     model: &CustomModel,
@@ -1693,11 +1759,14 @@ fn take_up_at(
 ) {
     let pos = *pos;
     let nk = model.kinds.len();
-    let mut errors = vec![[0.0f64; 6]; nk];
-    let mut indeterminate = vec![false; nk];
+    // Each kind's error `[Δp; Δα]` summed in the first six entries of its slot of
+    // `kind_errors` (`None` once a group of it is indeterminate), then made the nine.
+    out.kind_errors.clear();
+    out.kind_errors.resize(nk, Some([0.0; 9]));
     let mut envelope = vec![[0.0f64; 8]; nk];
     out.takes = Vec::with_capacity(model.groups.len());
     let read = |k: usize| only.is_none_or(|o| o == k);
+    let mut balls: [Option<Reach>; KEPT_BALLS] = [None; KEPT_BALLS];
     for g in &model.groups {
         if !read(g.kind) {
             out.takes.push(GroupTake::default());
@@ -1708,8 +1777,18 @@ fn take_up_at(
         let at = (&centre, &axis, &normal);
         let mut t = group_take(model, g, joint, at, out.reactions[g.limb][g.joint]);
         // The admissible set's unit responses: the envelope, and whether it moves P.
-        let ((responses, shape, unit_p, unit_a), e) =
-            settle(model, g, joint, at, (g_matrix, block(g.limb), gi), &pos, &mut t);
+        let system = (g_matrix, block(g.limb), gi);
+        let reach_here = || unit_reach(system.0, system.1, system.2, (joint, g.group), at, &pos);
+        let computed;
+        let reach: &Reach = match translation_ball(joint, g.group).then(|| balls.get_mut(g.limb)).flatten() {
+            Some(kept) => kept.get_or_insert_with(reach_here),
+            None => {
+                computed = reach_here();
+                &computed
+            }
+        };
+        let e = settle(model, g, reach, system, &pos, &mut t);
+        let (responses, shape, unit_p, unit_a) = (&reach.0, reach.1, reach.2, reach.3);
         for c in 0..6 {
             let reach = match shape {
                 Shape::Segment => responses[0][c].abs(),
@@ -1719,26 +1798,30 @@ fn take_up_at(
         }
         envelope[g.kind][6] += g.magnitude * unit_p;
         envelope[g.kind][7] += g.magnitude * unit_a;
+        let slot = &mut out.kind_errors[g.kind];
         if t.indeterminate {
-            indeterminate[g.kind] = true;
-        } else {
+            *slot = None;
+        } else if let Some(sum) = slot {
             for c in 0..6 {
-                errors[g.kind][c] += e[c];
+                sum[c] += e[c];
             }
         }
         out.takes.push(t);
     }
+    let six = |e: &[f64; 9]| -> [f64; 6] { std::array::from_fn(|c| e[c]) };
     let nine = nine_at(coords);
-    out.kind_errors = (0..nk).map(|k| (read(k) && !indeterminate[k]).then(|| nine(&errors[k]))).collect();
-    out.total = (only.is_none() && !indeterminate.iter().any(|&i| i)).then(|| {
+    out.total = (only.is_none() && out.kind_errors.iter().all(Option::is_some)).then(|| {
         let mut s = [0.0; 6];
-        for e in &errors {
+        for e in out.kind_errors.iter().flatten() {
             for c in 0..6 {
                 s[c] += e[c];
             }
         }
         nine(&s)
     });
+    for (k, slot) in out.kind_errors.iter_mut().enumerate() {
+        *slot = slot.filter(|_| read(k)).map(|e| nine(&six(&e)));
+    }
     let mut total = [0.0; 8];
     for e in &envelope {
         for c in 0..8 {
@@ -1893,6 +1976,26 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// [`Reactions`] gives back each limb's joints as they were given, limbs of any
+    /// length (none too), built whole or limb by limb.
+    #[test]
+    fn reactions_are_read_limb_by_limb_as_they_were_given() {
+        let v = |x: f64| (V3::new(x, 0.0, -x), V3::new(0.0, x, 2.0 * x));
+        let limbs: Vec<Vec<(V3, V3)>> = vec![vec![v(1.0), v(2.0)], vec![], vec![v(3.0), v(4.0), v(5.0)], vec![v(6.0)]];
+        let whole = Reactions::of(&limbs);
+        assert_eq!(whole.len(), limbs.len());
+        for (l, limb) in limbs.iter().enumerate() {
+            assert_eq!(&whole[l], limb.as_slice(), "limb {l}");
+        }
+        assert_eq!(whole.iter().map(<[_]>::len).collect::<Vec<_>>(), [2, 0, 3, 1]);
+        let mut pushed = Reactions::with_capacity(limbs.len(), 6);
+        for limb in &limbs {
+            pushed.push_limb(limb.iter().copied());
+        }
+        assert_eq!(pushed, whole);
+        assert!(Reactions::default().is_empty());
+    }
 
     /// [`cond_bound`] is above `κ₂(G)` as [`cond_of`] computes it and within `6^{1/8}`
     /// of it (and its margin), from `G` alone and with `G⁻¹`, on matrices of unit
