@@ -136,7 +136,7 @@ impl Default for UpsGeometry {
 }
 
 /// The nominal posture of a 6-UPS at one sample.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct UpsPosture {
     /// `(x, y, z, Φ, Ψ, Θ)`.
     pub inputs: [f64; 6],
@@ -262,6 +262,19 @@ fn posture_of<T: Real>(geom: &UpsGeometry, inputs: [f64; 6], l: &Legs<T>) -> Ups
 pub fn ups_inverse_kinematics(geom: &UpsGeometry, inputs: [f64; 6]) -> Result<UpsPosture, Unreachable> {
     let rot = same_rotation(inputs[3], inputs[4], inputs[5]);
     Ok(posture_of(geom, inputs, &legs_turned(geom, inputs, rot)?))
+}
+
+/// [`ups_inverse_kinematics`] into `out` (a worker's, reused: a posture is some 1.2 kB,
+/// and moving it out of each call and on through its callers was a few per cent of a
+/// 6-UPS run); `out` is unchanged where a leg is outside its stroke.
+pub fn ups_inverse_kinematics_into(
+    geom: &UpsGeometry,
+    inputs: [f64; 6],
+    out: &mut UpsPosture,
+) -> Result<(), Unreachable> {
+    let rot = same_rotation(inputs[3], inputs[4], inputs[5]);
+    *out = posture_of(geom, inputs, &legs_turned(geom, inputs, rot)?);
+    Ok(())
 }
 
 /// Three angles (as bits) and their rotation.

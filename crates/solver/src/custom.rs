@@ -1262,9 +1262,9 @@ fn ups_pose(
     out: &mut UpsPose,
 ) -> bool {
     let model = &preset.model;
-    let Ok((pose, legs_inverse)) = crate::ups::ups_reactions_into(model, sample, mode, ws) else { return false };
+    let Ok(legs_inverse) = crate::ups::ups_reactions_into(model, sample, mode, ws) else { return false };
     let gravity = model.assembly.gravity;
-    let (sol, posed) = (&ws.sol, &ws.posed);
+    let (pose, sol, posed) = (&ws.pose, &ws.sol, &ws.posed);
     // G⁻¹ from the kernel's: column i of G is leg i's screw about P, `[e_i; (A_i − P)×e_i]`,
     // moved to O (`T = [I 0; [P]ₓ I]`) and made unit (`D`), so `G⁻¹ = D⁻¹·G_P⁻¹·T⁻¹`.
     let px = pose.p.cross_matrix();

@@ -28,7 +28,9 @@
 //! assert!(out[0].errors[2].dp.norm() < 1e-18); // U-joint tilt play is harmless
 //! ```
 
-use clearance_kinematics::{UpsGeometry, UpsMotion, UpsPosture, ups_inverse_kinematics, ups_inverse_kinematics_motion};
+use clearance_kinematics::{
+    UpsGeometry, UpsMotion, UpsPosture, ups_inverse_kinematics_into, ups_inverse_kinematics_motion,
+};
 use clearance_model::Mode;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use rayon::prelude::*;
@@ -307,14 +309,20 @@ impl Default for UpsResult {
 /// Scratch for one worker thread.
 pub struct UpsWorkspace {
     pub data: AssemblyData,
-    /// The bodies of the pose being solved, and its loads ([`solve_ups_leg_loads`]).
+    /// The posture and bodies of the pose being solved, and its loads ([`solve_ups_leg_loads`]).
+    pub(crate) pose: UpsPosture,
     pub(crate) posed: Posed,
     pub(crate) sol: LimbsSolution,
 }
 
 impl UpsWorkspace {
     pub fn new(model: &UpsModel) -> Self {
-        Self { data: AssemblyData::new(&model.assembly), posed: Posed::default(), sol: LimbsSolution::default() }
+        Self {
+            data: AssemblyData::new(&model.assembly),
+            pose: UpsPosture::default(),
+            posed: Posed::default(),
+            sol: LimbsSolution::default(),
+        }
     }
 }
 
@@ -379,26 +387,34 @@ fn ups_posed_into(model: &UpsModel, pose: &UpsPosture, motion: Option<&UpsMotion
 /// The nominal posture of a sample and its bodies, or `None` where a leg is outside
 /// its stroke.
 pub fn ups_posture(model: &UpsModel, sample: &UpsSample, mode: Mode) -> Option<(UpsPosture, Posed)> {
-    let mut posed = Posed::default();
-    let pose = ups_posture_into(model, sample, mode, &mut posed)?;
-    Some((pose, posed))
+    let (mut pose, mut posed) = (UpsPosture::default(), Posed::default());
+    ups_posture_into(model, sample, mode, &mut pose, &mut posed).then_some((pose, posed))
 }
 
-/// [`ups_posture`] with the bodies written into `posed` (a worker's, reused: a
-/// [`Posed`] is some 3 kB, and copying it out of each call was a tenth of a run).
-fn ups_posture_into(model: &UpsModel, sample: &UpsSample, mode: Mode, posed: &mut Posed) -> Option<UpsPosture> {
+/// [`ups_posture`] into `pose` and `posed` (a worker's, reused: a [`Posed`] is some
+/// 3 kB and a posture 1.2 kB, and moving them out of each call was a tenth of a run);
+/// `false` where the pose is out of reach.
+fn ups_posture_into(
+    model: &UpsModel,
+    sample: &UpsSample,
+    mode: Mode,
+    pose: &mut UpsPosture,
+    posed: &mut Posed,
+) -> bool {
     match mode {
         Mode::Kinetostatic => {
-            let pose = ups_inverse_kinematics(&model.geometry, sample.map(|v| v[0])).ok()?;
-            ups_posed_into(model, &pose, None, posed);
-            Some(pose)
+            if ups_inverse_kinematics_into(&model.geometry, sample.map(|v| v[0]), pose).is_err() {
+                return false;
+            }
+            ups_posed_into(model, pose, None, posed);
         }
         Mode::Dynamic => {
-            let (pose, motion) = ups_inverse_kinematics_motion(&model.geometry, *sample).ok()?;
-            ups_posed_into(model, &pose, Some(&motion), posed);
-            Some(pose)
+            let Ok((solved, motion)) = ups_inverse_kinematics_motion(&model.geometry, *sample) else { return false };
+            *pose = solved;
+            ups_posed_into(model, pose, Some(&motion), posed);
         }
     }
+    true
 }
 
 /// One sample in one mode. Never panics on a bad pose: it becomes a status.
@@ -478,10 +494,10 @@ pub fn solve_ups_leg_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws:
     out
 }
 
-/// The posture of one sample with its bodies (in `ws.posed`) and the legs' reactions
-/// (`f_s`, `f_b`, `mu`, `m_b` in `ws.sol`), with the legs eliminated where that
-/// applies, and `G⁻¹` of the legs' screws about P ([`ups_condition`]); else the
-/// status, `unreachable` or `near_singular`. What the switch search
+/// The posture of one sample (in `ws.pose`) with its bodies (in `ws.posed`) and the
+/// legs' reactions (`f_s`, `f_b`, `mu`, `m_b` in `ws.sol`), with the legs eliminated
+/// where that applies, and `G⁻¹` of the legs' screws about P ([`ups_condition`]); else
+/// the status, `unreachable` or `near_singular`. What the switch search
 /// evaluates between samples ([`solve_ups_leg_loads`]), and what a custom description
 /// of a 6-UPS takes from this kind's kernel (docs/model.md §12.10).
 pub(crate) fn ups_reactions_into(
@@ -489,15 +505,17 @@ pub(crate) fn ups_reactions_into(
     sample: &UpsSample,
     mode: Mode,
     ws: &mut UpsWorkspace,
-) -> Result<(UpsPosture, SMatrix<f64, 6, 6>), Status> {
-    let pose = ups_posture_into(model, sample, mode, &mut ws.posed).ok_or(Status::Unreachable)?;
-    let (_, _, inverse, conditioned) = conditioning(model, &pose);
+) -> Result<SMatrix<f64, 6, 6>, Status> {
+    if !ups_posture_into(model, sample, mode, &mut ws.pose, &mut ws.posed) {
+        return Err(Status::Unreachable);
+    }
+    let (_, _, inverse, conditioned) = conditioning(model, &ws.pose);
     let Some(inverse) = inverse.filter(|_| conditioned) else { return Err(Status::NearSingular) };
     let loaded = model.assembly.reduced_reactions_into(&ws.posed, Some(&inverse), &mut ws.sol) || {
         ws.sol = model.assembly.solve_loads(&ws.posed, &mut ws.data);
         ws.sol.status != Status::NearSingular
     };
-    if loaded { Ok((pose, inverse)) } else { Err(Status::NearSingular) }
+    if loaded { Ok(inverse) } else { Err(Status::NearSingular) }
 }
 
 /// `(cond_a, cond_jp, G⁻¹)` of a posture, and whether it is regular and within the
@@ -511,12 +529,14 @@ fn conditioning(model: &UpsModel, pose: &UpsPosture) -> (f64, f64, Option<SMatri
 
 fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorkspace, how: Solve) -> UpsResult {
     let mut out = UpsResult::default();
-    let Some(pose) = ups_posture_into(model, sample, mode, &mut ws.posed) else { return out };
-    let posed = &ws.posed;
+    if !ups_posture_into(model, sample, mode, &mut ws.pose, &mut ws.posed) {
+        return out;
+    }
+    let (pose, posed) = (&ws.pose, &ws.posed);
     out.q = pose.q;
     out.status = Status::NearSingular;
     let (inverse, conditioned);
-    (out.cond_a, out.cond_jp, inverse, conditioned) = conditioning(model, &pose);
+    (out.cond_a, out.cond_jp, inverse, conditioned) = conditioning(model, pose);
     if !conditioned {
         return out;
     }
@@ -529,7 +549,7 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
     };
     match how {
         Solve::All | Solve::Errors => match &inverse {
-            Some(inverse) if reduced(sol, Some(inverse)) => leg_errors(&model.assembly, &pose, inverse, sol),
+            Some(inverse) if reduced(sol, Some(inverse)) => leg_errors(&model.assembly, pose, inverse, sol),
             _ => *sol = model.assembly.solve(posed, &mut ws.data),
         },
         Solve::Assembled => *sol = model.assembly.solve(posed, &mut ws.data),
@@ -561,10 +581,10 @@ fn solve_ups(model: &UpsModel, sample: &UpsSample, mode: Mode, ws: &mut UpsWorks
         return out;
     }
     if let Some(inverse) = &inverse {
-        set_envelope(model, &pose, inverse, sol, &mut out);
+        set_envelope(model, pose, inverse, sol, &mut out);
     }
     if model.exact && out.status == Status::Ok {
-        out.exact = ups_exact_error(model, &pose, sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
+        out.exact = ups_exact_error(model, pose, sol).filter(|e| same_branch(e, &out.total, &model.clearance()));
     }
     out
 }
