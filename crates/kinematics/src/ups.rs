@@ -264,19 +264,6 @@ pub fn ups_inverse_kinematics(geom: &UpsGeometry, inputs: [f64; 6]) -> Result<Up
     Ok(posture_of(geom, inputs, &legs_turned(geom, inputs, rot)?))
 }
 
-/// [`ups_inverse_kinematics`] into `out` (a worker's, reused: a posture is some 1.2 kB,
-/// and moving it out of each call and on through its callers was a few per cent of a
-/// 6-UPS run); `out` is unchanged where a leg is outside its stroke.
-pub fn ups_inverse_kinematics_into(
-    geom: &UpsGeometry,
-    inputs: [f64; 6],
-    out: &mut UpsPosture,
-) -> Result<(), Unreachable> {
-    let rot = same_rotation(inputs[3], inputs[4], inputs[5]);
-    *out = posture_of(geom, inputs, &legs_turned(geom, inputs, rot)?);
-    Ok(())
-}
-
 /// Three angles (as bits) and their rotation.
 type Turned = ([u64; 3], [[f64; 3]; 3]);
 

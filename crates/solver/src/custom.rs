@@ -595,12 +595,12 @@ fn mobile_load(
     def: &GroupDef,
     (f, m): (V3, V3),
     at: (&V3, &V3, &V3),
-    (g, block, gi): (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
+    system: (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
     pos: &V3,
 ) -> Option<[f64; 3]> {
     let joint = model.joint_type(def);
     let (load, ..) = deciding_load(joint, def.group, at.1, at.2, &f, &m);
-    let (.., unit_p, _) = unit_reach(g, block, gi, (joint, def.group), at, pos);
+    let (.., unit_p, _) = unit_reach(system, (joint, def.group), at, pos);
     (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
 }
 
@@ -1064,7 +1064,7 @@ fn preset_result_of(
         let mut take = group_take(model, def, joint, at, out.reactions[l][def.joint]);
         if let Some(gi) = &gi {
             let system = (&g, (2 * l, 2), gi);
-            let reach = unit_reach(system.0, system.1, system.2, (joint, def.group), at, &pose.p);
+            let reach = unit_reach(system, (joint, def.group), at, &pose.p);
             settle(model, def, &reach, system, &pose.p, &mut take);
             undetermined[def.kind] |= take.indeterminate;
         } else {
@@ -1647,12 +1647,10 @@ fn largest_singular_value(m: &Matrix3<f64>) -> f64 {
 type Reach = (Few<[f64; 6]>, Shape, f64, f64);
 
 /// The unit responses at P of a group's admissible set (its joint's centre, axis and
-/// normal in `at`; the limb's columns of `G` in `block`), the set's shape, and the
-/// largest `|Δp|` and `|Δα|` a unit take-up in it can cause.
+/// normal in `at`; `(G, the limb's block of it, G⁻¹)` in `system`), the set's shape,
+/// and the largest `|Δp|` and `|Δα|` a unit take-up in it can cause.
 fn unit_reach(
-    g: &Matrix6<f64>,
-    block: (usize, usize),
-    gi: &Matrix6<f64>,
+    (g, block, gi): (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
     (joint, group): (JointType, Group),
     (centre, axis, normal): (&V3, &V3, &V3),
     pos: &V3,
@@ -1778,7 +1776,7 @@ fn take_up_at(
         let mut t = group_take(model, g, joint, at, out.reactions[g.limb][g.joint]);
         // The admissible set's unit responses: the envelope, and whether it moves P.
         let system = (g_matrix, block(g.limb), gi);
-        let reach_here = || unit_reach(system.0, system.1, system.2, (joint, g.group), at, &pos);
+        let reach_here = || unit_reach(system, (joint, g.group), at, &pos);
         let computed;
         let reach: &Reach = match translation_ball(joint, g.group).then(|| balls.get_mut(g.limb)).flatten() {
             Some(kept) => kept.get_or_insert_with(reach_here),

@@ -28,9 +28,7 @@
 //! assert!(out[0].errors[2].dp.norm() < 1e-18); // U-joint tilt play is harmless
 //! ```
 
-use clearance_kinematics::{
-    UpsGeometry, UpsMotion, UpsPosture, ups_inverse_kinematics_into, ups_inverse_kinematics_motion,
-};
+use clearance_kinematics::{UpsGeometry, UpsMotion, UpsPosture, ups_inverse_kinematics, ups_inverse_kinematics_motion};
 use clearance_model::Mode;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use rayon::prelude::*;
@@ -403,9 +401,8 @@ fn ups_posture_into(
 ) -> bool {
     match mode {
         Mode::Kinetostatic => {
-            if ups_inverse_kinematics_into(&model.geometry, sample.map(|v| v[0]), pose).is_err() {
-                return false;
-            }
+            let Ok(solved) = ups_inverse_kinematics(&model.geometry, sample.map(|v| v[0])) else { return false };
+            *pose = solved;
             ups_posed_into(model, pose, None, posed);
         }
         Mode::Dynamic => {
