@@ -1058,12 +1058,37 @@ def check_switches(M, sw, label, info=None):
                     if prev is not None and np.sign(gd["load"][rows[prev]]) != np.sign(gd["load"][rows[k]]):
                         lo, hi = par[prev], par[k]
                         info["sign_changes"] += 1
-                        if not _has_switch(M, sw, mode, g, line, lo, hi):
+                        if not _has_switch(M, sw, mode, g, line, lo, hi) \
+                                and not _cut_between(M, mode, g, line, lo, hi):
                             fails.append(f"{mode} {g.kind} limb {g.limb.number}: the load changes sign "
                                          f"between {_line_label(line)} {lo:.6g} and {hi:.6g} "
                                          f"but the engine reports no switch there")
                     prev = k
     return fails
+
+
+def _cut_between(M, mode, g, line, lo, hi, steps=60):
+    """Whether the sign change of g's scalar load between lo and hi is where the path
+    cannot be solved (docs/model.md section 8: such a point cuts the path, and no switch
+    is located in that interval): bisected on the load's sign, the bracket closes on a
+    pose beyond singular_cond or out of reach, as at a pole, where the load passes
+    through infinity rather than zero (the geometry's singularity between two samples)."""
+    def at(s):
+        ld = _loads_multi(M, mode, [(line, s)])
+        return float(ld[g.name]["load"][0]), bool(ld["reach"][0] & ~ld["singular"][0])
+    f_lo, _ = at(lo)
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        if mid in (lo, hi):
+            break
+        f_mid, solvable = at(mid)
+        if not solvable:
+            return True
+        if np.sign(f_mid) == np.sign(f_lo):
+            lo, f_lo = mid, f_mid
+        else:
+            hi = mid
+    return False
 
 
 def _line_label(line):
@@ -1157,7 +1182,9 @@ def reference_switches(M, ref=None):
             s = 0.5 * (lo + hi)
             lm = _loads_multi(M, mode, [(x[1], m) for x, m in zip(scal, s)])
             for k, x in enumerate(scal):
-                add(mode, x[0], x[1], s[k], abs(lm[x[0].name]["load"][k]))
+                # A sign change through a pole closes on a singular pose: a cut (section 8).
+                if lm["reach"][k] and not lm["singular"][k]:
+                    add(mode, x[0], x[1], s[k], abs(lm[x[0].name]["load"][k]))
         if vec:
             a = np.array([x[2] for x in vec])
             b = np.array([x[3] for x in vec])

@@ -851,6 +851,121 @@ def test_crosscheck_accepts_the_reference_and_catches_changes():
         assert any("no switch there" in f for f in fails)
 
 
+# A generated 3-PRS trajectory (crosscheck_custom.py --seed 4242, job 043) whose path
+# crosses a singular pose between samples: every scalar load passes through infinity
+# there and comes back with the other sign.
+POLE_JOB = """
+name = "custom_043"
+
+[mechanism]
+kind = "custom"
+inputs = ["z", "psi", "theta"]
+home = [0.04549072133506664, -0.031939841436336484, 0.6933075241774139, -0.030958821243627463, -0.056359301102549095, 0.0495058238531256]
+
+[[mechanism.limb]]
+joints = [
+  { type = "P", name = "rail", at = [-0.014146753846238666, 0.5975262163403453, 0.1036675889558885], axis = [0.0, 0.0, 1.0], actuated = true, range = [-0.5, 0.5] },
+  { type = "R", name = "hinge", at = [-0.014146753846238666, 0.5975262163403453, 0.1036675889558885], axis = [-0.9958126103058492, -0.023576397971722, 0.08832552640392251] },
+  { type = "S", name = "ball", at = [0.0551725780754836, 0.06812459987805008, 0.7438866057148824] },
+]
+bodies = [
+  { mass = 0.0 },
+  { mass = 2.256107813040529, com = [0.020512912114622465, 0.3328254081091977, 0.42377709733538543], inertia = [[0.12975373522105288, 0.006899509785979638, -0.008343754975318515], [0.006899509785979638, 0.07796461083846035, 0.06372244580035752], [-0.008343754975318515, 0.06372244580035752, 0.0535959545624757]] },
+]
+
+[[mechanism.limb]]
+joints = [
+  { type = "P", name = "rail", at = [-0.5103995058548162, -0.31101455638210046, 0.08771587388830347], axis = [0.0, 0.0, 1.0], actuated = true, range = [-0.5, 0.5] },
+  { type = "R", name = "hinge", at = [-0.5103995058548162, -0.31101455638210046, 0.08771587388830347], axis = [0.5203577982873931, -0.8539483367051526, 0.0] },
+  { type = "S", name = "ball", at = [-0.05397473707339434, -0.03288978283512939, 0.7274616605044326] },
+]
+bodies = [
+  { mass = 0.0 },
+  { mass = 2.256107813040529 },
+]
+
+[[mechanism.limb]]
+joints = [
+  { type = "P", name = "rail", at = [0.5245462597010546, -0.286511659958245, 0.018548213994166937], axis = [0.0, 0.0, 1.0], actuated = true, range = [-0.5, 0.5] },
+  { type = "R", name = "hinge", at = [0.5245462597010546, -0.286511659958245, 0.018548213994166937], axis = [0.47936205396243314, 0.8776172407267974, 0.0] },
+  { type = "S", name = "ball", at = [0.05577977257853345, -0.030467389554311386, 0.6585880118621952] },
+]
+bodies = [
+  { mass = 0.0 },
+  { mass = 2.256107813040529 },
+]
+
+[mass]
+platform = 5.19429649068362
+platform_inertia = [0.15791559654212778, 0.08752529242274491, 0.29254690425667185]
+
+[load]
+force = [-0.2969177514847909, 8.372759933289183, -9.64630653100235]
+moment = [3.4339283517208425, 2.8488393763463877, 1.5628501633011433]
+at = [0.07379422448649839, -0.07230459196361905, -0.005176460789440382]
+
+[clearance]
+rail_radial = 7.540567681382962e-05
+rail_angular = [0.0003187040779377279, 1.2280908762376756e-05, 0.00014399911566438377]
+rail_backlash = 0.00011839328509771264
+hinge_radial = 2.6829784353632333e-05
+hinge_axial = [3.945785766950462e-06, 0.00012889907699408735, 0.00014966798562941088]
+ball_radial = 4.036310479482229e-05
+
+[trajectory]
+time = { start = 0.0, stop = 2.3145850407718953, n = 30 }
+z = { offset = 0.6849153431739844, harmonics = [{ amplitude = 0.03, period = 2.01288073199004, phase = -1.021343493661388 }] }
+psi = { offset = -0.03708723290955688, harmonics = [{ amplitude = 0.12, period = 0.8766201301560267, phase = 1.7685520967207404 }] }
+theta = { offset = 0.04956852500991685, harmonics = [{ amplitude = 0.060676422828454535, period = 2.3142334438664154, phase = -0.3686870720271136 }, { amplitude = 0.059323577171545454, period = 2.490110416854341, phase = 0.8691526907468266 }] }
+
+[analysis]
+modes = ["dynamic"]
+"""
+
+
+def test_crosscheck_tells_a_pole_from_a_missed_switch():
+    """A scalar load's sign change through a singular pose between two samples is where
+    the path is cut (docs/model.md section 8), not a switch the engine missed: the
+    cross-check accepts an output without it, while a sign change through zero still
+    needs its switch."""
+    job = tomllib.loads(POLE_JOB)
+    M = rc.check_description(job)
+    ref = rc.compute(M, extras=True)
+    line = ("traj", None)
+    t = rc.sample_inputs(M)["t"]
+    c, cd, cdd = xc._path_points(M, "dynamic", line, t)
+    ld = rc.group_loads(M, c, "dynamic", cd, cdd)
+    g = next(g for g in M.groups if g.name == "hinge1_axial")
+    load = ld[g.name]["load"]
+    assert np.all(ld["reach"] & ~ld["singular"])
+    flips = np.flatnonzero(np.sign(load[1:]) != np.sign(load[:-1]))
+    assert flips.size >= 2
+    for k in flips:
+        assert xc._cut_between(M, "dynamic", g, line, t[k], t[k + 1])
+    with tempfile.TemporaryDirectory() as d:
+        out = os.path.join(d, "out")
+        sw = xc.write_fake_output(M, ref, out)
+        assert len(sw["kind"]) == 0
+        fails, notes = xc.check_job(M, ref, out, "t", xc.Stats())
+        assert fails == [], fails
+    # A load through zero between samples is no cut: the 3-RRS trajectory's knee.
+    z0 = rrs_job()["mechanism"]["home"][2]
+    job = rrs_job(trajectory={"time": {"start": 0.0, "stop": 2.0, "n": 9}, "z": z0,
+                              "psi": {"offset": 0.0, "harmonics": [{"amplitude": 0.1, "period": 2.0,
+                                                                    "phase": 0.3}]},
+                              "theta": 0.05})
+    job["clearance"] = {"knee_axial": 1e-5, "s_radial": 1e-5}
+    M = rc.check_description(tomllib.loads(xc.to_toml(job)))
+    t = rc.sample_inputs(M)["t"]
+    ld = rc.group_loads(M, rc.sample_inputs(M)["c"])
+    g = next(g for g in M.groups if g.kind == "knee_axial")
+    load = ld[g.name]["load"]
+    flips = np.flatnonzero(np.sign(load[1:]) != np.sign(load[:-1]))
+    assert flips.size >= 1
+    for k in flips:
+        assert not xc._cut_between(M, "kinetostatic", g, line, t[k], t[k + 1])
+
+
 def test_generated_jobs_round_trip_through_toml():
     """Generated jobs of every family survive TOML (the text parses back to the same
     job) and the reference accepts them."""
