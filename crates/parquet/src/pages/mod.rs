@@ -50,7 +50,7 @@ use parquet::schema::types::ColumnDescPtr;
 
 use crate::writer::Codec;
 use levels::def_levels;
-use split::split_streams;
+use split::split_streams_into;
 use stats::Range;
 use thrift::{BYTE_STREAM_SPLIT, PLAIN, page_header};
 
@@ -85,7 +85,11 @@ struct Scratch {
     single: Vec<f32>,
     bits: Vec<u8>,
     payload: Vec<u8>,
+    /// A page's definition levels, before its values' streams ([`write_page`]).
+    levels: Vec<u8>,
     compressed: Vec<u8>,
+    /// A page's header, written before its size is known ([`zstd_page`]).
+    header: Vec<u8>,
     zstd: Option<zstd::bulk::Compressor<'static>>,
 }
 
@@ -286,14 +290,22 @@ fn write_page(
     range: Range,
     codec: Codec,
 ) -> Result<PageStats, ParquetError> {
-    let split = codec != Codec::None;
-    s.payload.clear();
-    if optional {
-        def_levels(&mut s.payload, rows, valid, present.len());
-    }
-    if split {
-        split_streams(present, &mut s.payload);
+    if codec != Codec::None {
+        // Every byte of the payload is written again: resized rather than cleared, the
+        // buffer's 32 kB are not zeroed first for each page.
+        s.levels.clear();
+        if optional {
+            def_levels(&mut s.levels, rows, valid, present.len());
+        }
+        let levels = s.levels.len();
+        s.payload.resize(levels + 8 * present.len(), 0);
+        s.payload[..levels].copy_from_slice(&s.levels);
+        split_streams_into(present, &mut s.payload[levels..]);
     } else {
+        s.payload.clear();
+        if optional {
+            def_levels(&mut s.payload, rows, valid, present.len());
+        }
         s.payload.extend(present.iter().flat_map(|v| v.to_le_bytes()));
     }
     finish_page(s, out, rows, present.len(), range, codec)
@@ -386,10 +398,24 @@ fn zstd_page(s: &mut Scratch, out: &mut Vec<u8>, rows: usize, encoding: i32) -> 
     if s.zstd.is_none() {
         s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::PAGE_ZSTD_LEVEL)?);
     }
-    s.compressed.clear();
-    s.compressed.reserve(zstd::zstd_safe::compress_bound(s.payload.len()));
-    let n = s.zstd.as_mut().expect("just made").compress_to_buffer(&s.payload, &mut s.compressed)?;
-    page_header(out, s.payload.len(), n, rows, encoding);
-    out.extend_from_slice(&s.compressed[..n]);
+    // The body is compressed straight into `out`, after room for the header of the
+    // largest body (its size's varint is the longest): a page is not copied again.
+    // A body whose size takes fewer bytes is moved back behind its header.
+    let bound = zstd::zstd_safe::compress_bound(s.payload.len());
+    let header = &mut s.header;
+    header.clear();
+    page_header(header, s.payload.len(), bound, rows, encoding);
+    let (start, room) = (out.len(), header.len());
+    out.reserve(room + bound);
+    let mut body = std::io::Cursor::new(&mut *out);
+    body.set_position((start + room) as u64);
+    let n = s.zstd.as_mut().expect("just made").compress_to_buffer(&s.payload, &mut body)?;
+    header.clear();
+    page_header(header, s.payload.len(), n, rows, encoding);
+    if header.len() < room {
+        out.copy_within(start + room..start + room + n, start + header.len());
+        out.truncate(start + header.len() + n);
+    }
+    out[start..start + header.len()].copy_from_slice(header);
     Ok(n)
 }

@@ -3,16 +3,14 @@
 #[cfg(target_arch = "x86_64")]
 use clearance_solver::Isa;
 
-/// The byte streams of `values` appended to `out`: byte k of value i at
-/// `k·len + i` (`BYTE_STREAM_SPLIT`). Eight values at a time are transposed as an
-/// 8 × 8 byte matrix: by one byte permutation where the CPU has AVX-512 VBMI and the
-/// kernel's choice (`Isa::best`, capped by `cap_isa`) is AVX-512, else in three
-/// rounds of block swaps (23 instructions a value, callgrind).
-pub(super) fn split_streams(values: &[f64], out: &mut Vec<u8>) {
-    let m = values.len();
-    let base = out.len();
-    out.resize(base + 8 * m, 0);
-    let dst = &mut out[base..];
+/// The byte streams of `values` written to `dst` (`8·values.len()` bytes, every one
+/// of them written): byte k of value i at `k·len + i` (`BYTE_STREAM_SPLIT`). Eight
+/// values at a time are transposed as an 8 × 8 byte matrix: by one byte permutation
+/// where the CPU has AVX-512 VBMI and the kernel's choice (`Isa::best`, capped by
+/// `cap_isa`) is AVX-512, else in three rounds of block swaps (23 instructions a
+/// value, callgrind).
+pub(super) fn split_streams_into(values: &[f64], dst: &mut [u8]) {
+    assert_eq!(dst.len(), 8 * values.len(), "eight bytes a value");
     #[cfg(target_arch = "x86_64")]
     if Isa::best() == Isa::Avx512 && std::arch::is_x86_feature_detected!("avx512vbmi") {
         // SAFETY: the CPU has AVX-512 F (`Isa::best`) and VBMI.
@@ -88,6 +86,13 @@ fn transpose8(w: &mut [u64; 8]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`split_streams_into`] appended to `out`.
+    fn split_streams(values: &[f64], out: &mut Vec<u8>) {
+        let base = out.len();
+        out.resize(base + 8 * values.len(), 0);
+        split_streams_into(values, &mut out[base..]);
+    }
 
     #[test]
     fn transposed_streams_match_the_definition() {
