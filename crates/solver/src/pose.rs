@@ -589,7 +589,11 @@ fn solve_fast<L: Lane>(model: &Model, pose: &Pose<L>, loads: &Loads<L>, out: &mu
         }
         *o = finish(model, pose, i, cond, reactions.get(i), &take.get(i), e);
         if let Some(env) = &envelope {
-            let (env, share) = (env.map(|k| k.map(|v| v.get(i))), contribution.map(|k| k.map(|v| v.get(i))));
+            // Lane `i` read in place: `map` on the arrays would copy all lanes' 2.8 kB
+            // for each lane first.
+            let lane = |k: usize, c: usize| env[k][c].get(i);
+            let env = std::array::from_fn(|k| std::array::from_fn(|c| lane(k, c)));
+            let share = std::array::from_fn(|k| std::array::from_fn(|j| contribution[k][j].get(i)));
             o.set_envelope(&model.clearance, env, share);
         }
     }
