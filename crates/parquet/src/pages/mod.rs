@@ -88,8 +88,6 @@ struct Scratch {
     /// A page's definition levels, before its values' streams ([`write_page`]).
     levels: Vec<u8>,
     compressed: Vec<u8>,
-    /// A page's header, written before its size is known ([`zstd_page`]).
-    header: Vec<u8>,
     zstd: Option<zstd::bulk::Compressor<'static>>,
 }
 
@@ -398,24 +396,10 @@ fn zstd_page(s: &mut Scratch, out: &mut Vec<u8>, rows: usize, encoding: i32) -> 
     if s.zstd.is_none() {
         s.zstd = Some(zstd::bulk::Compressor::new(crate::writer::PAGE_ZSTD_LEVEL)?);
     }
-    // The body is compressed straight into `out`, after room for the header of the
-    // largest body (its size's varint is the longest): a page is not copied again.
-    // A body whose size takes fewer bytes is moved back behind its header.
-    let bound = zstd::zstd_safe::compress_bound(s.payload.len());
-    let header = &mut s.header;
-    header.clear();
-    page_header(header, s.payload.len(), bound, rows, encoding);
-    let (start, room) = (out.len(), header.len());
-    out.reserve(room + bound);
-    let mut body = std::io::Cursor::new(&mut *out);
-    body.set_position((start + room) as u64);
-    let n = s.zstd.as_mut().expect("just made").compress_to_buffer(&s.payload, &mut body)?;
-    header.clear();
-    page_header(header, s.payload.len(), n, rows, encoding);
-    if header.len() < room {
-        out.copy_within(start + room..start + room + n, start + header.len());
-        out.truncate(start + header.len() + n);
-    }
-    out[start..start + header.len()].copy_from_slice(header);
+    s.compressed.clear();
+    s.compressed.reserve(zstd::zstd_safe::compress_bound(s.payload.len()));
+    let n = s.zstd.as_mut().expect("just made").compress_to_buffer(&s.payload, &mut s.compressed)?;
+    page_header(out, s.payload.len(), n, rows, encoding);
+    out.extend_from_slice(&s.compressed[..n]);
     Ok(n)
 }
