@@ -6,7 +6,8 @@ scripts/reference_custom.py.
     python3 scripts/crosscheck_custom.py --bin PATH --job FILE      # one given job
     python3 scripts/crosscheck_custom.py --reference-only --jobs N  # generate, run the reference
 
-Each random (seeded) job is drawn from one of four families:
+Each random (seeded) job is drawn from one of five families (a sixth, ``6-RUS``, with
+``--families``):
 
 * ``3-RRS``: a wrist with rotary cranks: an actuated R crank at the base (tangent axis),
   an R knee, an S at the platform; symmetric (``repeat = 3``) or written out with uneven
@@ -16,6 +17,9 @@ Each random (seeded) job is drawn from one of four families:
 * ``6-UPS``: random base and platform points, tilted U axes, cylinder and piston bodies;
 * ``6-PUS``: six vertical or inclined actuated sliders, U joints on the sliders,
   fixed-length legs, S joints on the platform;
+* ``6-RUS``: a rotary hexapod, six motors (actuated R, axes about tangent) turning
+  cranks, U joints at the cranks' ends, rods, S joints on the platform: no kind of the
+  engine's has rotary actuators on six limbs;
 
 with random masses (explicit centres of mass and inertias or the defaults), point masses,
 platform inertia, gravity, external loads, clearance magnitudes (scalars, per-limb lists,
@@ -112,6 +116,8 @@ EXACT_ROUNDOFF = 1e-5
 EPS = np.finfo(float).eps
 COND_MAX = 1e4
 SWITCH_DELTA = 1e-6
+# The families drawn by default; `--families` also takes "6-RUS", drawn only when asked
+# for, so that the seeds CI runs keep giving the jobs they always gave.
 FAMILIES = ("3-RRS", "3-PRS", "3-RPS", "6-UPS", "6-PUS")
 I3 = np.eye(3)
 
@@ -377,7 +383,50 @@ def fam_pus(rng):
             "names": names, "act": "P", "size": L}
 
 
-FAMILY_FN = {"3-RRS": fam_rrs, "3-PRS": fam_prs, "3-RPS": fam_rps, "6-UPS": fam_ups, "6-PUS": fam_pus}
+def fam_rus(rng):
+    """6-RUS rotary hexapod: actuated R (a motor, axis about tangent) - crank - U - rod -
+    S. No kind of the engine's has rotary actuators and six limbs: a mechanism that is
+    not in the repository."""
+    Rb, rp = _r(rng, 0.35, 0.55), _r(rng, 0.15, 0.3)
+    B = _six_points(rng, Rb, _r(rng, 0.25, 0.6), 0.0)
+    A = np.roll(_six_points(rng, rp, _r(rng, 0.3, 0.6), math.pi / 3), 1, axis=0)
+    A[:, 2] += _r(rng, 0.35, 0.6)
+    lc = _r(rng, 0.1, 0.2)
+    mc, ml = _r(rng, 0.2, 1.0), _r(rng, 0.3, 1.5)
+    names = ("motor", "u", "s") if rng.random() < 0.6 else ("r", "cardan", "ball")
+    limbs, lengths = [], []
+    for i in range(6):
+        th = math.atan2(B[i, 1], B[i, 0])
+        x = np.array([math.cos(th), math.sin(th), 0.0])
+        t = np.array([-math.sin(th), math.cos(th), 0.0])
+        axis = _unit(_tilted(rng, t, x, 0.2))
+        w = _unit(x - (x @ axis) * axis)                 # outward, normal to the axis
+        ang = _r(rng, -0.6, 0.6)
+        crank = math.cos(ang) * w + math.sin(ang) * _unit(np.cross(axis, w))
+        C = B[i] + lc * crank
+        e = _unit(A[i] - C)
+        # the motor must drive the rod: its torque arm along e, not across it
+        if abs(np.cross(crank, e) @ axis) < 0.3:
+            return None
+        a1 = _unit(_tilted(rng, axis, crank, 0.3))
+        if np.linalg.norm(np.cross(a1, e)) < 0.5:
+            return None
+        a2 = _unit(np.cross(a1, e))
+        L = float(np.linalg.norm(A[i] - C))
+        joints = [{"type": "R", "name": names[0], "at": _lst(B[i]), "axis": _lst(axis), "actuated": True,
+                   "range": [-1.0, 1.0]},
+                  {"type": "U", "name": names[1], "at": _lst(C), "axes": [_lst(a1), _lst(a2)]},
+                  {"type": "S", "name": names[2], "at": _lst(A[i])}]
+        bodies = [_body(rng, mc, B[i] + 0.5 * lc * crank, _rod_inertia(mc, lc, crank)),
+                  _body(rng, ml, 0.5 * (C + A[i]), _rod_inertia(ml, L, e))]
+        limbs.append({"joints": joints, "bodies": bodies})
+        lengths.append(L)
+    return {"limbs": limbs, "centre": A.mean(0), "inputs": list(rc.COORDS), "names": names,
+            "act": "R", "size": float(np.mean(lengths))}
+
+
+FAMILY_FN = {"3-RRS": fam_rrs, "3-PRS": fam_prs, "3-RPS": fam_rps, "6-UPS": fam_ups, "6-PUS": fam_pus,
+             "6-RUS": fam_rus}
 
 
 def _clearances(rng, desc, mech_job):
@@ -1289,7 +1338,7 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--job", default=None, help="cross-check this job file only")
     ap.add_argument("--families", default=",".join(FAMILIES),
-                    help=f"comma-separated subset of {', '.join(FAMILIES)}")
+                    help=f"comma-separated subset of {', '.join(FAMILY_FN)} (default: all but 6-RUS)")
     ap.add_argument("--keep", default=None, help="keep job files and outputs in this directory")
     ap.add_argument("--timeout", type=float, default=600.0)
     ap.add_argument("--reference-only", action="store_true",
@@ -1301,7 +1350,7 @@ def main(argv=None):
                     help="compare against an output written from the reference itself (self-test)")
     args = ap.parse_args(argv)
     fams = [f.strip() for f in args.families.split(",") if f.strip()]
-    bad = [f for f in fams if f not in FAMILIES]
+    bad = [f for f in fams if f not in FAMILY_FN]
     if bad:
         ap.error(f"unknown families {bad}")
     binary = args.bin if os.path.isabs(args.bin) else os.path.join(os.getcwd(), args.bin)

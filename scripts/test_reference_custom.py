@@ -149,14 +149,14 @@ def body_positions(M, res):
 # --------------------------------------------------------------------------
 # kinematics
 # --------------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["rrs", "pus", "gen-prs", "gen-rps", "gen-ups"])
+@pytest.mark.parametrize("name", ["rrs", "pus", "gen-prs", "gen-rps", "gen-ups", "gen-rus"])
 def test_closure_at_the_solved_configuration(name):
     """The closure residual is below 1e-12; independently, every body keeps the distances
     between its joints' centres (1e-12 m), every last joint's centre is the platform point
     p + R a' with a' its home position in platform axes (1e-12 m), and each
     P joint's centre is its home point on the proximal body moved by q along the axis."""
     if name.startswith("gen"):
-        fam = {"gen-prs": "3-PRS", "gen-rps": "3-RPS", "gen-ups": "6-UPS"}[name]
+        fam = {"gen-prs": "3-PRS", "gen-rps": "3-RPS", "gen-ups": "6-UPS", "gen-rus": "6-RUS"}[name]
         job = generated(11, (fam,))
     else:
         job = JOBS[name]()
@@ -298,14 +298,14 @@ def test_rates_match_finite_differences(name):
 # --------------------------------------------------------------------------
 # reactions
 # --------------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["rrs", "pus", "gen-prs", "gen-ups"])
+@pytest.mark.parametrize("name", ["rrs", "pus", "gen-prs", "gen-ups", "gen-rus"])
 def test_statics_satisfy_virtual_work(name):
     """sum tau_k dq_k + dW_gravity + dW_external = 0 for motions the closure allows: the
     virtual motion is a fourth-order central difference of solved configurations along a
     random direction of the inputs; the sum is below 1e-8 of the sum of the terms'
     magnitudes."""
     if name.startswith("gen"):
-        job = generated(23, ({"gen-prs": "3-PRS", "gen-ups": "6-UPS"}[name],))
+        job = generated(23, ({"gen-prs": "3-PRS", "gen-ups": "6-UPS", "gen-rus": "6-RUS"}[name],))
     else:
         job = JOBS[name]()
     M = rc.normalize_job(job)
@@ -968,7 +968,7 @@ def test_crosscheck_tells_a_pole_from_a_missed_switch():
 
 def test_generated_jobs_round_trip_through_toml():
     """Generated jobs of every family survive TOML (the text parses back to the same
-    job) and the reference accepts them."""
+    job) and the reference accepts them; 6-RUS, drawn only when asked for, too."""
     rng = np.random.default_rng(4)
     seen = set()
     for i in range(40):
@@ -978,6 +978,8 @@ def test_generated_jobs_round_trip_through_toml():
         if len(seen) == len(xc.FAMILIES):
             break
     assert seen == set(xc.FAMILIES)
+    job, tag, ref = xc.make_job(rng, 0, ("6-RUS",))
+    assert tag.startswith("6-RUS") and tomllib.loads(xc.to_toml(job)) == job
 
 
 def test_crosscheck_refusal_jobs():
