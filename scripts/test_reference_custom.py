@@ -797,19 +797,24 @@ def test_dominant_tie_order():
 # --------------------------------------------------------------------------
 # the cross-check script itself
 # --------------------------------------------------------------------------
-def test_crosscheck_accepts_the_reference_and_catches_changes():
-    """crosscheck_custom.check_job passes an output written from the reference (poses and
-    its own switches), and fails a changed value, a null where the reference has one, a
-    changed status, a moved switch and a dropped scalar switch."""
-    import pyarrow.parquet as pq
+def knee_trajectory_job():
+    """The 3-RRS along a trajectory whose knees' axial loads change sign between samples,
+    with the knees' axial and the S joints' radial play, as read back from TOML."""
     z0 = rrs_job()["mechanism"]["home"][2]
     job = rrs_job(trajectory={"time": {"start": 0.0, "stop": 2.0, "n": 9}, "z": z0,
                               "psi": {"offset": 0.0, "harmonics": [{"amplitude": 0.1, "period": 2.0,
                                                                     "phase": 0.3}]},
                               "theta": 0.05})
     job["clearance"] = {"knee_axial": 1e-5, "s_radial": 1e-5}
-    job = tomllib.loads(xc.to_toml(job))
-    M = rc.check_description(job)
+    return tomllib.loads(xc.to_toml(job))
+
+
+def test_crosscheck_accepts_the_reference_and_catches_changes():
+    """crosscheck_custom.check_job passes an output written from the reference (poses and
+    its own switches), and fails a changed value, a null where the reference has one, a
+    changed status, a moved switch and a dropped scalar switch."""
+    import pyarrow.parquet as pq
+    M = rc.check_description(knee_trajectory_job())
     ref = rc.compute(M, extras=True)
     with tempfile.TemporaryDirectory() as d:
         out = os.path.join(d, "out")
@@ -949,13 +954,7 @@ def test_crosscheck_tells_a_pole_from_a_missed_switch():
         fails, notes = xc.check_job(M, ref, out, "t", xc.Stats())
         assert fails == [], fails
     # A load through zero between samples is no cut: the 3-RRS trajectory's knee.
-    z0 = rrs_job()["mechanism"]["home"][2]
-    job = rrs_job(trajectory={"time": {"start": 0.0, "stop": 2.0, "n": 9}, "z": z0,
-                              "psi": {"offset": 0.0, "harmonics": [{"amplitude": 0.1, "period": 2.0,
-                                                                    "phase": 0.3}]},
-                              "theta": 0.05})
-    job["clearance"] = {"knee_axial": 1e-5, "s_radial": 1e-5}
-    M = rc.check_description(tomllib.loads(xc.to_toml(job)))
+    M = rc.check_description(knee_trajectory_job())
     t = rc.sample_inputs(M)["t"]
     ld = rc.group_loads(M, rc.sample_inputs(M)["c"])
     g = next(g for g in M.groups if g.kind == "knee_axial")
