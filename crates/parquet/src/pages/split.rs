@@ -19,8 +19,8 @@ pub(super) fn split_streams_into(values: &[f64], dst: &mut [u8]) {
     split_into(values, dst, transpose8);
 }
 
-/// [`split_streams`] into `dst` (`8·values.len()` bytes), eight values at a time
-/// transposed by `transpose` ([`transpose8`]'s contract).
+/// [`split_streams_into`]'s work, eight values at a time transposed by `transpose`
+/// ([`transpose8`]'s contract).
 #[inline(always)]
 fn split_into(values: &[f64], dst: &mut [u8], mut transpose: impl FnMut(&mut [u64; 8])) {
     let m = values.len();
@@ -44,7 +44,7 @@ fn split_into(values: &[f64], dst: &mut [u8], mut transpose: impl FnMut(&mut [u6
     }
 }
 
-/// [`split_streams`] with the 8 × 8 transposition as one `vpermb`.
+/// [`split_streams_into`] with the 8 × 8 transposition as one `vpermb`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vbmi")]
 fn split_streams_vbmi(values: &[f64], dst: &mut [u8]) {
@@ -96,7 +96,7 @@ mod tests {
 
     #[test]
     fn transposed_streams_match_the_definition() {
-        // The portable transposition, whatever `split_streams` chose on this CPU.
+        // The portable transposition, whatever `split_streams_into` chose on this CPU.
         for m in [0usize, 3, 8, 17] {
             let values: Vec<f64> = (0..m).map(|i| (i as f64 * 1.37 + 0.1).ln() * 1e5).collect();
             let (mut portable, mut chosen) = (vec![0u8; 8 * m], vec![0xAB]);
