@@ -27,7 +27,7 @@ use clearance_parquet::{
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
 use clearance_solver::custom::{
-    CustomModel, CustomResult, Wanted, group_load_near, preset_members, solve_members_near,
+    CustomModel, CustomResult, LargestCond, Wanted, group_load_near, preset_members, solve_members_near,
 };
 use rayon::prelude::*;
 
@@ -133,8 +133,9 @@ fn solve_rows(
 /// [`solve_rows`] for the members of a clearance sweep (models equal but for their
 /// clearances): each pose's kinematics and reactions once, each member's take-up.
 /// Returns the rows and, per member, its results. Without `each_cond`, a pose that a
-/// preset's kernel solves has its `cond` only where it may be the largest of its run
-/// ([`preset_members`]): all that the statistics read of it where no column holds it.
+/// preset's kernel solves has its `cond` only where it may be the largest of the poses
+/// solved here ([`preset_members`]; its runs share what they found, [`LargestCond`]):
+/// all that the statistics read of it where no column holds it.
 fn solve_members(
     models: &[&CustomModel],
     source: Samples,
@@ -143,6 +144,7 @@ fn solve_members(
     each_cond: bool,
 ) -> (Vec<CustomRow>, Vec<Vec<CustomResult>>) {
     let first = range.start - range.start % RUN;
+    let largest = LargestCond::default();
     let runs: Vec<Vec<(CustomRow, Vec<CustomResult>)>> = (first..range.end)
         .step_by(RUN as usize)
         .collect::<Vec<u64>>()
@@ -153,7 +155,7 @@ fn solve_members(
                 run.clone().map(|i| inputs_of(models[0], source, i)).unzip();
             // A preset's kernel solves the run at once; a pose it does not answer, and
             // every pose of another description, goes through `solve_inputs`.
-            let mut fast = preset_members(models, &inputs, mode, each_cond).unwrap_or_default();
+            let mut fast = preset_members(models, &inputs, mode, each_cond, &largest).unwrap_or_default();
             let mut near = None;
             let mut out = Vec::with_capacity(RUN as usize);
             for i in start..run.end {
@@ -819,15 +821,15 @@ mod tests {
         }
     }
 
-    /// Where no column holds the condition number, a run of a preset's poses computes
-    /// it only where it may be the largest of its run of [`RUN`]: every field of every
-    /// result the same bits as with each pose's but `cond`, each run's largest `cond`
-    /// the same bits, and every pose left without one below it. Most poses are left
-    /// without. The 3-PRS and the 6-UPS (their kernels), two members of a clearance
+    /// Where no column holds the condition number, a preset's poses compute it only
+    /// where it may be the largest of the poses solved at once (runs of [`RUN`] settled
+    /// on the pool, sharing the largest found): every field of every result the same
+    /// bits as with each pose's but `cond`, the largest `cond` the same bits, and every
+    /// pose left without one below it. Most poses are left without. The 3-PRS and the 6-UPS (their kernels), two members of a clearance
     /// sweep, `singular_cond` among the poses' own condition numbers so that some poses
     /// are refused (and solved the general way).
     #[test]
-    fn a_run_without_its_condition_numbers_keeps_each_runs_largest() {
+    fn a_solve_without_its_condition_numbers_keeps_its_largest() {
         for file in ["fig08_r_radial.toml", "ups_orientation_grid.toml"] {
             let (job, mut model) = described_job(file);
             assert!(model.preset.is_some(), "{file}");
@@ -846,26 +848,24 @@ mod tests {
             let solved = |each: bool| solve_members(&members, Samples::Job(&source), 0..n, Mode::Kinetostatic, each).1;
             let (with, without) = (solved(true), solved(false));
             let (mut open, mut refused) = (0, 0);
+            let largest = |rs: &[CustomResult]| {
+                rs.iter()
+                    .filter(|r| r.status != Status::Unreachable && r.cond.is_finite())
+                    .map(|r| r.cond)
+                    .fold(f64::NEG_INFINITY, f64::max)
+            };
             for (with, without) in with.iter().zip(&without) {
-                for (run, (a, b)) in with.chunks(RUN as usize).zip(without.chunks(RUN as usize)).enumerate() {
-                    let largest = |rs: &[CustomResult]| {
-                        rs.iter()
-                            .filter(|r| r.status != Status::Unreachable && r.cond.is_finite())
-                            .map(|r| r.cond)
-                            .fold(f64::NEG_INFINITY, f64::max)
-                    };
-                    let top = largest(a);
-                    assert_eq!(top.to_bits(), largest(b).to_bits(), "{file}: run {run}");
-                    for (a, b) in a.iter().zip(b) {
-                        let mut b = b.clone();
-                        if b.cond.is_nan() && !a.cond.is_nan() {
-                            assert!(a.cond < top, "{file}: run {run}: {} left open, the largest {top}", a.cond);
-                            open += 1;
-                            b.cond = a.cond;
-                        }
-                        refused += usize::from(a.status == Status::NearSingular);
-                        assert_eq!(format!("{b:?}"), format!("{a:?}"), "{file}: run {run}");
+                let top = largest(with);
+                assert_eq!(top.to_bits(), largest(without).to_bits(), "{file}");
+                for (k, (a, b)) in with.iter().zip(without).enumerate() {
+                    let mut b = b.clone();
+                    if b.cond.is_nan() && !a.cond.is_nan() {
+                        assert!(a.cond < top, "{file}: pose {k}: {} left open, the largest {top}", a.cond);
+                        open += 1;
+                        b.cond = a.cond;
                     }
+                    refused += usize::from(a.status == Status::NearSingular);
+                    assert_eq!(format!("{b:?}"), format!("{a:?}"), "{file}: pose {k}");
                 }
             }
             assert!(open as u64 > n && refused > 0, "{file}: {open} open, {refused} refused of {n}");

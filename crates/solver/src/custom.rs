@@ -17,6 +17,8 @@
 //! `cond_a` and `cond_jp` are both `κ₂(G)` (the two systems share it; an orthonormal
 //! basis of each limb's wrenches makes it independent of the basis chosen).
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
 
 use clearance_kinematics::Posture;
@@ -642,9 +644,9 @@ fn accepted_cond(model: &CustomModel, g: &Matrix6<f64>, gi: Option<&Matrix6<f64>
 enum CondOf {
     /// Every pose's.
     Each,
-    /// Only where it may be the largest of the run of poses solved at once
-    /// ([`preset_members`]): all that a run's statistics read of it where no column
-    /// holds it. A pose whose [`cond_bound`] is within `singular_cond` is accepted by
+    /// Only where it may be the largest of the poses solved at once
+    /// ([`preset_members`], [`LargestCond`]): all that the statistics read of it where
+    /// no column holds it. A pose whose [`cond_bound`] is within `singular_cond` is accepted by
     /// it, its `cond` left NaN and its bound and `G` kept ([`Open`]) for
     /// [`settle_largest`].
     Largest,
@@ -771,13 +773,15 @@ fn eighth_powers(a: &[[f64; 6]; 6]) -> f64 {
     sum
 }
 
-/// Under [`CondOf::Largest`], each run's largest `cond` (of its poses that every member
-/// solved, `results`): `κ₂(G)` of the open poses in the order of their bounds, from
-/// the largest, until a bound falls below the largest `cond` known. A pose left open
-/// has a bound, and so a `κ₂`, below that largest; the statistics' maximum is the
-/// same as with every pose's `cond`, whatever the runs.
-fn settle_largest(results: &mut [Option<Vec<CustomResult>>], open: &[Option<Open>]) {
-    let mut largest = f64::NEG_INFINITY;
+/// Under [`CondOf::Largest`], the largest `cond` of a run's poses that every member
+/// solved (`results`) where it may exceed `known`, the largest found so far in the
+/// other runs of the same solve: `κ₂(G)` of the open poses in the order of their
+/// bounds, from the largest, until a bound falls below the largest `cond` known. A pose
+/// left open has a bound, and so a `κ₂`, below a `cond` that some pose of the solve
+/// has; the statistics' maximum is the same as with every pose's `cond`, whatever the
+/// runs and the order they are settled in.
+fn settle_largest(results: &mut [Option<Vec<CustomResult>>], open: &[Option<Open>], known: &LargestCond) {
+    let mut largest = known.get();
     for r in results.iter().flatten().flatten() {
         if r.status != Status::Unreachable && r.cond.is_finite() {
             largest = largest.max(r.cond);
@@ -800,6 +804,36 @@ fn settle_largest(results: &mut [Option<Vec<CustomResult>>], open: &[Option<Open
         }
         if cond.is_finite() {
             largest = largest.max(cond);
+        }
+    }
+    known.raise(largest);
+}
+
+/// The largest finite `cond` found so far among the poses of one solve, shared by the
+/// threads settling its runs of [`preset_members`] (as each run settles, its open poses
+/// need their `κ₂` only where their bound reaches it). A solve of a described 3-PRS took
+/// the SVD of a third of its poses when each run of 64 settled on its own largest alone,
+/// of one in ninety with this.
+#[derive(Debug)]
+pub struct LargestCond(AtomicU64);
+
+impl Default for LargestCond {
+    fn default() -> Self {
+        Self(AtomicU64::new(0.0f64.to_bits()))
+    }
+}
+
+impl LargestCond {
+    /// The largest so far (0 before any).
+    fn get(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::Relaxed))
+    }
+
+    /// Raises it to `cond` if that is larger. Condition numbers are at least 1, and the
+    /// bits of non-negative doubles order as the doubles do.
+    fn raise(&self, cond: f64) {
+        if cond.is_finite() && cond > 0.0 {
+            self.0.fetch_max(cond.to_bits(), Ordering::Relaxed);
         }
     }
 }
@@ -982,17 +1016,18 @@ fn prs_result(
 /// `None` unless every member is a preset.
 ///
 /// With `each_cond`, every result has its `cond`; without, only those that may be the
-/// largest of the run (all that a run's statistics read of it).
+/// largest of the solve whose runs share `largest` (all that its statistics read of it).
 pub fn preset_members(
     models: &[&CustomModel],
     poses: &[Vec<[f64; 3]>],
     mode: Mode,
     each_cond: bool,
+    largest: &LargestCond,
 ) -> Option<Vec<Option<Vec<CustomResult>>>> {
     let cond_of = if each_cond { CondOf::Each } else { CondOf::Largest };
     let presets: Vec<&Preset> = models.iter().map(|m| m.preset.as_deref()).collect::<Option<_>>()?;
     let presets: Vec<&PrsPreset> = match presets.as_slice() {
-        [Preset::Ups6(_), ..] => return Some(ups_members(models, poses, mode, cond_of)),
+        [Preset::Ups6(_), ..] => return Some(ups_members(models, poses, mode, cond_of, largest)),
         _ => presets.iter().map(|p| if let Preset::Prs3(p) = p { Some(&**p) } else { None }).collect::<Option<_>>()?,
     };
     let dynamic = mode == Mode::Dynamic;
@@ -1014,7 +1049,7 @@ pub fn preset_members(
             });
         }
     }
-    settle_largest(&mut out, &open);
+    settle_largest(&mut out, &open, largest);
     Some(out)
 }
 
@@ -1361,6 +1396,7 @@ fn ups_members(
     poses: &[Vec<[f64; 3]>],
     mode: Mode,
     cond_of: CondOf,
+    largest: &LargestCond,
 ) -> Vec<Option<Vec<CustomResult>>> {
     let Some(Preset::Ups6(first)) = models[0].preset.as_deref() else { return vec![None; poses.len()] };
     let dynamic = mode == Mode::Dynamic;
@@ -1386,7 +1422,7 @@ fn ups_members(
             })
             .collect()
     });
-    settle_largest(&mut out, &open);
+    settle_largest(&mut out, &open, largest);
     out
 }
 
