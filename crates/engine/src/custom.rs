@@ -825,9 +825,10 @@ mod tests {
     /// where it may be the largest of the poses solved at once (runs of [`RUN`] settled
     /// on the pool, sharing the largest found): every field of every result the same
     /// bits as with each pose's but `cond`, the largest `cond` the same bits, and every
-    /// pose left without one below it. Most poses are left without. The 3-PRS and the 6-UPS (their kernels), two members of a clearance
-    /// sweep, `singular_cond` among the poses' own condition numbers so that some poses
-    /// are refused (and solved the general way).
+    /// pose left without one below it. Most poses are left without. The 3-PRS and the
+    /// 6-UPS (their kernels), two members of a clearance sweep, `singular_cond` among
+    /// the poses' own condition numbers so that some poses are refused (and solved the
+    /// general way).
     #[test]
     fn a_solve_without_its_condition_numbers_keeps_its_largest() {
         for file in ["fig08_r_radial.toml", "ups_orientation_grid.toml"] {

@@ -646,8 +646,8 @@ enum CondOf {
     Each,
     /// Only where it may be the largest of the poses solved at once
     /// ([`preset_members`], [`LargestCond`]): all that the statistics read of it where
-    /// no column holds it. A pose whose [`cond_bound`] is within `singular_cond` is accepted by
-    /// it, its `cond` left NaN and its bound and `G` kept ([`Open`]) for
+    /// no column holds it. A pose whose [`cond_bound`] is within `singular_cond` is
+    /// accepted by it, its `cond` left NaN and its bound and `G` kept ([`Open`]) for
     /// [`settle_largest`].
     Largest,
     /// None where `‖G‖_F·‖G⁻¹‖_F` decides the pose within `singular_cond` (the switch
