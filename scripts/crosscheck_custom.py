@@ -356,9 +356,7 @@ def fam_pus(rng):
     names = ("p", "u", "s") if rng.random() < 0.6 else ("slide", "cardan", "s")
     limbs, A_all = [], []
     for i in range(6):
-        th = math.atan2(B[i, 1], B[i, 0])
-        x = np.array([math.cos(th), math.sin(th), 0.0])
-        t = np.array([-math.sin(th), math.cos(th), 0.0])
+        x, t, _ = _frame(math.atan2(B[i, 1], B[i, 0]))
         d = math.cos(incl) * np.array([0, 0, 1.0]) + math.sin(incl) * x
         horiz = Ap[i, :2] - B[i, :2]
         rad2 = L * L - horiz @ horiz
@@ -396,9 +394,7 @@ def fam_rus(rng):
     names = ("motor", "u", "s") if rng.random() < 0.6 else ("r", "cardan", "ball")
     limbs, lengths = [], []
     for i in range(6):
-        th = math.atan2(B[i, 1], B[i, 0])
-        x = np.array([math.cos(th), math.sin(th), 0.0])
-        t = np.array([-math.sin(th), math.cos(th), 0.0])
+        x, t, _ = _frame(math.atan2(B[i, 1], B[i, 0]))
         axis = _unit(_tilted(rng, t, x, 0.2))
         w = _unit(x - (x @ axis) * axis)                 # outward, normal to the axis
         ang = _r(rng, -0.6, 0.6)
@@ -1107,8 +1103,9 @@ def check_switches(M, sw, label, info=None):
                     if prev is not None and np.sign(gd["load"][rows[prev]]) != np.sign(gd["load"][rows[k]]):
                         lo, hi = par[prev], par[k]
                         info["sign_changes"] += 1
+                        sign_lo = np.sign(gd["load"][rows[prev]])
                         if not _has_switch(M, sw, mode, g, line, lo, hi) \
-                                and not _cut_between(M, mode, g, line, lo, hi):
+                                and not _cut_between(M, mode, g, line, lo, hi, sign_lo):
                             fails.append(f"{mode} {g.kind} limb {g.limb.number}: the load changes sign "
                                          f"between {_line_label(line)} {lo:.6g} and {hi:.6g} "
                                          f"but the engine reports no switch there")
@@ -1116,28 +1113,41 @@ def check_switches(M, sw, label, info=None):
     return fails
 
 
-def _cut_between(M, mode, g, line, lo, hi, steps=60):
-    """Whether the sign change of g's scalar load between lo and hi is where the path
-    cannot be solved (docs/model.md section 8: such a point cuts the path, and no switch
-    is located in that interval): bisected on the load's sign, the bracket closes on a
-    pose beyond singular_cond or out of reach, as at a pole, where the load passes
-    through infinity rather than zero (the geometry's singularity between two samples)."""
+def _sign_roots(M, mode, items, steps=48):
+    """Where the scalar loads' sign changes close, bisected all at once: items are
+    (group, line, a, b, sign at a), the load's sign differing at a and b. Returns the
+    points, the loads there (a _loads_multi result) and, per item, whether the bisection
+    met a pose that cannot be solved (out of reach or beyond singular_cond): the path is
+    cut there and no switch is located (docs/model.md section 8), as at a pole where the
+    load passes through infinity rather than zero (the geometry's singularity between
+    two samples)."""
+    lo = np.array([x[2] for x in items], float)
+    hi = np.array([x[3] for x in items], float)
+    sa = np.array([x[4] for x in items], float)
+    cut = np.zeros(len(items), bool)
+
     def at(s):
-        ld = _loads_multi(M, mode, [(line, s)])
-        return float(ld[g.name]["load"][0]), bool(ld["reach"][0] & ~ld["singular"][0])
-    f_lo, _ = at(lo)
+        lm = _loads_multi(M, mode, [(x[1], v) for x, v in zip(items, s)])
+        val = np.array([lm[x[0].name]["load"][k] for k, x in enumerate(items)])
+        return lm, val, ~(lm["reach"] & ~lm["singular"])
+
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        if mid in (lo, hi):
-            break
-        f_mid, solvable = at(mid)
-        if not solvable:
-            return True
-        if np.sign(f_mid) == np.sign(f_lo):
-            lo, f_lo = mid, f_mid
-        else:
-            hi = mid
-    return False
+        _, val, unsolvable = at(mid)
+        cut |= unsolvable
+        same = np.sign(val) == sa
+        lo = np.where(same, mid, lo)
+        hi = np.where(same, hi, mid)
+    s = 0.5 * (lo + hi)
+    lm, _, unsolvable = at(s)
+    return s, lm, cut | unsolvable
+
+
+def _cut_between(M, mode, g, line, lo, hi, sign_lo):
+    """Whether the sign change of g's scalar load between lo and hi (its sign at lo
+    sign_lo) is where the path cannot be solved (_sign_roots): not a switch the
+    engine missed."""
+    return bool(_sign_roots(M, mode, [(g, line, lo, hi, sign_lo)])[2][0])
 
 
 def _line_label(line):
@@ -1218,21 +1228,9 @@ def reference_switches(M, ref=None):
                         if det[k - 1] and det[k] and det[k + 1] and mg[k] < mg[k - 1] and mg[k] < mg[k + 1]:
                             vec.append((g, line, par[k - 1], par[k + 1], 0.0))
         if scal:
-            lo = np.array([x[2] for x in scal])
-            hi = np.array([x[3] for x in scal])
-            sa = np.array([x[4] for x in scal])
-            for _ in range(48):
-                mid = 0.5 * (lo + hi)
-                lm = _loads_multi(M, mode, [(x[1], m) for x, m in zip(scal, mid)])
-                val = np.array([lm[x[0].name]["load"][k] for k, x in enumerate(scal)])
-                same = np.sign(val) == sa
-                lo = np.where(same, mid, lo)
-                hi = np.where(same, hi, mid)
-            s = 0.5 * (lo + hi)
-            lm = _loads_multi(M, mode, [(x[1], m) for x, m in zip(scal, s)])
+            s, lm, cut = _sign_roots(M, mode, scal)
             for k, x in enumerate(scal):
-                # A sign change through a pole closes on a singular pose: a cut (section 8).
-                if lm["reach"][k] and not lm["singular"][k]:
+                if not cut[k]:
                     add(mode, x[0], x[1], s[k], abs(lm[x[0].name]["load"][k]))
         if vec:
             a = np.array([x[2] for x in vec])

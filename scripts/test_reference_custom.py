@@ -946,7 +946,7 @@ def test_crosscheck_tells_a_pole_from_a_missed_switch():
     flips = np.flatnonzero(np.sign(load[1:]) != np.sign(load[:-1]))
     assert flips.size >= 2
     for k in flips:
-        assert xc._cut_between(M, "dynamic", g, line, t[k], t[k + 1])
+        assert xc._cut_between(M, "dynamic", g, line, t[k], t[k + 1], np.sign(load[k]))
     with tempfile.TemporaryDirectory() as d:
         out = os.path.join(d, "out")
         sw = xc.write_fake_output(M, ref, out)
@@ -962,7 +962,7 @@ def test_crosscheck_tells_a_pole_from_a_missed_switch():
     flips = np.flatnonzero(np.sign(load[1:]) != np.sign(load[:-1]))
     assert flips.size >= 1
     for k in flips:
-        assert not xc._cut_between(M, "kinetostatic", g, line, t[k], t[k + 1])
+        assert not xc._cut_between(M, "kinetostatic", g, line, t[k], t[k + 1], np.sign(load[k]))
 
 
 def test_generated_jobs_round_trip_through_toml():
