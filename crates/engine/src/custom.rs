@@ -27,7 +27,8 @@ use clearance_parquet::{
     custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
 use clearance_solver::custom::{
-    CustomModel, CustomResult, LargestCond, Wanted, group_load_near, preset_members, solve_members_near,
+    CustomModel, CustomResult, LargestCond, Wanted, drop_spare_results, group_load_near, preset_members, recycle,
+    solve_members_near,
 };
 use rayon::prelude::*;
 
@@ -234,7 +235,9 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
         tables: HashMap::new(),
         kept: 0,
     };
-    run_units(&mut r, opts, &setup)
+    let report = run_units(&mut r, opts, &setup);
+    rayon::broadcast(|_| drop_spare_results());
+    report
 }
 
 /// A custom run's part in [`run_units`]: a work's units are the members of one
@@ -257,7 +260,7 @@ struct CustomRun<'a> {
     /// What the search reads of each sample, kept from the pose pass where every unit
     /// of a (variant, mode) is computed here and the table fits (else the search
     /// solves them).
-    tables: HashMap<(u64, Mode), Vec<Option<Sampled>>>,
+    tables: HashMap<(u64, Mode), Table>,
     /// Bytes the tables take.
     kept: u64,
 }
@@ -277,7 +280,7 @@ const BLOCK: u64 = 8 * 1024;
 struct MemberSolved {
     part: Option<CustomPart>,
     stats: CustomStats,
-    sampled: Option<Vec<Sampled>>,
+    sampled: Option<Sampled>,
 }
 
 impl CustomRun<'_> {
@@ -315,14 +318,14 @@ impl UnitRun for CustomRun<'_> {
                     .poses
                     .then(|| self.schemas[u.variant as usize].part(u.mode, (range.end - range.start) as usize)),
                 stats: CustomStats::new(m.kinds.len(), m.groups.len()),
-                sampled: self.keeps_table(u).then(Vec::new),
+                sampled: self.keeps_table(u).then(|| Sampled::with_capacity(m, (range.end - range.start) as usize)),
             })
             .collect();
         let mut start = range.start;
         while start < range.end {
             let end = (start - start % BLOCK + BLOCK).min(range.end);
             let (rows, results) = solve_members(&members, source, start..end, first.mode, self.each_cond);
-            for (((u, model), part), results) in w.units.iter().zip(&members).zip(&mut out).zip(results) {
+            for ((u, part), results) in w.units.iter().zip(&mut out).zip(results) {
                 let schema = &self.schemas[u.variant as usize];
                 // The statistics and the search's samples on this thread while the pool
                 // builds the columns.
@@ -338,12 +341,15 @@ impl UnitRun for CustomRun<'_> {
                             stats.push(r);
                         }
                         if let Some(sampled) = sampled {
-                            sampled.extend(results.iter().map(|r| Sampled::of(model, r)));
+                            sampled.extend(&results);
                         }
                     },
                 );
-                // Each result holds a few vectors: freed on the pool, not on this thread.
-                results.into_par_iter().with_min_len(RUN as usize).for_each(drop);
+                // Each result holds a few vectors: let go of on the pool, not on this
+                // thread, each thread keeping its share of a block's for the next block's
+                // results (`recycle`).
+                let most = (BLOCK as usize).div_ceil(rayon::current_num_threads()) + RUN as usize;
+                results.into_par_iter().with_min_len(RUN as usize).for_each(|r| recycle(r, most));
             }
             start = end;
         }
@@ -360,12 +366,10 @@ impl UnitRun for CustomRun<'_> {
             let key = (u.variant, u.mode);
             if self.keeps_table(u) && !self.tables.contains_key(&key) {
                 self.kept += self.table_bytes(v);
-                self.tables.insert(key, (0..self.sources[v].len()).map(|_| None).collect());
+                self.tables.insert(key, Table::default());
             }
             if let Some(table) = self.tables.get_mut(&key) {
-                for (i, s) in u.range.clone().zip(sampled) {
-                    table[i as usize] = Some(s);
-                }
+                table.put(u.range.start, sampled);
             }
         }
         stats.flush();
@@ -376,9 +380,10 @@ impl UnitRun for CustomRun<'_> {
     fn searches(&mut self) -> (Self::Found, f64) {
         // Only the complete tables: a table with samples this run did not compute
         // (a resumed or sharded run) is solved by the search.
-        let tables: HashMap<(u64, Mode), Vec<Sampled>> = std::mem::take(&mut self.tables)
+        let sources = &self.sources;
+        let tables: HashMap<(u64, Mode), Table> = std::mem::take(&mut self.tables)
             .into_iter()
-            .filter_map(|(key, t)| t.into_iter().collect::<Option<Vec<Sampled>>>().map(|t| (key, t)))
+            .filter(|((v, _), t)| t.filled == sources[*v as usize].len())
             .collect();
         searches(self.job, self.variants, self.groups, &self.models, &self.sources, tables)
     }
@@ -402,7 +407,7 @@ fn searches(
     groups: &[Group],
     models: &[CustomModel],
     sources: &[SampleSource],
-    mut tables: HashMap<(u64, Mode), Vec<Sampled>>,
+    mut tables: HashMap<(u64, Mode), Table>,
 ) -> (HashMap<(u64, Mode), Vec<CustomSwitch>>, f64) {
     let searching = Instant::now();
     let mut found = HashMap::new();
@@ -479,24 +484,94 @@ fn kind_error(r: &CustomResult, kind: usize) -> Option<[f64; 6]> {
     r.loaded().then(|| r.kind_errors[kind].map(|e| [e[0], e[1], e[2], e[3], e[4], e[5]])).flatten()
 }
 
-/// What the search reads of one sample: each group's deciding load and each kind's error.
+/// What the search reads of samples in order: each group's deciding load and each
+/// kind's error, sample after sample in two flat tables. Two vectors a sample were two
+/// allocations a pose, freed only after the search: 5 % of a described 3-PRS's CPU
+/// (`perf`).
+#[derive(Default)]
 struct Sampled {
+    len: usize,
+    groups: usize,
+    kinds: usize,
     loads: Vec<Option<[f64; 3]>>,
     errors: Vec<Option<[f64; 6]>>,
 }
 
+/// One sample of a [`Sampled`].
+#[derive(Clone, Copy)]
+struct SampledRef<'a> {
+    loads: &'a [Option<[f64; 3]>],
+    errors: &'a [Option<[f64; 6]>],
+}
+
 impl Sampled {
-    fn of(model: &CustomModel, r: &CustomResult) -> Self {
-        Sampled {
-            loads: (0..model.groups.len()).map(|g| group_load(r, g)).collect(),
-            errors: (0..model.kinds.len()).map(|k| kind_error(r, k)).collect(),
+    /// No samples yet, with room for `n`.
+    fn with_capacity(model: &CustomModel, n: usize) -> Self {
+        let (groups, kinds) = (model.groups.len(), model.kinds.len());
+        Sampled { len: 0, groups, kinds, loads: Vec::with_capacity(n * groups), errors: Vec::with_capacity(n * kinds) }
+    }
+
+    /// The samples of `results`, in order.
+    fn of(model: &CustomModel, results: &[CustomResult]) -> Self {
+        let mut out = Self::with_capacity(model, results.len());
+        out.extend(results);
+        out
+    }
+
+    /// Appends the samples of `results`.
+    fn extend<'r>(&mut self, results: impl IntoIterator<Item = &'r CustomResult>) {
+        for r in results {
+            self.loads.extend((0..self.groups).map(|g| group_load(r, g)));
+            self.errors.extend((0..self.kinds).map(|k| kind_error(r, k)));
+            self.len += 1;
+        }
+    }
+
+    /// Sample `i`.
+    fn get(&self, i: usize) -> SampledRef<'_> {
+        SampledRef {
+            loads: &self.loads[i * self.groups..][..self.groups],
+            errors: &self.errors[i * self.kinds..][..self.kinds],
         }
     }
 }
 
-/// The bytes of one sample's [`Sampled`], about.
+/// The bytes of one sample of a [`Sampled`].
 fn table_entry(model: &CustomModel) -> u64 {
-    (model.groups.len() * 32 + model.kinds.len() * 56 + 64) as u64
+    (model.groups.len() * size_of::<Option<[f64; 3]>>() + model.kinds.len() * size_of::<Option<[f64; 6]>>()) as u64
+}
+
+/// The search's table of every sample of a (variant, mode): each unit's samples as the
+/// pose pass left them (not copied into one table: with a unit's copy beside it, that
+/// raised a described 6-UPS's peak memory by a third). Complete once every sample is in.
+#[derive(Default)]
+struct Table {
+    /// Each unit's first sample and samples, by first sample.
+    units: Vec<(u64, Sampled)>,
+    /// Samples put in so far (units do not overlap).
+    filled: u64,
+}
+
+impl Table {
+    /// A table of one unit, from sample 0.
+    fn whole(sampled: Sampled) -> Self {
+        let mut t = Table::default();
+        t.put(0, sampled);
+        t
+    }
+
+    /// A unit's samples, from sample `start`.
+    fn put(&mut self, start: u64, unit: Sampled) {
+        self.filled += unit.len as u64;
+        let at = self.units.partition_point(|(s, _)| *s < start);
+        self.units.insert(at, (start, unit));
+    }
+
+    /// Sample `i` (in a unit put).
+    fn get(&self, i: u64) -> SampledRef<'_> {
+        let (start, unit) = &self.units[self.units.partition_point(|(s, _)| *s <= i) - 1];
+        unit.get((i - start) as usize)
+    }
 }
 
 /// The most memory the table of every sample's loads and errors may take; beyond, each
@@ -515,7 +590,7 @@ fn search(
     models: &[&CustomModel],
     source: &SampleSource,
     mode: Mode,
-    tables: Vec<Option<Vec<Sampled>>>,
+    tables: Vec<Option<Table>>,
 ) -> Vec<Vec<CustomSwitch>> {
     let model = models[0];
     let groups: Vec<usize> =
@@ -529,11 +604,11 @@ fn search(
     let paths = ups_paths(job, source);
     let n = source.len();
     let bytes = n.saturating_mul(table_entry(model)).saturating_mul(models.len() as u64);
-    let shared: Option<Vec<Vec<Sampled>>> = match tables.into_iter().collect::<Option<Vec<_>>>() {
+    let shared: Option<Vec<Table>> = match tables.into_iter().collect::<Option<Vec<_>>>() {
         Some(kept) => Some(kept),
         None => (bytes <= SHARED_BYTES).then(|| {
             let (_, results) = solve_members(models, Samples::Job(source), 0..n, mode, false);
-            results.iter().zip(models).map(|(rs, m)| rs.iter().map(|r| Sampled::of(m, r)).collect()).collect()
+            results.iter().zip(models).map(|(rs, m)| Table::whole(Sampled::of(m, rs))).collect()
         }),
     };
     let found: Vec<Vec<Vec<CustomSwitch>>> = paths
@@ -560,17 +635,21 @@ fn search(
             };
             let solve_at = |p: f64| solve_wanted(p, Wanted::WithoutCond);
             // Per member, its samples along the path.
-            let own: Vec<Vec<Sampled>>;
-            let samples: Vec<Vec<&Sampled>> = match &shared {
-                Some(all) => all.iter().map(|t| (0..path.len).map(|k| &t[path.index(k) as usize]).collect()).collect(),
+            let own: Vec<Sampled>;
+            let samples: Vec<Vec<SampledRef<'_>>> = match &shared {
+                Some(all) => all.iter().map(|t| (0..path.len).map(|k| t.get(path.index(k))).collect()).collect(),
                 None => {
                     let solved: Vec<Vec<CustomResult>> = (0..path.len).map(|k| solve_at(k as f64).2).collect();
                     own = models
                         .iter()
                         .enumerate()
-                        .map(|(m, model)| solved.iter().map(|r| Sampled::of(model, &r[m])).collect())
+                        .map(|(m, model)| {
+                            let mut own = Sampled::with_capacity(model, solved.len());
+                            own.extend(solved.iter().map(|r| &r[m]));
+                            own
+                        })
                         .collect();
-                    own.iter().map(|v| v.iter().collect()).collect()
+                    own.iter().map(|t| (0..path.len).map(|k| t.get(k)).collect()).collect()
                 }
             };
             let mut out: Vec<Vec<CustomSwitch>> = vec![Vec::new(); models.len()];

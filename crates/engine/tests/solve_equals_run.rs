@@ -8,7 +8,7 @@ mod common;
 use arrow::array::{Array, ArrayRef, Float64Array, RecordBatch};
 use arrow::compute::cast;
 use arrow::datatypes::DataType;
-use clearance_engine::{ColumnSet, JobSpec, Layout, RunOptions, SolveOptions, run, solve};
+use clearance_engine::{ColumnSet, JobSpec, Layout, RunOptions, SolveOptions, describe, run, solve};
 use clearance_model::Mode;
 
 const GRID: &str = r#"
@@ -41,6 +41,23 @@ time = { start = 1.25, stop = 3.75, n = 301 }
 z = 2.05
 psi = 0.1
 theta = { offset = 0.0, harmonics = [ { amplitude = 0.5, period = 5.0, phase = 0.0 } ] }
+"#;
+
+/// A 6-UPS position grid of 9 261 poses.
+const UPS: &str = r#"
+name = "ups"
+[mechanism]
+kind = "6-UPS"
+[clearance]
+s_radial = 1e-4
+u_radial = 1e-4
+[grid]
+x = { start = -0.1, stop = 0.1, n = 21 }
+y = { start = -0.1, stop = 0.1, n = 21 }
+z = { start = 0.7, stop = 0.8, n = 21 }
+phi = 0.05
+psi = 0.1
+theta = -0.1
 "#;
 
 /// The poses of (variant, mode) read back from the run in `layout`, parts in order.
@@ -79,11 +96,15 @@ fn check(text: &str, columns: ColumnSet, chunk_size: u64) {
 
 /// [`check`] with the run in `out`.
 fn check_in(out: &std::path::Path, text: &str, columns: ColumnSet, chunk_size: u64) {
-    let job = JobSpec::from_toml_str(text, "t.toml").unwrap();
+    check_job(out, &JobSpec::from_toml_str(text, "t.toml").unwrap(), columns, chunk_size);
+}
+
+/// [`check_in`] for a job already read.
+fn check_job(out: &std::path::Path, job: &JobSpec, columns: ColumnSet, chunk_size: u64) {
     let opts = RunOptions { columns, chunk_size, direct_io: true, ..common::options(out) };
-    run(&job, "t.toml", &opts).unwrap();
+    run(job, "t.toml", &opts).unwrap();
     let layout = Layout::new(&opts.out);
-    let solved = solve(&job, "t.toml", &SolveOptions { columns, ..SolveOptions::default() }).unwrap();
+    let solved = solve(job, "t.toml", &SolveOptions { columns, ..SolveOptions::default() }).unwrap();
     let parts = job.sample_count().div_ceil(chunk_size);
     let mut k = 0;
     for variant in 0..job.variant_count() {
@@ -130,25 +151,38 @@ fn minimal_columns_with_and_without_exact_errors() {
     check(&format!("{GRID}\n[analysis]\nexact = true\n"), ColumnSet::Minimal, 70);
 }
 
+/// The 3-PRS and the 6-UPS as custom descriptions (`clearance describe`), which their
+/// kernels solve: a run builds each block's results (8 192 poses) in the vectors of the
+/// block's before it (`clearance_solver::custom::recycle`), `solve` builds every result
+/// anew. Units of two and three blocks, every column of the full set.
+#[test]
+fn described_presets_in_units_of_several_blocks() {
+    const PRS: &str = r#"
+name = "prs"
+[mass]
+points = [ { mass = 30.0, at = [0.05, -0.02, 1.0] } ]
+[clearance]
+s_radial = 1e-4
+r_radial = 2e-4
+r_axial = 1.5e-4
+r_angular = 1e-4
+[grid]
+z = { start = 2.0, stop = 2.1, n = 2 }
+psi = { start = -0.5, stop = 0.5, n = 91 }
+theta = { start = -0.5, stop = 0.5, n = 91 }
+"#;
+    for (text, blocks) in [(PRS, 3), (UPS, 2)] {
+        let job = describe(&JobSpec::from_toml_str(text, "t.toml").unwrap(), "t.toml").unwrap();
+        assert_eq!(job.sample_count().div_ceil(8192), blocks);
+        let dir = tempfile::tempdir().unwrap();
+        check_job(&dir.path().join("run"), &job, ColumnSet::Full, 65536);
+    }
+}
+
 /// Parts of several megabytes: past the first full staging buffer (1 MiB), a direct
 /// file's bytes go to the disk on a thread of its own, and the run waits for it.
 #[test]
 fn a_six_ups_run_whose_parts_are_megabytes() {
-    const UPS: &str = r#"
-name = "ups"
-[mechanism]
-kind = "6-UPS"
-[clearance]
-s_radial = 1e-4
-u_radial = 1e-4
-[grid]
-x = { start = -0.1, stop = 0.1, n = 21 }
-y = { start = -0.1, stop = 0.1, n = 21 }
-z = { start = 0.7, stop = 0.8, n = 21 }
-phi = 0.05
-psi = 0.1
-theta = -0.1
-"#;
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     check_in(&out, UPS, ColumnSet::Standard, 4096);

@@ -390,6 +390,16 @@ impl Reactions {
         out
     }
 
+    /// [`Reactions::of`] in this value's memory.
+    pub fn refill<L: AsRef<[(V3, V3)]>>(mut self, limbs: &[L]) -> Self {
+        self.values.clear();
+        self.ends.clear();
+        for l in limbs {
+            self.push_limb(l.as_ref().iter().copied());
+        }
+        self
+    }
+
     /// Adds the next limb, its joints' reactions in order.
     pub fn push_limb(&mut self, joints: impl IntoIterator<Item = (V3, V3)>) {
         self.values.extend(joints);
@@ -426,6 +436,42 @@ impl CustomResult {
     pub fn loaded(&self) -> bool {
         matches!(self.status, Status::Ok | Status::IndeterminateContact)
     }
+}
+
+thread_local! {
+    /// Results let go of on this thread ([`recycle`]), whose vectors the presets'
+    /// results built here next reuse ([`spare_result`]).
+    static SPARE: std::cell::RefCell<Vec<CustomResult>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Lets go of `r`, keeping its vectors for a result built next on this thread, up to
+/// `most` results a thread (the rest are freed). A preset's pose allocates seven
+/// vectors; allocated and freed for every pose, glibc's thread caches (seven blocks of
+/// a size) ran dry, and its allocator was a tenth of a described 3-PRS's CPU (`perf`).
+pub fn recycle(r: CustomResult, most: usize) {
+    SPARE.with_borrow_mut(|spare| {
+        if spare.len() < most {
+            spare.push(r);
+        }
+    });
+}
+
+/// Frees the results this thread keeps for reuse ([`recycle`]).
+pub fn drop_spare_results() {
+    SPARE.take();
+}
+
+/// A result let go of on this thread, or a new one: only its vectors' memory is
+/// meant to be reused (every field is set again by its caller).
+fn spare_result() -> CustomResult {
+    SPARE.with_borrow_mut(Vec::pop).unwrap_or_default()
+}
+
+/// `v` emptied, then filled from `items`: its memory reused.
+fn refill<T>(mut v: Vec<T>, items: impl IntoIterator<Item = T>) -> Vec<T> {
+    v.clear();
+    v.extend(items);
+    v
 }
 
 fn skew_axial(r: &Matrix3<f64>) -> V3 {
@@ -1076,22 +1122,26 @@ fn preset_result_of(
     // A group without play is not proved mobile by its (zero) error: then too.
     let gi = if indeterminate || preset.without_play { Some(inverse.or_else(|| g.try_inverse())?) } else { None };
     let coords = [r.x, r.y, inputs[0], r.phi, inputs[1], inputs[2]];
+    let CustomResult { q, tau, reactions, takes, kind_errors, envelope, .. } = spare_result();
     let mut out = CustomResult {
         status: Status::Ok,
         coords,
-        q: (0..3).map(|j| r.q[j] - preset.q_home[j]).collect(),
-        tau: (0..3).map(|j| r.reactions.f_r[j].dot(&geometry.rail(j))).collect(),
+        q: refill(q, (0..3).map(|j| r.q[j] - preset.q_home[j])),
+        tau: refill(tau, (0..3).map(|j| r.reactions.f_r[j].dot(&geometry.rail(j)))),
         // P (on the massless slider: the R joint's reaction, about the same point),
         // R and S; the S joint transmits no couple.
-        reactions: Reactions::of(&std::array::from_fn::<_, 3, _>(|j| {
+        reactions: reactions.refill(&std::array::from_fn::<_, 3, _>(|j| {
             let (f_r, m_r) = (r.reactions.f_r[j], r.reactions.m_r[j]);
             [(f_r, m_r), (f_r, m_r), (r.reactions.f_s[j], V3::zeros())]
         })),
+        takes: refill(takes, []),
+        kind_errors: refill(kind_errors, []),
+        envelope: refill(envelope, []),
         cond,
         ..Default::default()
     };
     let mut undetermined = vec![false; model.kinds.len()];
-    out.takes = Vec::with_capacity(model.groups.len());
+    out.takes.reserve_exact(model.groups.len());
     for def in &model.groups {
         let (l, joint) = (def.limb, model.joint_type(def));
         let (axis, centre) = if joint == JointType::R { (geometry.y[l], pose.b[l]) } else { (V3::zeros(), pose.a[l]) };
@@ -1351,12 +1401,17 @@ fn ups_result(
     let (g, gi) = (&pose.g, &pose.gi);
     let cond = given_cond(model, g, Some(gi), cond_of, open)?;
     let coords: [f64; 6] = std::array::from_fn(|i| inputs[i]);
+    let CustomResult { q, tau, reactions, takes, kind_errors, envelope, .. } = spare_result();
     let mut out = CustomResult {
         status: Status::Ok,
         coords,
-        q: (0..6).map(|i| pose.q[i] - preset.q_home[i]).collect(),
-        tau: (0..6).map(|i| pose.reactions[i][1].0.dot(&pose.e[i])).collect(),
-        reactions: Reactions::of(&pose.reactions),
+        q: refill(q, (0..6).map(|i| pose.q[i] - preset.q_home[i])),
+        tau: refill(tau, (0..6).map(|i| pose.reactions[i][1].0.dot(&pose.e[i]))),
+        reactions: reactions.refill(&pose.reactions),
+        // Set anew by `take_up_at`.
+        takes,
+        kind_errors,
+        envelope,
         cond,
         ..Default::default()
     };
@@ -1797,8 +1852,11 @@ fn take_up_at(
     // `kind_errors` (`None` once a group of it is indeterminate), then made the nine.
     out.kind_errors.clear();
     out.kind_errors.resize(nk, Some([0.0; 9]));
-    let mut envelope = vec![[0.0f64; 8]; nk];
-    out.takes = Vec::with_capacity(model.groups.len());
+    let mut envelope = std::mem::take(&mut out.envelope);
+    envelope.clear();
+    envelope.resize(nk, [0.0f64; 8]);
+    out.takes.clear();
+    out.takes.reserve_exact(model.groups.len());
     let read = |k: usize| only.is_none_or(|o| o == k);
     let mut balls: [Option<Reach>; KEPT_BALLS] = [None; KEPT_BALLS];
     for g in &model.groups {
