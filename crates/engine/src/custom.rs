@@ -383,7 +383,7 @@ impl UnitRun for CustomRun<'_> {
         let sources = &self.sources;
         let tables: HashMap<(u64, Mode), Table> = std::mem::take(&mut self.tables)
             .into_iter()
-            .filter(|((v, _), t)| t.filled == sources[*v as usize].len())
+            .filter(|((v, _), t)| t.filled() == sources[*v as usize].len())
             .collect();
         searches(self.job, self.variants, self.groups, &self.models, &self.sources, tables)
     }
@@ -512,7 +512,7 @@ impl Sampled {
     }
 
     /// The samples of `results`, in order.
-    fn of(model: &CustomModel, results: &[CustomResult]) -> Self {
+    fn of<'r>(model: &CustomModel, results: impl ExactSizeIterator<Item = &'r CustomResult>) -> Self {
         let mut out = Self::with_capacity(model, results.len());
         out.extend(results);
         out
@@ -548,8 +548,6 @@ fn table_entry(model: &CustomModel) -> u64 {
 struct Table {
     /// Each unit's first sample and samples, by first sample.
     units: Vec<(u64, Sampled)>,
-    /// Samples put in so far (units do not overlap).
-    filled: u64,
 }
 
 impl Table {
@@ -560,9 +558,13 @@ impl Table {
         t
     }
 
+    /// Samples put in so far (units do not overlap).
+    fn filled(&self) -> u64 {
+        self.units.iter().map(|(_, u)| u.len as u64).sum()
+    }
+
     /// A unit's samples, from sample `start`.
     fn put(&mut self, start: u64, unit: Sampled) {
-        self.filled += unit.len as u64;
         let at = self.units.partition_point(|(s, _)| *s < start);
         self.units.insert(at, (start, unit));
     }
@@ -608,7 +610,7 @@ fn search(
         Some(kept) => Some(kept),
         None => (bytes <= SHARED_BYTES).then(|| {
             let (_, results) = solve_members(models, Samples::Job(source), 0..n, mode, false);
-            results.iter().zip(models).map(|(rs, m)| Table::whole(Sampled::of(m, rs))).collect()
+            results.iter().zip(models).map(|(rs, m)| Table::whole(Sampled::of(m, rs.iter()))).collect()
         }),
     };
     let found: Vec<Vec<Vec<CustomSwitch>>> = paths
@@ -643,11 +645,7 @@ fn search(
                     own = models
                         .iter()
                         .enumerate()
-                        .map(|(m, model)| {
-                            let mut own = Sampled::with_capacity(model, solved.len());
-                            own.extend(solved.iter().map(|r| &r[m]));
-                            own
-                        })
+                        .map(|(m, model)| Sampled::of(model, solved.iter().map(|r| &r[m])))
                         .collect();
                     own.iter().map(|t| (0..path.len).map(|k| t.get(k)).collect()).collect()
                 }

@@ -383,14 +383,10 @@ impl Reactions {
 
     /// The limbs of `limbs`, each its joints' reactions in order.
     pub fn of<L: AsRef<[(V3, V3)]>>(limbs: &[L]) -> Self {
-        let mut out = Self::with_capacity(limbs.len(), limbs.iter().map(|l| l.as_ref().len()).sum());
-        for l in limbs {
-            out.push_limb(l.as_ref().iter().copied());
-        }
-        out
+        Self::with_capacity(limbs.len(), limbs.iter().map(|l| l.as_ref().len()).sum()).refill(limbs)
     }
 
-    /// [`Reactions::of`] in this value's memory.
+    /// [`Reactions::of`] in this value's memory (emptied first).
     pub fn refill<L: AsRef<[(V3, V3)]>>(mut self, limbs: &[L]) -> Self {
         self.values.clear();
         self.ends.clear();
