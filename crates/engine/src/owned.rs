@@ -107,9 +107,15 @@ pub(crate) fn search_owned(
             );
         }
     }
-    // On the disk before the shard's marker says it is done.
+    // On the disk before the shard's marker says it is done. A shard that owns no
+    // unit has written nothing before, and may run before the others have made the
+    // directory.
     let opts = WriteOptions { durable: true, direct_io: opts.direct_io, ..WriteOptions::default() };
-    write_bytes(&layout.shard_switches(me, n), &encode(&out, &job.analysis.modes), &opts)?;
+    let path = layout.shard_switches(me, n);
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
+    }
+    write_bytes(&path, &encode(&out, &job.analysis.modes), &opts)?;
     Ok(())
 }
 

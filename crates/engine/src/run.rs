@@ -284,6 +284,12 @@ const _: () = assert!(PAGE_ROWS.is_multiple_of(BLOCK) && TAIL_PAGE_ROWS.is_multi
 /// about 1 KB each, are still in the core's cache when they are written out.
 const SOLVE: usize = 64;
 
+/// Whether `name` is the temporary file of a process writing a run's job file, which
+/// becomes `job.toml` when it is whole.
+fn job_in_flight(name: &str) -> bool {
+    name.starts_with(".job.toml.tmp-")
+}
+
 pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) -> Result<()> {
     let out = layout.root();
     let entries: Vec<_> = match std::fs::read_dir(out) {
@@ -293,7 +299,11 @@ pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) ->
             return Err(EngineError::io("read the output directory", out)(e));
         }
     };
-    if !entries.is_empty() {
+    // The shards of a cluster start together: one may find the directory that
+    // another has just made holding that shard's job file on its way in, and nothing
+    // else. It is a fresh run's; this shard writes the same job file.
+    let starting = opts.shard.is_some() && entries.iter().all(|e| job_in_flight(&e.file_name().to_string_lossy()));
+    if !entries.is_empty() && !starting {
         let existing = std::fs::read_to_string(layout.job()).ok();
         let same_job = existing.as_deref() == Some(job_toml);
         if opts.overwrite {

@@ -114,6 +114,56 @@ fn a_trajectory_in_3_shards_gives_the_single_runs_switches() {
     sharded_equals_single(TRAJECTORY, 3);
 }
 
+/// Shards run in any order, as a cluster's do: more shards than parts, so that some
+/// own none, started last first into a fresh directory. A shard that owns nothing
+/// still writes its (empty) switches, into a directory no other shard has made yet;
+/// the one that finishes the run gives the single run's files.
+#[test]
+fn shards_without_parts_run_first_and_the_run_is_the_single_one() {
+    let job = JobSpec::from_toml_str(GRID_3D, "t.toml").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
+    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    let parts = job.sample_count().div_ceil(CHUNK);
+    let n = parts + 3;
+    let mut complete = Vec::new();
+    for i in (0..n).rev() {
+        let report = run(&job, "t.toml", &options(&sharded, Some((i, n)), false))
+            .unwrap_or_else(|e| panic!("shard {i} of {n} ({parts} parts): {e}"));
+        assert!(Layout::new(&sharded).shard_switches(i, n).exists(), "shard {i} wrote its switches");
+        complete.push(report.complete);
+    }
+    assert_eq!(complete.iter().filter(|&&c| c).count(), 1, "one shard finishes the run: {complete:?}");
+    assert!(complete[complete.len() - 1], "the last shard to run finishes it");
+    same_finals(&single, &sharded);
+}
+
+/// A shard that starts while another is writing the job file into the fresh
+/// directory (its temporary sibling there, nothing else) takes the run as its own,
+/// as the cluster's shards all start together; a run without `--shard` still refuses
+/// a directory that holds anything but a run.
+#[test]
+fn a_shard_takes_a_directory_whose_job_file_another_shard_is_writing() {
+    let job = JobSpec::from_toml_str(TRAJECTORY, "t.toml").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
+    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    std::fs::create_dir_all(&sharded).unwrap();
+    let in_flight = sharded.join(".job.toml.tmp-4000000");
+    std::fs::write(&in_flight, "name = \"t").unwrap();
+    let alone = run(&job, "t.toml", &options(&sharded, None, false)).expect_err("a run alone refuses the directory");
+    assert!(alone.to_string().contains("is not empty"), "{alone}");
+    for i in 0..3 {
+        run(&job, "t.toml", &options(&sharded, Some((i, 3)), false))
+            .unwrap_or_else(|e| panic!("shard {i} beside another's job file: {e}"));
+        // The other shard's write lands (a rename over the same file): the run goes on.
+        if i == 0 {
+            std::fs::remove_file(&in_flight).unwrap();
+        }
+    }
+    same_finals(&single, &sharded);
+}
+
 /// A shard re-run with `--resume` searches its lines again; a shard file lost after
 /// every shard is done, or a sharded run finished by a resumed run without shards,
 /// falls back to the search from the traces: the same switches every way.
