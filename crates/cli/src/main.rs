@@ -1,5 +1,6 @@
-//! `clearance`: pose errors of a 3-PRS robot due to joint clearances, from a job
-//! file to a Parquet dataset. See README.md and docs/interface.md.
+//! `clearance`: pose errors of parallel robots (the three built-in kinds, or any mechanism
+//! described by its joints) due to joint clearances, from a job file to a Parquet dataset.
+//! See README.md and docs/interface.md.
 
 mod allocate;
 mod bench;
@@ -19,7 +20,7 @@ use clearance_engine::{
 #[command(
     name = "clearance",
     version,
-    about = "Pose error of parallel robots (3-PRS, 3-RPS, 6-UPS) due to joint clearances"
+    about = "Pose error of parallel robots due to joint clearances: the 3-PRS, 3-RPS and 6-UPS, or any mechanism described by its joints"
 )]
 struct Cli {
     #[command(subcommand)]
