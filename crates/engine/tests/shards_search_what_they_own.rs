@@ -54,6 +54,16 @@ fn options(out: &Path, shard: Option<(u64, u64)>, resume: bool) -> RunOptions {
     RunOptions { chunk_size: CHUNK, shard, resume, ..common::options(out) }
 }
 
+/// `text`'s job, run alone into `single` under a fresh directory (kept while the
+/// directory lives), and the path `sharded` beside it for its shards.
+fn single_run(text: &str) -> (JobSpec, tempfile::TempDir, std::path::PathBuf, std::path::PathBuf) {
+    let job = JobSpec::from_toml_str(text, "t.toml").unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
+    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    (job, dir, single, sharded)
+}
+
 fn same_finals(a: &Path, b: &Path) {
     for file in ["discontinuities.parquet", "summary.parquet"] {
         assert_eq!(read(&a.join(file)), read(&b.join(file)), "{file}");
@@ -81,10 +91,7 @@ fn trace_files(dir: &Path) -> Vec<std::path::PathBuf> {
 /// before the last shard: its finishing step must merge, not search (a search from
 /// traces would solve the lost ones again and write them back).
 fn sharded_equals_single(text: &str, n: u64) {
-    let job = JobSpec::from_toml_str(text, "t.toml").unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
-    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    let (job, _dir, single, sharded) = single_run(text);
     for i in 0..n - 1 {
         let report = run(&job, "t.toml", &options(&sharded, Some((i, n)), false)).unwrap();
         assert!(!report.complete);
@@ -120,10 +127,7 @@ fn a_trajectory_in_3_shards_gives_the_single_runs_switches() {
 /// the one that finishes the run gives the single run's files.
 #[test]
 fn shards_without_parts_run_first_and_the_run_is_the_single_one() {
-    let job = JobSpec::from_toml_str(GRID_3D, "t.toml").unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
-    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    let (job, _dir, single, sharded) = single_run(GRID_3D);
     let parts = job.sample_count().div_ceil(CHUNK);
     let n = parts + 3;
     let mut complete = Vec::new();
@@ -144,10 +148,7 @@ fn shards_without_parts_run_first_and_the_run_is_the_single_one() {
 /// a directory that holds anything but a run.
 #[test]
 fn a_shard_takes_a_directory_whose_job_file_another_shard_is_writing() {
-    let job = JobSpec::from_toml_str(TRAJECTORY, "t.toml").unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
-    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    let (job, _dir, single, sharded) = single_run(TRAJECTORY);
     std::fs::create_dir_all(&sharded).unwrap();
     let in_flight = sharded.join(".job.toml.tmp-4000000");
     std::fs::write(&in_flight, "name = \"t").unwrap();
@@ -169,10 +170,7 @@ fn a_shard_takes_a_directory_whose_job_file_another_shard_is_writing() {
 /// falls back to the search from the traces: the same switches every way.
 #[test]
 fn resumed_and_lost_shard_files_give_the_same_switches() {
-    let job = JobSpec::from_toml_str(GRID_3D, "t.toml").unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let (single, sharded) = (dir.path().join("single"), dir.path().join("sharded"));
-    run(&job, "t.toml", &options(&single, None, false)).unwrap();
+    let (job, _dir, single, sharded) = single_run(GRID_3D);
     let layout = Layout::new(&sharded);
     for i in 0..4 {
         run(&job, "t.toml", &options(&sharded, Some((i, 4)), false)).unwrap();
