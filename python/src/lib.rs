@@ -191,6 +191,11 @@ fn out_dir_message(e: &OutputDirError) -> String {
                 dir.display()
             )
         }
+        OutputDirError::OtherChunks { dir, part, was, now, chunk } => format!(
+            "out: {} holds parts cut with another chunk_size ({part} has {was} samples, {now} with \
+             chunk_size={chunk}); resume it with the chunk_size it was started with, or pass overwrite=True",
+            dir.display()
+        ),
     }
 }
 

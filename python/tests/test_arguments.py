@@ -253,6 +253,18 @@ def test_resume_with_another_precision_or_columns_names_the_argument(tmp_path):
     assert clearance.run(JOB, out, resume=True, precision="single")["computed"] == 0
 
 
+def test_resume_or_shard_with_another_chunk_size_names_the_argument(tmp_path):
+    """A part's name is its chunk's number: resuming (or adding a shard) with another
+    chunk_size would cut other parts under the same names, and is refused in Python's
+    terms; with the run's own it goes on."""
+    out = tmp_path / "run"
+    clearance.run(JOB, out, chunk_size=4)
+    for asked in (dict(resume=True), dict(shard=(1, 2))):
+        message = refused(ValueError, "out", lambda: clearance.run(JOB, out, chunk_size=5, **asked), out)
+        assert "chunk_size=5" in message and "has 4 samples" in message, message
+    assert clearance.run(JOB, out, resume=True, chunk_size=4)["computed"] == 0
+
+
 @pytest.mark.parametrize("asked", [dict(resume=True), dict(overwrite=True), dict(shard=(1, 2))])
 def test_a_folder_that_holds_no_run_is_kept(asked, tmp_path):
     out = tmp_path / "mine"

@@ -60,6 +60,10 @@ pub enum OutputDirError {
     /// than the run's part files were written with: the parts would not share a schema.
     #[error("{} holds part files written with {option} {was}; resume it with the same (this run asks for {now}), or use --overwrite", dir.display())]
     OtherOptions { dir: PathBuf, option: &'static str, was: String, now: String },
+    /// Asked to resume (or to add a shard) with another `--chunk-size` than the run's
+    /// parts were cut with: a part of the same name would hold other samples.
+    #[error("{} holds parts cut with another --chunk-size ({part} has {was} samples, {now} with --chunk-size {chunk}); resume it with the --chunk-size it was started with, or use --overwrite", dir.display())]
+    OtherChunks { dir: PathBuf, part: String, was: u64, now: u64, chunk: u64 },
     /// Asked to overwrite files that are not a run (no `job.toml`): they stay.
     #[error("{} is not empty and holds no clearance run (no job.toml); refusing to overwrite it", dir.display())]
     NotARunToOverwrite { dir: PathBuf },

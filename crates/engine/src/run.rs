@@ -384,6 +384,41 @@ fn same_part_options(layout: &Layout, opts: &RunOptions) -> Result<()> {
     Ok(())
 }
 
+/// Refuses to resume (or add a shard to) a run whose units were cut with another
+/// `--chunk-size` than `chunk`: a unit's files are named by its chunk's number, so
+/// another cutting would keep or merge files of other samples under those names (two
+/// shards of one run with different sizes gave a "complete" run with samples twice
+/// and others missing). Each unit's statistics say how many samples it holds; a file
+/// that cannot be read is a torn one, which `--resume` computes again. Under two
+/// cuttings every unit but the last of a (variant, mode) differs in length, so the
+/// first few files read settle it: a run of many thousand parts on a shared file
+/// system is not read whole by every shard that starts.
+fn same_chunks(layout: &Layout, all: &[Unit], chunk: u64) -> Result<()> {
+    const READ: usize = 8;
+    let read = all.iter().filter_map(|u| {
+        let path = layout.stats(u.variant, u.mode, u.chunk);
+        std::fs::read(&path).ok().and_then(|bytes| stats_samples(&bytes)).map(|was| (u, path, was))
+    });
+    for (u, path, was) in read.take(READ) {
+        let now = u.range.end - u.range.start;
+        if was != now {
+            let part = path.strip_prefix(layout.root()).unwrap_or(&path).display().to_string();
+            let dir = layout.root().to_path_buf();
+            return Err(OutputDirError::OtherChunks { dir, part, was, now, chunk }.into());
+        }
+    }
+    Ok(())
+}
+
+/// The sample count a unit's statistics file gives (every kind's has `samples`).
+fn stats_samples(bytes: &[u8]) -> Option<u64> {
+    #[derive(serde::Deserialize)]
+    struct Samples {
+        samples: u64,
+    }
+    serde_json::from_slice::<Samples>(bytes).ok().map(|s| s.samples)
+}
+
 /// An empty completion marker, on the disk before this returns.
 pub(crate) fn write_marker(path: &Path) -> Result<()> {
     write_bytes(path, b"", &WriteOptions::default())?;
@@ -1414,6 +1449,9 @@ pub(crate) fn prepare_run(
     prepare_dir(&layout, &job_toml, opts)?;
     let work = works(job, &groups, opts.chunk_size);
     let all: Vec<Unit> = work.iter().flat_map(|w| w.units.iter().cloned()).collect();
+    if opts.resume || opts.shard.is_some() {
+        same_chunks(&layout, &all, opts.chunk_size)?;
+    }
     let mine_work: Vec<Work> = work.into_iter().filter(|w| opts.shard.is_none_or(|(i, n)| w.number % n == i)).collect();
     let mine: Vec<Unit> = mine_work.iter().flat_map(|w| w.units.iter().cloned()).collect();
     let todo_work: Vec<Work> = mine_work

@@ -165,6 +165,38 @@ fn a_shard_takes_a_directory_whose_job_file_another_shard_is_writing() {
     same_finals(&single, &sharded);
 }
 
+/// Parts are named by their chunk's number, so a shard or a resumed run cut with
+/// another `--chunk-size` than the run's first would keep or merge files of other
+/// samples under those names: it is refused (exit 2's kind of error, naming the
+/// part and both lengths), and the run goes on with its own size to the single run's
+/// files. A job whose samples fit in one chunk either way is cut the same.
+#[test]
+fn another_chunk_size_is_refused_where_it_would_cut_other_parts() {
+    let (job, dir, single, sharded) = single_run(GRID_3D);
+    let cut = |out: &Path, chunk: u64, shard: Option<(u64, u64)>, resume: bool| RunOptions {
+        chunk_size: chunk,
+        ..options(out, shard, resume)
+    };
+    run(&job, "t.toml", &options(&sharded, Some((0, 2)), false)).unwrap();
+    for (shard, resume) in [(Some((1, 2)), false), (None, true)] {
+        let e = run(&job, "t.toml", &cut(&sharded, CHUNK + 200, shard, resume))
+            .expect_err("another chunk size cuts other parts");
+        assert!(e.is_usage(), "{e}");
+        let text = e.to_string();
+        assert!(text.contains("--chunk-size 700") && text.contains("has 500 samples"), "{text}");
+    }
+    let report = run(&job, "t.toml", &options(&sharded, Some((1, 2)), false)).unwrap();
+    assert!(report.complete);
+    same_finals(&single, &sharded);
+    // Within one chunk either way: the same cutting.
+    let (alone, whole) = (dir.path().join("alone"), dir.path().join("whole"));
+    let n = job.sample_count();
+    run(&job, "t.toml", &cut(&alone, n, None, false)).unwrap();
+    run(&job, "t.toml", &cut(&whole, n, Some((0, 1)), false)).unwrap();
+    assert!(run(&job, "t.toml", &cut(&whole, 2 * n, None, true)).unwrap().complete);
+    same_finals(&alone, &whole);
+}
+
 /// A shard re-run with `--resume` searches its lines again; a shard file lost after
 /// every shard is done, or a sharded run finished by a resumed run without shards,
 /// falls back to the search from the traces: the same switches every way.
