@@ -290,7 +290,9 @@ fn job_in_flight(name: &str) -> bool {
     name.starts_with(".job.toml.tmp-")
 }
 
-pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) -> Result<()> {
+/// Makes `layout`'s directory ready for a run of `job_toml` cut into the units `all`:
+/// refuses what it holds unless the options let the run take it, and writes the job.
+pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions, all: &[Unit]) -> Result<()> {
     let out = layout.root();
     let entries: Vec<_> = match std::fs::read_dir(out) {
         Ok(rd) => rd.filter_map(|e| e.ok()).collect(),
@@ -332,6 +334,7 @@ pub(crate) fn prepare_dir(layout: &Layout, job_toml: &str, opts: &RunOptions) ->
                 return Err(e.into());
             }
             same_part_options(layout, opts)?;
+            same_chunks(layout, all, opts.chunk_size)?;
         } else {
             return Err(OutputDirError::NotEmpty { dir: out.to_path_buf() }.into());
         }
@@ -1446,12 +1449,9 @@ pub(crate) fn prepare_run(
     let groups = groups(&variants);
     let job_toml = job.to_toml_string();
     let layout = Layout::new(&opts.out);
-    prepare_dir(&layout, &job_toml, opts)?;
     let work = works(job, &groups, opts.chunk_size);
     let all: Vec<Unit> = work.iter().flat_map(|w| w.units.iter().cloned()).collect();
-    if opts.resume || opts.shard.is_some() {
-        same_chunks(&layout, &all, opts.chunk_size)?;
-    }
+    prepare_dir(&layout, &job_toml, opts, &all)?;
     let mine_work: Vec<Work> = work.into_iter().filter(|w| opts.shard.is_none_or(|(i, n)| w.number % n == i)).collect();
     let mine: Vec<Unit> = mine_work.iter().flat_map(|w| w.units.iter().cloned()).collect();
     let todo_work: Vec<Work> = mine_work
