@@ -29,9 +29,9 @@ pub struct CustomRow {
 }
 
 /// What a float column of a custom run holds, in [`CustomSchema::new`]'s words: read from
-/// each row's result by one `match` (a boxed closure a column, called for every value,
-/// was most of filling a row).
-#[derive(Clone, Copy, Debug)]
+/// each row's result a [`Span`] of columns at a time (a boxed closure a column, called
+/// for every value, was most of filling a row).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Fill {
     /// A platform coordinate, known wherever the closure was solved.
     Coord(usize),
@@ -62,6 +62,7 @@ enum Fill {
 impl Fill {
     /// The column's value in the row of `r` (`loaded`: [`CustomResult::loaded`]); `None`
     /// where it has none.
+    #[cfg(test)]
     fn of(self, r: &CustomResult, loaded: bool) -> Option<f64> {
         let reachable = r.status != Status::Unreachable;
         match self {
@@ -79,12 +80,104 @@ impl Fill {
             Fill::Exact(i) => r.exact.map(|e| e[i]),
         }
     }
+
+    /// The column after this one in a [`Span`] of consecutive components of one place,
+    /// if there is one.
+    fn next(self) -> Option<Fill> {
+        Some(match self {
+            Fill::Coord(k) => Fill::Coord(k + 1),
+            Fill::Err(i) => Fill::Err(i + 1),
+            Fill::Q(i) => Fill::Q(i + 1),
+            Fill::Tau(i) => Fill::Tau(i + 1),
+            Fill::KindErr(k, i) => Fill::KindErr(k, i + 1),
+            Fill::Margin(g) => Fill::Margin(g + 1),
+            Fill::Env(c) => Fill::Env(c + 1),
+            Fill::KindEnv(k, c) => Fill::KindEnv(k, c + 1),
+            Fill::Force(l, j, a) => Fill::Force(l, j, a + 1),
+            Fill::Moment(l, j, a) => Fill::Moment(l, j, a + 1),
+            Fill::Cond => return None,
+            Fill::Exact(i) => Fill::Exact(i + 1),
+        })
+    }
+}
+
+/// Consecutive float columns that read consecutive components of one place of a row's
+/// result (a kind's nine error components, a joint's force): filled by one `match` a
+/// span, the values copied together. One `match` a value, with its checks, was most of
+/// filling a row (a described 3-PRS: 6 k instructions a row of 109 floats, callgrind).
+#[derive(Clone, Copy, Debug)]
+struct Span {
+    /// The first column's.
+    first: Fill,
+    len: usize,
+}
+
+impl Span {
+    /// The spans of `floats`, in order.
+    fn of(floats: &[Fill]) -> Vec<Span> {
+        let mut out: Vec<Span> = Vec::new();
+        let mut next: Option<Fill> = None;
+        for &f in floats {
+            match (out.last_mut(), next) {
+                (Some(span), Some(n)) if n == f => span.len += 1,
+                _ => out.push(Span { first: f, len: 1 }),
+            }
+            next = f.next();
+        }
+        out
+    }
+
+    /// Writes the span's values in the row of `r` to `out` (its `len` columns; NaN where
+    /// a column has none), as [`Fill::of`] reads each (`loaded`: [`CustomResult::loaded`]).
+    fn put(self, r: &CustomResult, loaded: bool, out: &mut [f64]) {
+        let reachable = r.status != Status::Unreachable;
+        let n = self.len;
+        let from = |src: Option<&[f64]>, start: usize, out: &mut [f64]| match src.and_then(|s| s.get(start..start + n))
+        {
+            Some(values) => out.copy_from_slice(values),
+            None => {
+                // Part of the range may be there (a shorter list): each on its own.
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = src.and_then(|s| s.get(start + k)).copied().unwrap_or(f64::NAN);
+                }
+            }
+        };
+        match self.first {
+            Fill::Coord(k) => out.copy_from_slice(&r.coords[k..k + n]),
+            Fill::Err(i) => {
+                let total = if r.status == Status::Ok { r.total.as_ref() } else { None };
+                from(total.map(|e| &e[..]), i, out)
+            }
+            Fill::Q(i) => from(reachable.then_some(&r.q[..]), i, out),
+            Fill::Tau(i) => from(loaded.then_some(&r.tau[..]), i, out),
+            Fill::KindErr(k, i) => {
+                let e = if loaded { r.kind_errors.get(k).and_then(Option::as_ref) } else { None };
+                from(e.map(|e| &e[..]), i, out)
+            }
+            Fill::Margin(g) => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = if loaded { r.takes.get(g + k).map_or(f64::NAN, |t| t.margin) } else { f64::NAN };
+                }
+            }
+            Fill::Env(c) => from(loaded.then_some(&r.env_total[..]), c, out),
+            Fill::KindEnv(k, c) => from(if loaded { r.envelope.get(k).map(|e| &e[..]) } else { None }, c, out),
+            // A pose without loads may have no reactions at all.
+            Fill::Force(l, j, a) if loaded => out.copy_from_slice(&r.reactions[l][j].0.as_slice()[a..a + n]),
+            Fill::Moment(l, j, a) if loaded => out.copy_from_slice(&r.reactions[l][j].1.as_slice()[a..a + n]),
+            Fill::Force(..) | Fill::Moment(..) => out.fill(f64::NAN),
+            Fill::Cond => out.fill(if reachable { r.cond } else { f64::NAN }),
+            Fill::Exact(i) => from(r.exact.as_ref().map(|e| &e[..]), i, out),
+        }
+    }
 }
 
 /// The `poses` columns of a custom run for one column set.
 pub struct CustomSchema {
     schema: SchemaRef,
-    floats: Vec<Fill>,
+    /// The float columns, in spans of consecutive components.
+    spans: Vec<Span>,
+    /// How many float columns the spans hold.
+    floats: usize,
     /// The `dominant` column's values, by group, when the set has the column.
     dominant: Option<Vec<String>>,
 }
@@ -186,7 +279,7 @@ impl CustomSchema {
             fields.push(Field::new("dominant", DataType::Utf8, true).with_metadata(unit("")));
         }
         fields.extend(names.iter().map(|(n, u)| Field::new(n, DataType::Float64, true).with_metadata(unit(u))));
-        Self { schema: Arc::new(Schema::new(fields)), floats, dominant }
+        Self { schema: Arc::new(Schema::new(fields)), spans: Span::of(&floats), floats: floats.len(), dominant }
     }
 
     pub fn schema(&self) -> SchemaRef {
@@ -212,7 +305,7 @@ impl CustomSchema {
             t: Vec::with_capacity(len),
             status: Vec::with_capacity(len),
             dominant: Vec::with_capacity(if self.dominant.is_some() { len } else { 0 }),
-            floats: FiniteRows::new(len, self.floats.len()),
+            floats: FiniteRows::new(len, self.floats),
         }
     }
 
@@ -228,12 +321,14 @@ impl CustomSchema {
         if self.dominant.is_some() {
             part.dominant.extend(results.iter().map(|r| (r.status == Status::Ok).then_some(r.dominant).flatten()));
         }
-        let floats = &self.floats;
-        part.floats.fill(start..start + rows.len(), |i, out| {
+        let spans = &self.spans;
+        part.floats.fill(start..start + rows.len(), |i, mut out| {
             let r = &results[i - start];
             let loaded = r.loaded();
-            for (o, f) in out.iter_mut().zip(floats) {
-                *o = f.of(r, loaded).unwrap_or(f64::NAN);
+            for span in spans {
+                let (values, rest) = out.split_at_mut(span.len);
+                span.put(r, loaded, values);
+                out = rest;
             }
         });
     }
@@ -413,4 +508,89 @@ pub type CustomSwitch = SixSwitch;
 pub fn custom_discontinuity_batch(model: &CustomModel, rows: &[CustomSwitch]) -> RecordBatch {
     let kinds: Vec<&str> = model.kinds.iter().map(String::as_str).collect();
     six_coordinate_switch_batch(rows, &kinds, true, "N or N*m")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clearance_solver::custom::{GroupTake, Reactions};
+    use nalgebra::Vector3;
+
+    /// Every kind of column, in the orders `CustomSchema::new` writes them (runs of
+    /// consecutive components, and columns that merge with no neighbour).
+    fn columns() -> Vec<Fill> {
+        let mut f = vec![Fill::Coord(2), Fill::Coord(4), Fill::Coord(5)];
+        f.extend((0..9).map(Fill::Err));
+        f.extend([Fill::Coord(0), Fill::Coord(1), Fill::Coord(3)]);
+        f.extend((0..3).map(Fill::Q));
+        f.extend((0..3).map(Fill::Tau));
+        for k in 0..2 {
+            f.extend((0..9).map(|i| Fill::KindErr(k, i)));
+        }
+        f.extend([0, 1, 3, 2, 4].map(Fill::Margin));
+        f.extend((0..8).map(Fill::Env));
+        for k in 0..2 {
+            f.extend((0..8).map(|c| Fill::KindEnv(k, c)));
+        }
+        for (l, j) in [(0, 0), (0, 1), (1, 0)] {
+            f.extend((0..3).map(|a| Fill::Force(l, j, a)));
+            f.extend((0..3).map(|a| Fill::Moment(l, j, a)));
+        }
+        f.extend([Fill::Cond, Fill::Cond]);
+        f.extend((0..6).map(Fill::Exact));
+        f
+    }
+
+    /// A result whose every value is distinct, with `status`, some lists shorter than
+    /// the columns read and a kind without an error.
+    fn result(status: Status, seed: f64) -> CustomResult {
+        let v = |k: usize| seed + k as f64;
+        let arr = |k: usize| -> [f64; 9] { std::array::from_fn(|i| v(10 * k + i)) };
+        let pair = |k: usize| (Vector3::new(v(k), v(k + 1), v(k + 2)), Vector3::new(v(k + 3), v(k + 4), v(k + 5)));
+        CustomResult {
+            status,
+            coords: std::array::from_fn(|i| v(200 + i)),
+            q: vec![v(300), v(301)],
+            tau: vec![v(310), v(311), v(312)],
+            reactions: Reactions::of(&[vec![pair(400), pair(410)], vec![pair(420)]]),
+            takes: (0..4).map(|g| GroupTake { margin: v(500 + g), ..Default::default() }).collect(),
+            kind_errors: vec![Some(arr(60)), None],
+            total: (seed > 1.0).then(|| arr(70)),
+            envelope: vec![std::array::from_fn(|c| v(800 + c))],
+            env_total: std::array::from_fn(|c| v(810 + c)),
+            dominant: Some(1),
+            cond: v(900),
+            exact: (seed > 2.0).then(|| std::array::from_fn(|i| v(910 + i))),
+        }
+    }
+
+    #[test]
+    fn spans_fill_what_each_column_reads() {
+        let floats = columns();
+        let spans = Span::of(&floats);
+        // Runs merged: fewer spans than columns, and every column in one span.
+        assert!(spans.len() < floats.len() / 3, "{} spans", spans.len());
+        assert_eq!(spans.iter().map(|s| s.len).sum::<usize>(), floats.len());
+        for status in [Status::Ok, Status::IndeterminateContact, Status::NearSingular, Status::Unreachable] {
+            for seed in [0.5, 1.5, 2.5] {
+                let mut r = result(status, seed);
+                if status == Status::Unreachable {
+                    // As the solver leaves an unreachable pose: no reactions.
+                    r.reactions = Reactions::default();
+                }
+                let loaded = r.loaded();
+                let mut row = vec![0.0; floats.len()];
+                let mut out = &mut row[..];
+                for span in &spans {
+                    let (values, rest) = out.split_at_mut(span.len);
+                    span.put(&r, loaded, values);
+                    out = rest;
+                }
+                for (c, (f, got)) in floats.iter().zip(&row).enumerate() {
+                    let want = f.of(&r, loaded).unwrap_or(f64::NAN);
+                    assert_eq!(got.to_bits(), want.to_bits(), "column {c} ({f:?}), {status:?}, seed {seed}");
+                }
+            }
+        }
+    }
 }

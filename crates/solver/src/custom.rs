@@ -1136,7 +1136,10 @@ fn preset_result_of(
         cond,
         ..Default::default()
     };
-    let mut undetermined = vec![false; model.kinds.len()];
+    // A preset's kinds are distinct built-in kinds: at most `KINDS.len()` (on the stack,
+    // not an allocation a pose).
+    let mut undetermined = [false; clearance_model::KINDS.len()];
+    let undetermined = &mut undetermined[..model.kinds.len()];
     out.takes.reserve_exact(model.groups.len());
     for def in &model.groups {
         let (l, joint) = (def.limb, model.joint_type(def));
@@ -1160,7 +1163,7 @@ fn preset_result_of(
         out.takes.push(take);
     }
     // The kernel's verdict on each kind must be the description's.
-    if preset.kinds.iter().zip(&undetermined).any(|(&kb, &u)| r.kind_ok[kb] == u) {
+    if preset.kinds.iter().zip(undetermined.iter()).any(|(&kb, &u)| r.kind_ok[kb] == u) {
         return None;
     }
     let nine = nine_at(&coords);
@@ -1168,7 +1171,7 @@ fn preset_result_of(
     let mut env_total = [0.0; 8];
     out.kind_errors.reserve_exact(preset.kinds.len());
     out.envelope.reserve_exact(preset.kinds.len());
-    for (&kb, &u) in preset.kinds.iter().zip(&undetermined) {
+    for (&kb, &u) in preset.kinds.iter().zip(undetermined.iter()) {
         let e = &r.errors[kb];
         let six = [e.dp.x, e.dp.y, e.dp.z, e.dalpha.x, e.dalpha.y, e.dalpha.z];
         out.kind_errors.push((!u).then(|| nine(&six)));
