@@ -23,8 +23,8 @@ use clearance_grid::SampleSource;
 use clearance_kinematics::custom::Configuration;
 use clearance_model::{JobError, JobSpec, Mode, Variant};
 use clearance_parquet::{
-    ColumnSet, CustomPart, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, WriteOptions,
-    custom_discontinuity_batch, custom_summary_batch, write_parquet,
+    Codec, ColumnSet, CustomPages, CustomPart, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch,
+    Precision, WriteOptions, Writer, custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
 use clearance_solver::custom::{
     CustomModel, CustomResult, LargestCond, Wanted, drop_spare_results, group_load_near, preset_members, recycle,
@@ -37,7 +37,7 @@ use crate::groups::Group;
 use crate::layout::Layout;
 use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_stats, unit_complete};
 use crate::solve::Poses;
-use crate::units::{UnitRun, run_units};
+use crate::units::{PartRows, UnitRun, run_units};
 use crate::ups::{UpsPath, ups_paths};
 
 /// The location tolerance of a scalar load's root, in the path parameter (sample steps).
@@ -231,6 +231,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
         models,
         search: opts.search,
         poses: opts.poses,
+        pages: (opts.writer == Writer::Engine).then_some((setup.write_opts.codec, opts.precision)),
         each_cond: opts.poses && opts.columns >= ColumnSet::Full,
         tables: HashMap::new(),
         kept: 0,
@@ -254,6 +255,10 @@ struct CustomRun<'a> {
     search: bool,
     /// Whether the units' part files are written (their rows built).
     poses: bool,
+    /// With the engine's encoder, the codec and precision the part files' pages are
+    /// encoded with as they are solved; with Arrow's (`--writer arrow`), none: the
+    /// part's columns are built whole.
+    pages: Option<(Codec, Precision)>,
     /// Whether they hold each pose's condition number (else the statistics read only
     /// the largest: [`solve_members`]).
     each_cond: bool,
@@ -278,9 +283,16 @@ const BLOCK: u64 = 8 * 1024;
 /// samples (where the pass keeps it: [`CustomRun::keeps_table`]).
 #[derive(Default)]
 struct MemberSolved {
-    part: Option<CustomPart>,
+    part: Option<Part>,
     stats: CustomStats,
     sampled: Option<Sampled>,
+}
+
+/// A unit's rows as they are filled: encoded page by page for the engine's encoder,
+/// columns whole for Arrow's.
+enum Part {
+    Pages(CustomPages),
+    Columns(CustomPart),
 }
 
 impl CustomRun<'_> {
@@ -314,9 +326,13 @@ impl UnitRun for CustomRun<'_> {
             .iter()
             .zip(&members)
             .map(|(u, m)| MemberSolved {
-                part: self
-                    .poses
-                    .then(|| self.schemas[u.variant as usize].part(u.mode, (range.end - range.start) as usize)),
+                part: self.poses.then(|| {
+                    let (schema, len) = (&self.schemas[u.variant as usize], (range.end - range.start) as usize);
+                    match self.pages {
+                        Some((codec, precision)) => Part::Pages(schema.pages(u.mode, len, codec, precision)),
+                        None => Part::Columns(schema.part(u.mode, len)),
+                    }
+                }),
                 stats: CustomStats::new(m.kinds.len(), m.groups.len()),
                 sampled: self.keeps_table(u).then(|| Sampled::with_capacity(m, (range.end - range.start) as usize)),
             })
@@ -331,10 +347,10 @@ impl UnitRun for CustomRun<'_> {
                 // builds the columns.
                 let MemberSolved { part, stats, sampled } = part;
                 rayon::join(
-                    || {
-                        if let Some(part) = part {
-                            schema.fill(part, &rows, &results);
-                        }
+                    || match part {
+                        Some(Part::Pages(part)) => schema.fill_pages(part, &rows, &results),
+                        Some(Part::Columns(part)) => schema.fill(part, &rows, &results),
+                        None => {}
                     },
                     || {
                         for r in &results {
@@ -356,7 +372,7 @@ impl UnitRun for CustomRun<'_> {
         out
     }
 
-    fn unit(&mut self, w: &Work, k: usize, solved: &mut Self::Solved, poses: bool) -> (Option<RecordBatch>, Vec<u8>) {
+    fn unit(&mut self, w: &Work, k: usize, solved: &mut Self::Solved, poses: bool) -> (Option<PartRows>, Vec<u8>) {
         let u = &w.units[k];
         let v = u.variant as usize;
         let MemberSolved { part, mut stats, sampled } = std::mem::take(&mut solved[k]);
@@ -373,7 +389,10 @@ impl UnitRun for CustomRun<'_> {
             }
         }
         stats.flush();
-        let batch = poses.then(|| self.schemas[v].finish(part.expect("a part where its rows are written")));
+        let batch = poses.then(|| match part.expect("a part where its rows are written") {
+            Part::Pages(pages) => PartRows::Pages(Box::new(pages)),
+            Part::Columns(part) => PartRows::Batch(self.schemas[v].finish(part)),
+        });
         (batch, serde_json::to_vec(&stats).expect("statistics are plain numbers"))
     }
 

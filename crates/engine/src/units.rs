@@ -1,5 +1,5 @@
 //! The run loop of the mechanisms whose units are solved whole and written as record
-//! batches: the 6-UPS ([`crate::ups`]) and any mechanism from its joints
+//! batches or pages encoded as they are solved: the 6-UPS ([`crate::ups`]) and any mechanism from its joints
 //! ([`crate::custom`]). What differs between them (how a work is solved, its units'
 //! rows and statistics, what the search keeps, the search, the run's tables) is a
 //! [`UnitRun`]; the plan, the order of solving and writing, progress, the sync,
@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use arrow::record_batch::RecordBatch;
-use clearance_parquet::{Landing, ParquetError, WriteOptions, write_bytes};
+use clearance_parquet::{CustomPages, Landing, ParquetError, WriteOptions, write_bytes, write_custom_part};
 use std::sync::Arc;
 
 use crate::error::EngineError;
@@ -42,7 +42,7 @@ pub(crate) trait UnitRun {
 
     /// Unit `k` of `w`: its part's rows (only when `poses`) and its statistics file's
     /// bytes. It may take the unit's own results out of `solved`.
-    fn unit(&mut self, w: &Work, k: usize, solved: &mut Self::Solved, poses: bool) -> (Option<RecordBatch>, Vec<u8>);
+    fn unit(&mut self, w: &Work, k: usize, solved: &mut Self::Solved, poses: bool) -> (Option<PartRows>, Vec<u8>);
 
     /// The work's solution once every unit is built: what the next work may reuse.
     fn done(&mut self, solved: Self::Solved) -> Option<Self::Solved> {
@@ -66,12 +66,20 @@ pub(crate) trait UnitRun {
     ) -> Result<()>;
 }
 
+/// A unit's rows, to write as its part file.
+pub(crate) enum PartRows {
+    /// Its columns, to encode.
+    Batch(RecordBatch),
+    /// A custom run's rows, their pages encoded.
+    Pages(Box<CustomPages>),
+}
+
 /// A unit's part file and statistics, written together.
 struct Written {
     part: PathBuf,
     stats_path: PathBuf,
     stats: Vec<u8>,
-    batch: Option<RecordBatch>,
+    batch: Option<PartRows>,
     meta: Vec<(String, String)>,
     poses: u64,
 }
@@ -110,8 +118,12 @@ pub(crate) fn run_units<R: UnitRun + Send + Sync>(r: &mut R, opts: &RunOptions, 
             std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
         }
         write_bytes(&w.stats_path, &w.stats, write_opts)?;
-        if let Some(batch) = &w.batch {
-            crate::run::write_part_batch(opts.writer, opts.precision, &w.part, batch, write_opts, &w.meta)?;
+        match &w.batch {
+            Some(PartRows::Batch(batch)) => {
+                crate::run::write_part_batch(opts.writer, opts.precision, &w.part, batch, write_opts, &w.meta)?
+            }
+            Some(PartRows::Pages(pages)) => write_custom_part(&w.part, pages, write_opts, &w.meta)?,
+            None => {}
         }
         Ok((w.poses, writing.elapsed().as_secs_f64()))
     };

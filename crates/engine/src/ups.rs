@@ -36,7 +36,7 @@ use crate::groups::{Group, membership};
 use crate::layout::Layout;
 use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_stats, unit_complete};
 use crate::solve::Poses;
-use crate::units::{UnitRun, run_units};
+use crate::units::{PartRows, UnitRun, run_units};
 
 type Result<T, E = EngineError> = std::result::Result<T, E>;
 
@@ -165,7 +165,7 @@ impl UnitRun for UpsRun<'_> {
         k: usize,
         (rows, solved): &mut Self::Solved,
         poses: bool,
-    ) -> (Option<RecordBatch>, Vec<u8>) {
+    ) -> (Option<PartRows>, Vec<u8>) {
         let (u, group) = (&w.units[k], &self.groups[w.group]);
         let scaled: Vec<UpsResult>;
         let results = if group.alone() {
@@ -177,7 +177,7 @@ impl UnitRun for UpsRun<'_> {
         };
         // The statistics on this thread while the pool builds the columns.
         let (batch, stats) = rayon::join(
-            || poses.then(|| self.schema.batch(u.mode, rows, results)),
+            || poses.then(|| PartRows::Batch(self.schema.batch(u.mode, rows, results))),
             || {
                 let mut stats = UpsStats::default();
                 for r in results {

@@ -147,15 +147,19 @@ fn a_trajectory_in_both_modes_past_the_stroke() {
     assert!(not_ok > 100 && not_ok < rows / 2, "{not_ok} of {rows} rows not ok");
 }
 
-/// A 6-UPS's and a custom mechanism's parts are built as record batches: `--writer`
-/// chooses their encoder too, and both write the same table.
+/// A 6-UPS's parts are built as record batches, a custom mechanism's encoded a page at
+/// a time as its blocks of rows are solved: `--writer` chooses their encoder too, and
+/// both write the same table. The larger custom grid's parts of 10 000 rows hold pages
+/// whose rows come from two blocks (blocks are aligned on the samples, pages on the
+/// part) and a short last page.
 #[test]
 fn a_6ups_grid_and_a_custom_mechanism() {
     let (rows, _) = check(UPS, ColumnSet::Full, 50, Codec::Zstd);
     assert_eq!(rows, 81);
-    let custom = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../jobs/custom_3rrs_grid.toml"))
-        .unwrap()
-        .replace("n = 61", "n = 11");
-    let (rows, _) = check(&custom, ColumnSet::Standard, 40, Codec::Lz4);
+    let custom =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../jobs/custom_3rrs_grid.toml")).unwrap();
+    let (rows, _) = check(&custom.replace("n = 61", "n = 11"), ColumnSet::Standard, 40, Codec::Lz4);
     assert_eq!(rows, 121);
+    let (rows, _) = check(&custom.replace("n = 61", "n = 151"), ColumnSet::Full, 10_000, Codec::Zstd);
+    assert_eq!(rows, 151 * 151);
 }

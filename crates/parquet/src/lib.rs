@@ -41,8 +41,8 @@ mod ups;
 mod writer;
 
 pub use custom::{
-    CustomPart, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch, custom_discontinuity_batch,
-    custom_summary_batch,
+    CustomPages, CustomPart, CustomRow, CustomSchema, CustomStats, CustomSummaryRow, CustomSwitch,
+    custom_discontinuity_batch, custom_summary_batch,
 };
 pub use output::Landing;
 pub use pages::{PAGE_ROWS, TAIL_PAGE_ROWS, page_spans};
@@ -55,7 +55,9 @@ pub use ups::{
     SixSwitch, UPS_INPUTS, UPS_SWITCH_KINDS, UpsRow, UpsSchema, UpsStats, UpsSummaryRow, UpsSwitch,
     ups_discontinuity_batch, ups_summary_batch,
 };
-pub use writer::{Codec, ParquetError, WriteOptions, key_values, write_bytes, write_parquet, write_part};
+pub use writer::{
+    Codec, ParquetError, WriteOptions, key_values, write_bytes, write_custom_part, write_parquet, write_part,
+};
 
 /// The engine version written into every file's metadata.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -439,7 +439,7 @@ pub(crate) fn finite_rows(len: usize, columns: usize, fill: impl Fn(usize, &mut 
 /// arrays ([`FiniteRows::finish`]): the same arrays, whatever the runs.
 pub(crate) struct FiniteRows {
     /// Each column's values, written in place.
-    values: Vec<Vec<f64>>,
+    pub(crate) values: Vec<Vec<f64>>,
     /// Whether each column holds a value that is not finite.
     nulls: Vec<AtomicBool>,
 }

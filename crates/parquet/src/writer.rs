@@ -4,11 +4,13 @@ use crate::output::{Landing, Output};
 use crate::pages::{self, DoubleChunk};
 use std::path::{Path, PathBuf};
 
+use crate::custom::CustomPages;
 use crate::schema::{PartPages, PoseSchema};
 use arrow::array::{ArrayRef, Float64Array, UInt64Array};
 use arrow::datatypes::{DataType, Schema};
 use arrow::record_batch::RecordBatch;
 use bytes::Bytes;
+use clearance_model::Mode;
 use clearance_solver::Status;
 use std::sync::Arc;
 
@@ -338,11 +340,6 @@ pub fn write_part(
         source: parquet::errors::ParquetError::General(msg),
     };
     let PartPages { mode, sample, status, dominant, pages } = part;
-    let rows = sample.len();
-    let sample: ArrayRef = Arc::new(UInt64Array::from(sample.clone()));
-    let modes = [mode.name()];
-    let statuses = Status::ALL.map(|s| s.name());
-    let status_index = status.iter().map(|s| s.index() as u8).collect();
     let doubles = schema.doubles();
     let mut chunks: Vec<DoubleChunk> = (0..doubles).map(|_| DoubleChunk::default()).collect();
     for (k, page) in pages.iter().enumerate() {
@@ -356,26 +353,93 @@ pub fn write_part(
             at += stats.bytes;
         }
     }
+    let dominant = schema.has_dominant().then(|| crate::schema::dominant_column(dominant));
+    let labels = Labels { mode: *mode, sample, status, dominant };
+    write_encoded(path, &schema.schema(), labels, chunks, opts, extra)
+}
+
+/// The columns of a part file besides its doubles: `mode`, `sample`, `status` and,
+/// where the schema has it, `dominant`.
+struct Labels<'a> {
+    mode: Mode,
+    sample: &'a [u64],
+    status: &'a [Status],
+    dominant: Option<ArrayRef>,
+}
+
+/// Writes a part file whose double columns are encoded (`chunks`: `t`, then the
+/// float columns, in schema order) as one row group, with its `labels`, via a
+/// temporary sibling and an atomic rename. The string and sample columns are
+/// encoded here, on this thread.
+fn write_encoded(
+    path: &Path,
+    arrow_schema: &arrow::datatypes::SchemaRef,
+    labels: Labels<'_>,
+    chunks: Vec<DoubleChunk<'_>>,
+    opts: &WriteOptions,
+    extra: &[(String, String)],
+) -> Result<(), ParquetError> {
+    let enc = |msg: &str| ParquetError::Encode {
+        path: path.to_path_buf(),
+        source: parquet::errors::ParquetError::General(msg.to_string()),
+    };
+    let Labels { mode, sample, status, dominant } = labels;
+    let rows = sample.len();
+    let sample: ArrayRef = Arc::new(UInt64Array::from(sample.to_vec()));
+    let modes = [mode.name()];
+    let statuses = Status::ALL.map(|s| s.name());
+    let status_index = status.iter().map(|s| s.index() as u8).collect();
     // In schema order (`label_columns`): mode, sample, t, status, dominant (standard
     // and full sets), then the floats.
     let mut chunks = chunks.into_iter();
-    let t = chunks.next().ok_or_else(|| enc("no t column".into()))?;
+    let t = chunks.next().ok_or_else(|| enc("no t column"))?;
     let mut columns = vec![
         Column::Labels(&modes, vec![0; rows]),
         Column::Array(&sample),
         Column::Doubles(t),
         Column::Labels(&statuses, status_index),
     ];
-    let dominant = crate::schema::dominant_column(dominant);
-    if schema.has_dominant() {
-        columns.push(Column::Array(&dominant));
+    if let Some(dominant) = &dominant {
+        columns.push(Column::Array(dominant));
     }
     columns.extend(chunks.map(Column::Doubles));
     let opts = WriteOptions { row_group_rows: rows.max(1), ..opts.clone() };
-    let arrow_schema = schema.schema();
-    write_file(path, &arrow_schema, &opts, extra, |writer, factory| {
-        append_row_group(writer, factory, 0, &arrow_schema, columns, opts.codec, false)
+    write_file(path, arrow_schema, &opts, extra, |writer, factory| {
+        append_row_group(writer, factory, 0, arrow_schema, columns, opts.codec, false)
     })
+}
+
+/// Writes a custom run's part file whose pages are all encoded ([`CustomPages`]), as
+/// [`write_part`] writes a 3-limb run's.
+pub fn write_custom_part(
+    path: &Path,
+    part: &CustomPages,
+    opts: &WriteOptions,
+    extra: &[(String, String)],
+) -> Result<(), ParquetError> {
+    let enc = |msg: String| ParquetError::Encode {
+        path: path.to_path_buf(),
+        source: parquet::errors::ParquetError::General(msg),
+    };
+    if let Some(e) = &part.failed {
+        return Err(enc(format!("encoding the part's pages: {e}")));
+    }
+    if part.codec != opts.codec {
+        return Err(enc(format!("pages encoded with {}, the file is {}", part.codec.name(), opts.codec.name())));
+    }
+    if part.sample.len() != part.len || part.staged > 0 {
+        return Err(enc(format!("{} of the part's {} rows encoded", part.sample.len() - part.staged, part.len)));
+    }
+    let doubles = part.doubles();
+    let mut chunks: Vec<DoubleChunk> = (0..doubles).map(|_| DoubleChunk::default()).collect();
+    for page in &part.pages {
+        for (chunk, (bytes, stats)) in chunks.iter_mut().zip(page) {
+            chunk.push(bytes, std::slice::from_ref(stats));
+        }
+    }
+    let labels =
+        Labels { mode: part.mode, sample: &part.sample, status: &part.status, dominant: part.dominant_column() };
+    write_encoded(path, &part.schema, labels, chunks, opts, extra)
 }
 
 /// The key-value metadata in the footer of the Parquet file at `path` (`None` where
