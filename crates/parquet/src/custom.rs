@@ -319,14 +319,29 @@ impl CustomSchema {
         assert_eq!(rows.len(), results.len(), "one result per row");
         let start = part.sample.len();
         assert!(start + rows.len() <= part.len, "rows beyond the part's length");
-        part.sample.extend(rows.iter().map(|s| s.sample));
+        self.labels((&mut part.sample, &mut part.status, &mut part.dominant), rows, results);
         part.t.extend(rows.iter().map(|s| s.t.filter(|t| t.is_finite())));
-        part.status.extend(results.iter().map(|r| r.status));
+        self.floats_of(&mut part.floats, start, results);
+    }
+
+    /// Appends the `sample`, `status` and (where the set has it) `dominant` of `rows`.
+    fn labels(
+        &self,
+        (sample, status, dominant): (&mut Vec<u64>, &mut Vec<Status>, &mut Vec<Option<usize>>),
+        rows: &[CustomRow],
+        results: &[CustomResult],
+    ) {
+        sample.extend(rows.iter().map(|s| s.sample));
+        status.extend(results.iter().map(|r| r.status));
         if self.dominant.is_some() {
-            part.dominant.extend(results.iter().map(|r| (r.status == Status::Ok).then_some(r.dominant).flatten()));
+            dominant.extend(results.iter().map(|r| (r.status == Status::Ok).then_some(r.dominant).flatten()));
         }
+    }
+
+    /// Fills rows `start..` of `floats` with the float columns of `results`.
+    fn floats_of(&self, floats: &mut FiniteRows, start: usize, results: &[CustomResult]) {
         let spans = &self.spans;
-        part.floats.fill(start..start + rows.len(), |i, mut out| {
+        floats.fill(start..start + results.len(), |i, mut out| {
             let r = &results[i - start];
             let loaded = r.loaded();
             for span in spans {
@@ -371,11 +386,7 @@ impl CustomSchema {
     pub fn fill_pages(&self, part: &mut CustomPages, rows: &[CustomRow], results: &[CustomResult]) {
         assert_eq!(rows.len(), results.len(), "one result per row");
         assert!(part.sample.len() + rows.len() <= part.len, "rows beyond the part's length");
-        part.sample.extend(rows.iter().map(|s| s.sample));
-        part.status.extend(results.iter().map(|r| r.status));
-        if self.dominant.is_some() {
-            part.dominant.extend(results.iter().map(|r| (r.status == Status::Ok).then_some(r.dominant).flatten()));
-        }
+        self.labels((&mut part.sample, &mut part.status, &mut part.dominant), rows, results);
         let start = part.staged;
         let end = start + rows.len();
         for v in &mut part.stage.values {
@@ -383,16 +394,7 @@ impl CustomSchema {
         }
         part.stage_t.truncate(start);
         part.stage_t.extend(rows.iter().map(|s| s.t.unwrap_or(f64::NAN)));
-        let spans = &self.spans;
-        part.stage.fill(start..end, |i, mut out| {
-            let r = &results[i - start];
-            let loaded = r.loaded();
-            for span in spans {
-                let (values, rest) = out.split_at_mut(span.len);
-                span.put(r, loaded, values);
-                out = rest;
-            }
-        });
+        self.floats_of(&mut part.stage, start, results);
         part.staged = end;
         let ready = if part.sample.len() == part.len { end } else { end / PAGE_ROWS * PAGE_ROWS };
         if ready > 0 {

@@ -335,10 +335,7 @@ pub fn write_part(
     opts: &WriteOptions,
     extra: &[(String, String)],
 ) -> Result<(), ParquetError> {
-    let enc = |msg: String| ParquetError::Encode {
-        path: path.to_path_buf(),
-        source: parquet::errors::ParquetError::General(msg),
-    };
+    let enc = |msg: String| encode_error(path, msg);
     let PartPages { mode, sample, status, dominant, pages } = part;
     let doubles = schema.doubles();
     let mut chunks: Vec<DoubleChunk> = (0..doubles).map(|_| DoubleChunk::default()).collect();
@@ -379,10 +376,6 @@ fn write_encoded(
     opts: &WriteOptions,
     extra: &[(String, String)],
 ) -> Result<(), ParquetError> {
-    let enc = |msg: &str| ParquetError::Encode {
-        path: path.to_path_buf(),
-        source: parquet::errors::ParquetError::General(msg.to_string()),
-    };
     let Labels { mode, sample, status, dominant } = labels;
     let rows = sample.len();
     let sample: ArrayRef = Arc::new(UInt64Array::from(sample.to_vec()));
@@ -392,7 +385,7 @@ fn write_encoded(
     // In schema order (`label_columns`): mode, sample, t, status, dominant (standard
     // and full sets), then the floats.
     let mut chunks = chunks.into_iter();
-    let t = chunks.next().ok_or_else(|| enc("no t column"))?;
+    let t = chunks.next().ok_or_else(|| encode_error(path, "no t column".into()))?;
     let mut columns = vec![
         Column::Labels(&modes, vec![0; rows]),
         Column::Array(&sample),
@@ -409,6 +402,11 @@ fn write_encoded(
     })
 }
 
+/// A part file that cannot be encoded as it stands: `msg` says why.
+fn encode_error(path: &Path, msg: String) -> ParquetError {
+    ParquetError::Encode { path: path.to_path_buf(), source: parquet::errors::ParquetError::General(msg) }
+}
+
 /// Writes a custom run's part file whose pages are all encoded ([`CustomPages`]), as
 /// [`write_part`] writes a 3-limb run's.
 pub fn write_custom_part(
@@ -417,10 +415,7 @@ pub fn write_custom_part(
     opts: &WriteOptions,
     extra: &[(String, String)],
 ) -> Result<(), ParquetError> {
-    let enc = |msg: String| ParquetError::Encode {
-        path: path.to_path_buf(),
-        source: parquet::errors::ParquetError::General(msg),
-    };
+    let enc = |msg: String| encode_error(path, msg);
     if let Some(e) = &part.failed {
         return Err(enc(format!("encoding the part's pages: {e}")));
     }
