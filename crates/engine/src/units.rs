@@ -1,9 +1,10 @@
-//! The run loop of the mechanisms whose units are solved whole and written as record
-//! batches or pages encoded as they are solved: the 6-UPS ([`crate::ups`]) and any mechanism from its joints
-//! ([`crate::custom`]). What differs between them (how a work is solved, its units'
-//! rows and statistics, what the search keeps, the search, the run's tables) is a
-//! [`UnitRun`]; the plan, the order of solving and writing, progress, the sync,
-//! shards and resume are [`run_units`], once for both.
+//! The run loop of the mechanisms whose units are solved a work at a time and written
+//! as record batches or as pages encoded as they are solved: the 6-UPS
+//! ([`crate::ups`]) and any mechanism from its joints ([`crate::custom`]). What
+//! differs between them (how a work is solved, its units' rows and statistics, what
+//! the search keeps, the search, the run's tables) is a [`UnitRun`]; the plan, the
+//! order of solving and writing, progress, the sync, shards and resume are
+//! [`run_units`], once for both.
 //!
 //! The order: each work is solved on the pool while the last part of the work before
 //! is written (writing a part is partly serial: its file, its footer); a work's other
@@ -79,7 +80,7 @@ struct Written {
     part: PathBuf,
     stats_path: PathBuf,
     stats: Vec<u8>,
-    batch: Option<PartRows>,
+    rows: Option<PartRows>,
     meta: Vec<(String, String)>,
     poses: u64,
 }
@@ -114,11 +115,11 @@ pub(crate) fn run_units<R: UnitRun + Send + Sync>(r: &mut R, opts: &RunOptions, 
         // A part that failed in the background stops the run here, not at its end.
         landing.failure().map_err(|(path, source)| ParquetError::Io { path, source })?;
         let writing = Instant::now();
-        for dir in [w.part.parent().filter(|_| w.batch.is_some()), w.stats_path.parent()].into_iter().flatten() {
+        for dir in [w.part.parent().filter(|_| w.rows.is_some()), w.stats_path.parent()].into_iter().flatten() {
             std::fs::create_dir_all(dir).map_err(EngineError::io("create", dir))?;
         }
         write_bytes(&w.stats_path, &w.stats, write_opts)?;
-        match &w.batch {
+        match &w.rows {
             Some(PartRows::Batch(batch)) => {
                 crate::run::write_part_batch(opts.writer, opts.precision, &w.part, batch, write_opts, &w.meta)?
             }
@@ -148,13 +149,13 @@ pub(crate) fn run_units<R: UnitRun + Send + Sync>(r: &mut R, opts: &RunOptions, 
         stages.pose_pass += pose_pass.elapsed().as_secs_f64();
         for (k, u) in w.units.iter().enumerate() {
             let pose_pass = Instant::now();
-            let (batch, stats) = r.unit(w, k, &mut solved, opts.poses);
+            let (rows, stats) = r.unit(w, k, &mut solved, opts.poses);
             stages.pose_pass += pose_pass.elapsed().as_secs_f64();
             let unit = Written {
                 part: layout.part(u.variant, u.mode, u.chunk),
                 stats_path: layout.stats(u.variant, u.mode, u.chunk),
                 stats,
-                batch,
+                rows,
                 meta: part_metadata(&variants[u.variant as usize]),
                 poses: u.range.end - u.range.start,
             };
