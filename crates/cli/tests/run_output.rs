@@ -449,6 +449,7 @@ fn bench_suite_reports_every_job_and_cleans_up() {
                 "prs_inclined",
                 "rps_grid",
                 "ups_grid",
+                "prs_builtin",
                 "prs_described",
                 "ups_described",
                 "custom_3rrs",
@@ -462,6 +463,14 @@ fn bench_suite_reports_every_job_and_cleans_up() {
         let cost = v["clearance_sweep_cost"].as_f64().expect("a number");
         let expected = seconds("sweep_masses_clearances_12") / seconds("sweep_masses_4");
         assert!((cost - expected).abs() <= 0.05 * expected, "{cost} against {expected} (both rounded)");
+        // Each described preset's cost: its wall time over its built-in twin's.
+        for (kind, described, builtin) in
+            [("3-PRS", "prs_described", "prs_builtin"), ("6-UPS", "ups_described", "ups_grid")]
+        {
+            let cost = v["described_cost"][kind].as_f64().expect("a number");
+            let expected = seconds(described) / seconds(builtin);
+            assert!((cost - expected).abs() <= 0.05 * expected, "{kind}: {cost} against {expected} (both rounded)");
+        }
         for j in jobs {
             let rate = j["poses_per_s"].as_f64().unwrap();
             let runs: Vec<f64> = j["runs"].as_array().unwrap().iter().map(|r| r.as_f64().unwrap()).collect();
