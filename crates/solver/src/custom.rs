@@ -1059,9 +1059,9 @@ fn prs_result(
 ///
 /// With `each_cond`, every result has its `cond`; without, only those that may be the
 /// largest of the solve whose runs share `largest` (all that its statistics read of it).
-pub fn preset_members(
+pub fn preset_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     models: &[&CustomModel],
-    poses: &[Vec<[f64; 3]>],
+    poses: &[P],
     mode: Mode,
     each_cond: bool,
     largest: &LargestCond,
@@ -1445,9 +1445,9 @@ fn ups_load_at(model: &CustomModel, pose: &UpsPose, group: usize) -> Option<Opti
 
 /// [`preset_members`] for 6-UPS presets: per pose, the kernel once (the members differ
 /// only in their clearances), then each member's take-up.
-fn ups_members(
+fn ups_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     models: &[&CustomModel],
-    poses: &[Vec<[f64; 3]>],
+    poses: &[P],
     mode: Mode,
     cond_of: CondOf,
     largest: &LargestCond,
