@@ -63,6 +63,26 @@ enum Fill {
     Exact(usize),
 }
 
+/// `out.copy_from_slice(src)` for the short runs a span copies (at most nine values,
+/// a kind's error): a copy of a length known here rather than a call to `memcpy` for
+/// each of a row's thirty-odd spans (the calls were a fifth of filling a row,
+/// callgrind). Panics, as `copy_from_slice` does, where the lengths differ.
+#[inline(always)]
+fn copy_short(out: &mut [f64], src: &[f64]) {
+    macro_rules! fixed {
+        ($($n:literal)*) => {
+            match out.len() {
+                $($n => {
+                    let to: &mut [f64; $n] = out.try_into().expect("matched length");
+                    *to = src.try_into().expect("the source as long as the span");
+                })*
+                _ => out.copy_from_slice(src),
+            }
+        };
+    }
+    fixed!(1 2 3 4 5 6 7 8 9)
+}
+
 impl Fill {
     /// The column's value in the row of `r` (`loaded`: [`CustomResult::loaded`]); `None`
     /// where it has none.
@@ -138,7 +158,7 @@ impl Span {
         let n = self.len;
         let from = |src: Option<&[f64]>, start: usize, out: &mut [f64]| match src.and_then(|s| s.get(start..start + n))
         {
-            Some(values) => out.copy_from_slice(values),
+            Some(values) => copy_short(out, values),
             None => {
                 // Part of the range may be there (a shorter list): each on its own.
                 for (k, o) in out.iter_mut().enumerate() {
@@ -147,7 +167,7 @@ impl Span {
             }
         };
         match self.first {
-            Fill::Coord(k) => out.copy_from_slice(&r.coords[k..k + n]),
+            Fill::Coord(k) => copy_short(out, &r.coords[k..k + n]),
             Fill::Err(i) => {
                 let total = if r.status == Status::Ok { r.total.as_ref() } else { None };
                 from(total.map(|e| &e[..]), i, out)
@@ -166,8 +186,8 @@ impl Span {
             Fill::Env(c) => from(loaded.then_some(&r.env_total[..]), c, out),
             Fill::KindEnv(k, c) => from(if loaded { r.envelope.get(k).map(|e| &e[..]) } else { None }, c, out),
             // A pose without loads may have no reactions at all.
-            Fill::Force(l, j, a) if loaded => out.copy_from_slice(&r.reactions[l][j].0.as_slice()[a..a + n]),
-            Fill::Moment(l, j, a) if loaded => out.copy_from_slice(&r.reactions[l][j].1.as_slice()[a..a + n]),
+            Fill::Force(l, j, a) if loaded => copy_short(out, &r.reactions[l][j].0.as_slice()[a..a + n]),
+            Fill::Moment(l, j, a) if loaded => copy_short(out, &r.reactions[l][j].1.as_slice()[a..a + n]),
             Fill::Force(..) | Fill::Moment(..) => out.fill(f64::NAN),
             Fill::Cond => out.fill(if reachable { r.cond } else { f64::NAN }),
             Fill::Exact(i) => from(r.exact.as_ref().map(|e| &e[..]), i, out),
@@ -372,7 +392,7 @@ impl CustomSchema {
             sample: Vec::with_capacity(len),
             status: Vec::with_capacity(len),
             dominant: Vec::with_capacity(if self.dominant.is_some() { len } else { 0 }),
-            stage: FiniteRows::new(0, self.floats),
+            stage: FiniteRows::unflagged(0, self.floats),
             stage_t: Vec::new(),
             staged: 0,
             pages: Vec::with_capacity(len.div_ceil(PAGE_ROWS)),
