@@ -271,6 +271,7 @@ pub(crate) fn run_custom(job: &JobSpec, job_file: &str, opts: &RunOptions) -> Re
         each_cond: opts.poses && opts.columns >= ColumnSet::Full,
         tables: HashMap::new(),
         kept: 0,
+        merged: HashMap::new(),
     };
     let report = run_units(&mut r, opts, &setup);
     rayon::broadcast(|_| drop_spare_results());
@@ -304,6 +305,13 @@ struct CustomRun<'a> {
     tables: HashMap<(u64, Mode), Table>,
     /// Bytes the tables take.
     kept: u64,
+    /// Per (variant, mode), the statistics of the units written here merged in the
+    /// order they came, and their chunks in that order: where these are all the
+    /// (variant, mode)'s units in the run's order, the summary takes them as they are
+    /// rather than parsing every unit's statistics file again (a described 3-PRS's file
+    /// took 16 M instructions to parse, a serial stretch at the end of a run of many
+    /// units).
+    merged: HashMap<(u64, Mode), (CustomStats, Vec<u64>)>,
 }
 
 /// Rows of a work solved at a time: each block's results become its rows of the
@@ -429,7 +437,15 @@ impl UnitRun for CustomRun<'_> {
             Part::Pages(pages) => PartRows::Pages(Box::new(pages)),
             Part::Columns(part) => PartRows::Batch(self.schemas[v].finish(part)),
         });
-        (batch, serde_json::to_vec(&stats).expect("statistics are plain numbers"))
+        let bytes = serde_json::to_vec(&stats).expect("statistics are plain numbers");
+        let model = &self.models[v];
+        let (merged, chunks) = self
+            .merged
+            .entry((u.variant, u.mode))
+            .or_insert_with(|| (CustomStats::new(model.kinds.len(), model.groups.len()), Vec::new()));
+        merged.merge(&stats);
+        chunks.push(u.chunk);
+        (batch, bytes)
     }
 
     fn searches(&mut self) -> (Self::Found, f64) {
@@ -451,7 +467,8 @@ impl UnitRun for CustomRun<'_> {
         found: Self::Found,
         stages: &mut StageTimes,
     ) -> Result<()> {
-        finalize(layout, self.job, self.variants, &self.models, all, write_opts, found, stages)
+        let run = (self.job, self.variants, &self.models[..], &self.merged);
+        finalize(layout, run, all, write_opts, found, stages)
     }
 }
 
@@ -480,14 +497,16 @@ fn searches(
     (found, searching.elapsed().as_secs_f64())
 }
 
+/// What [`finalize`] reads of a custom run: its job, variants and models, and the
+/// statistics merged as its units were written ([`CustomRun::merged`]).
+type Finalizing<'r> =
+    (&'r JobSpec, &'r [Variant], &'r [CustomModel], &'r HashMap<(u64, Mode), (CustomStats, Vec<u64>)>);
+
 /// The summary and the discontinuities of a run whose units are all written, with the
 /// switches `found` ([`searches`]; none where a variant is missing).
-#[allow(clippy::too_many_arguments)]
 fn finalize(
     layout: &Layout,
-    job: &JobSpec,
-    variants: &[Variant],
-    models: &[CustomModel],
+    (job, variants, models, merged): Finalizing<'_>,
     all: &[Unit],
     write_opts: &WriteOptions,
     mut found: HashMap<(u64, Mode), Vec<CustomSwitch>>,
@@ -498,10 +517,24 @@ fn finalize(
     for variant in variants {
         let model = &models[variant.index as usize];
         for &mode in &job.analysis.modes {
-            let mut stats = CustomStats::new(model.kinds.len(), model.groups.len());
-            for u in all.iter().filter(|u| u.variant == variant.index && u.mode == mode) {
-                stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
-            }
+            // Merged in the units' order from an empty start, in memory as here: the
+            // same sums either way (the files hold each unit's statistics exactly).
+            let units: Vec<&Unit> = all.iter().filter(|u| u.variant == variant.index && u.mode == mode).collect();
+            let stats = match merged.get(&(variant.index, mode)) {
+                Some((stats, chunks)) if chunks.iter().eq(units.iter().map(|u| &u.chunk)) => stats.clone(),
+                _ => {
+                    // Parsed on the pool, as a 6-UPS run's are.
+                    let parts: Vec<CustomStats> = units
+                        .par_iter()
+                        .map(|u| read_stats(&layout.stats(u.variant, u.mode, u.chunk)))
+                        .collect::<Result<_>>()?;
+                    let mut stats = CustomStats::new(model.kinds.len(), model.groups.len());
+                    for part in &parts {
+                        stats.merge(part);
+                    }
+                    stats
+                }
+            };
             let own = found.remove(&(variant.index, mode)).unwrap_or_default();
             let mut counts = vec![0u64; model.kinds.len()];
             for s in &own {
