@@ -278,21 +278,23 @@ impl Known {
 }
 
 /// What the search reads at a sample, as the pass solved it: the forces that decide
-/// the take-ups and the per-kind errors, 336 bytes against a result's kilobyte (the
-/// pass stores them for every pose of a run that searches as it computes).
-/// `solve_reactions` and `solve_errors` give a solvable sample the same bits as its
-/// [`PoseResult`] (tested in the solver crate), so a search that reads them here finds
-/// the switches it finds by solving the sample again.
+/// the take-ups, 144 bytes against a result's kilobyte (the pass stores them for every
+/// pose of a run that searches as it computes). `solve_reactions` gives a solvable
+/// sample the same bits as its [`PoseResult`] (tested in the solver crate), so a search
+/// that reads them here finds the switches it finds by solving the sample again. The
+/// per-kind errors, which only the jumps read (a few samples a switch), are solved
+/// where they are read (`solve_errors`, the same bits too): stored for every pose they
+/// were 192 bytes more, written once and most never read, and fresh memory to fault
+/// in (`grid_2d`'s page faults, `perf`: the stored values a third of them).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Sampled {
     forces: SampleForces,
-    errors: KindErrors,
 }
 
 impl Sampled {
     #[inline]
     pub fn of(r: &PoseResult) -> Self {
-        Self { forces: SampleForces::of(&r.reactions), errors: kind_errors(&r.errors) }
+        Self { forces: SampleForces::of(&r.reactions) }
     }
 }
 
@@ -385,16 +387,14 @@ impl<'a> Solved<'a> {
         let sampled = |k: usize| traces.get(k).and_then(|_| known.get(self.ev.path.sample_index(k)));
         for (k, t) in traces.iter().enumerate() {
             if k > 0 && (t ^ traces[k - 1]) & signs != 0 {
-                // A crossing: its jump reads the errors there too, its first step
-                // the forces of a sample beyond each side.
-                (k - 1..=k).filter_map(sampled).for_each(prefetch_lines);
-                [k.wrapping_sub(2), k + 1].into_iter().filter_map(sampled).for_each(|s| prefetch_lines(&s.forces));
+                // A crossing: its first step reads the forces either side and a
+                // sample beyond each.
+                (k.wrapping_sub(2)..=k + 1).filter_map(sampled).for_each(|s| prefetch_lines(&s.forces));
             } else if t & candidates != 0 {
-                // A dip's walks read the forces a few samples out, and its jump the
-                // errors where they stop (a sweep's search took 4 % less time with
-                // these than with the candidate and its neighbours alone).
+                // A dip's walks read the forces a few samples out (a sweep's search
+                // took 4 % less time with these than with the candidate and its
+                // neighbours alone).
                 (k.saturating_sub(3)..=k + 3).filter_map(sampled).for_each(|s| prefetch_lines(&s.forces));
-                (k.saturating_sub(2)..=k + 2).filter_map(sampled).for_each(|s| prefetch_lines(&s.errors));
             }
         }
     }
@@ -410,12 +410,10 @@ impl<'a> Solved<'a> {
         })
     }
 
-    /// The per-kind errors at the `k`-th sample of the path.
+    /// The per-kind errors at the `k`-th sample of the path (solved: the pass keeps
+    /// none, see [`Sampled`]).
     pub fn errors(&mut self, k: usize, ws: &mut Workspace) -> KindErrors {
         let ev = self.ev;
-        if let Some(s) = self.known(k) {
-            return s.errors;
-        }
         *self.maps.cache.entry(k).or_insert_with(|| kind_errors(&solve_errors(ev.model, &ev.node(k), ev.mode, ws)))
     }
 }

@@ -500,7 +500,7 @@ struct Seam {
 const SEAM_SAMPLES: usize = 1 << 17;
 
 /// The most samples before a unit's whose values the search keeps for the lines that
-/// reach back into earlier units (336 bytes each, 44 MB).
+/// reach back into earlier units (144 bytes each, 19 MB).
 const KNOWN_SAMPLES: u64 = 1 << 17;
 
 /// Whether a path the search follows ends at a sample of `range`.
@@ -536,7 +536,7 @@ struct KnownReads {
 impl KnownReads {
     /// Whether storing the values paid for itself: at least one read for every
     /// [`STORED_PER_READ`] stored. A read spares a solve of 230 to 450 ns, a stored
-    /// value costs 336 bytes written, and fresh memory to fault in at first.
+    /// value costs 144 bytes written, and fresh memory to fault in at first.
     fn paid(&self) -> bool {
         self.read * STORED_PER_READ >= self.stored
     }
@@ -926,7 +926,7 @@ impl Ctx<'_> {
 
     /// Whether the search reads what the pass solved at the samples of `work`: it
     /// searches `work` as the run computes ([`Ctx::searched_now`]), the work's parts
-    /// are at most [`KNOWN_SAMPLES`] long (the values take 336 bytes a pose), and a
+    /// are at most [`KNOWN_SAMPLES`] long (the values take 144 bytes a pose), and a
     /// path it searches ends within the work or within reach of it ([`known_reach`];
     /// the first parts of a long trajectory are not worth the stores).
     fn reads_sampled(&self, work: &Work) -> bool {
