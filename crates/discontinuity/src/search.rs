@@ -389,7 +389,7 @@ impl<'a> Solved<'a> {
             if k > 0 && (t ^ traces[k - 1]) & signs != 0 {
                 // A crossing: its first step reads the forces either side and a
                 // sample beyond each.
-                (k.wrapping_sub(2)..=k + 1).filter_map(sampled).for_each(|s| prefetch_lines(&s.forces));
+                (k.saturating_sub(2)..=k + 1).filter_map(sampled).for_each(|s| prefetch_lines(&s.forces));
             } else if t & candidates != 0 {
                 // A dip's walks read the forces a few samples out (a sweep's search
                 // took 4 % less time with these than with the candidate and its

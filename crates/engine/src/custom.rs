@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use crate::error::EngineError;
 use crate::groups::Group;
 use crate::layout::Layout;
-use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_stats, unit_complete};
+use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_merged_stats, unit_complete};
 use crate::solve::Poses;
 use crate::units::{PartRows, UnitRun, run_units};
 use crate::ups::{UpsPath, ups_paths};
@@ -523,16 +523,8 @@ fn finalize(
             let stats = match merged.get(&(variant.index, mode)) {
                 Some((stats, chunks)) if chunks.iter().eq(units.iter().map(|u| &u.chunk)) => stats.clone(),
                 _ => {
-                    // Parsed on the pool, as a 6-UPS run's are.
-                    let parts: Vec<CustomStats> = units
-                        .par_iter()
-                        .map(|u| read_stats(&layout.stats(u.variant, u.mode, u.chunk)))
-                        .collect::<Result<_>>()?;
-                    let mut stats = CustomStats::new(model.kinds.len(), model.groups.len());
-                    for part in &parts {
-                        stats.merge(part);
-                    }
-                    stats
+                    let empty = CustomStats::new(model.kinds.len(), model.groups.len());
+                    read_merged_stats(layout, &units, empty, CustomStats::merge)?
                 }
             };
             let own = found.remove(&(variant.index, mode)).unwrap_or_default();

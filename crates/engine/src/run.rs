@@ -204,6 +204,23 @@ pub(crate) fn read_stats<S: serde::de::DeserializeOwned>(path: &Path) -> Result<
     serde_json::from_slice(&text).map_err(|source| EngineError::Corrupt { path: path.to_path_buf(), source })
 }
 
+/// The statistics of `units` from their files, parsed on the pool (each file read one
+/// after another was a serial stretch at the end of a run of many units), merged into
+/// `into` in the units' order: the same sums whatever the threads.
+pub(crate) fn read_merged_stats<S: serde::de::DeserializeOwned + Send>(
+    layout: &Layout,
+    units: &[&Unit],
+    mut into: S,
+    merge: impl Fn(&mut S, &S),
+) -> Result<S> {
+    let parts: Vec<S> =
+        units.par_iter().map(|u| read_stats(&layout.stats(u.variant, u.mode, u.chunk))).collect::<Result<_>>()?;
+    for part in &parts {
+        merge(&mut into, part);
+    }
+    Ok(into)
+}
+
 /// Whether `--resume` can keep a unit: its part is whole and its statistics file
 /// (written before it, and like it synced only at the end) parses. A missing trace
 /// is rebuilt at the end instead.
@@ -736,13 +753,7 @@ fn finalize(
             // Merged in unit order, as `Kept::add_stats` does, so both give the same sums.
             let stats = match kept.stats.remove(&(variant.index, mode)) {
                 Some((stats, count)) if count == units.len() => stats,
-                _ => {
-                    let mut stats = SummaryStats::default();
-                    for u in &units {
-                        stats.merge(&read_stats(&layout.stats(u.variant, u.mode, u.chunk))?);
-                    }
-                    stats
-                }
+                _ => read_merged_stats(layout, &units, SummaryStats::default(), SummaryStats::merge)?,
             };
             let found = if group.alone() {
                 found_by_group.remove(&(g, mode)).expect("every group searched")

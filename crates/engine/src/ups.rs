@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use crate::error::EngineError;
 use crate::groups::{Group, membership};
 use crate::layout::Layout;
-use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_stats, unit_complete};
+use crate::run::{RunOptions, RunReport, StageTimes, Unit, Work, prepare_run, read_merged_stats, unit_complete};
 use crate::solve::Poses;
 use crate::units::{PartRows, UnitRun, run_units};
 
@@ -254,17 +254,8 @@ fn finalize(
         let (g, m) = member_of[variant.index as usize];
         let group = &groups[g];
         for &mode in &job.analysis.modes {
-            // Read on the pool (each file is parsed, a serial stretch at the end of a
-            // run), merged in the units' order: the same sums.
             let units: Vec<&Unit> = all.iter().filter(|u| u.variant == variant.index && u.mode == mode).collect();
-            let parts: Vec<UpsStats> = units
-                .par_iter()
-                .map(|u| read_stats(&layout.stats(u.variant, u.mode, u.chunk)))
-                .collect::<Result<_>>()?;
-            let mut stats = UpsStats::default();
-            for part in &parts {
-                stats.merge(part);
-            }
+            let stats = read_merged_stats(layout, &units, UpsStats::default(), UpsStats::merge)?;
             let found = found.get(&(g, mode)).map_or(&[][..], Vec::as_slice);
             // The member's kinds, jumps scaled (`UpsSwitch::kind` is s_radial or u_radial).
             let scale = group.scales[m];
