@@ -744,7 +744,9 @@ fn search(
                 let found = if model.scalar(g) {
                     scalar_switches(path, &loads, floor, def.limb, &at, &solve_at, def.kind, g)
                 } else {
-                    vector_switches(path, &loads, &VectorRule { threshold, floor }, def.kind, def.limb, &at, &solve_at)
+                    // The switch's own point: its coordinates and whether it has loads.
+                    let posed_at = |p: f64| solve_wanted(p, Wanted::Posed);
+                    vector_switches(path, &loads, &VectorRule { threshold, floor }, def.kind, def.limb, &at, &posed_at)
                 };
                 // Each member's jump: its kind's error after minus before, from its own
                 // samples, or solved (once for all members) between them.
@@ -875,7 +877,8 @@ fn switch(
 /// The vector rule of docs/model.md §8 on one group's loads along one path; the jump
 /// is the kind's error between the two points where the directions were read. A
 /// switch whose point the search cannot solve again is dropped (as in
-/// [`scalar_switches`]).
+/// [`scalar_switches`]); `posed_at` solves the point for its coordinates and whether
+/// it has loads ([`Wanted::Posed`]: the margin is the located minimum's).
 fn vector_switches(
     path: &UpsPath,
     loads: &[Option<[f64; 3]>],
@@ -883,7 +886,7 @@ fn vector_switches(
     kind: usize,
     limb: usize,
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
-    solve_at: &SolveAt,
+    posed_at: &SolveAt,
 ) -> Vec<(CustomSwitch, Side, Side)> {
     let mags: Vec<SampledLoad> = loads.iter().map(|l| l.map(nalgebra::Vector3::from).map(|v| (v.norm(), v))).collect();
     let place = |r: &Reading| match r.sample {
@@ -893,7 +896,7 @@ fn vector_switches(
     vector_load::path_switches(&mags, rule, at)
         .into_iter()
         .filter_map(|found| {
-            let (t, s, r) = solve_at(found.at);
+            let (t, s, r) = posed_at(found.at);
             r[0].loaded().then(|| {
                 (switch(path, limb, kind, t, &s, &r[0], found.margin), place(&found.before), place(&found.after))
             })
@@ -927,9 +930,10 @@ mod tests {
 
     /// What the search reads of one kind at a pose (`Wanted::Kind`) is what the whole
     /// pose's solve gives: the coordinates, whether it has loads, each group of the
-    /// kind's take-up and the kind's error, bit for bit, for every kind; on a 3-PRS and
-    /// a 6-UPS (their kernels) and a 3-RRS (the general path), both modes, two members
-    /// of a clearance sweep.
+    /// kind's take-up and the kind's error, bit for bit, for every kind; and of a
+    /// switch's own point (`Wanted::Posed`) the coordinates and whether it has loads;
+    /// on a 3-PRS and a 6-UPS (their kernels) and a 3-RRS (the general path), both
+    /// modes, two members of a clearance sweep.
     #[test]
     fn the_search_reads_one_kind_as_the_whole_pose_gives_it() {
         for file in ["fig08_r_radial.toml", "ups_orientation_grid.toml", "custom_3rrs_grid.toml"] {
@@ -950,6 +954,12 @@ mod tests {
                 for mode in [Mode::Kinetostatic, Mode::Dynamic] {
                     let solve = |wanted| solve_members_near(&members, &x, Some((&rates, &rates)), mode, None, wanted).0;
                     let whole = solve(Wanted::WithoutCond);
+                    // A switch's own point: the coordinates and whether it has loads.
+                    for (w, p) in whole.iter().zip(&solve(Wanted::Posed)) {
+                        let at = format!("{file} at {x:?} ({mode:?}), posed");
+                        assert_eq!(p.loaded(), w.loaded(), "{at}");
+                        assert_eq!(p.coords.map(f64::to_bits), w.coords.map(f64::to_bits), "{at}");
+                    }
                     for kind in 0..model.kinds.len() {
                         let one = solve(Wanted::Kind(kind));
                         for (w, o) in whole.iter().zip(&one) {
@@ -976,6 +986,47 @@ mod tests {
             }
             assert!(read > 40 * 2 * model.kinds.len(), "{file}: {read} kinds' errors read");
         }
+    }
+
+    /// The 6-UPS kernel keeps the poses the search solved last on each thread: a pose
+    /// solved again after other presets', modes' and samples' on the same thread, read
+    /// whole or by one group's load, has the bits that a thread which solved nothing
+    /// before gives. The two presets differ in their platform's mass only, so that a
+    /// pose kept for one and read for the other would show in its loads.
+    #[test]
+    fn a_kept_kernel_pose_is_a_fresh_solve() {
+        let (job, light) = described_job("ups_orientation_grid.toml");
+        let mut heavier = job.clone();
+        heavier.mass.platform *= 2.0;
+        let heavy = model_of(&heavier, "heavier.toml").unwrap();
+        assert!(light.preset.is_some() && heavy.preset.is_some());
+        let home: Vec<f64> = light.geom.home.to_vec();
+        let rates = [0.1, -0.2, 0.05, 0.3, 0.0, -0.1];
+        let x = |i: usize| -> Vec<f64> {
+            home.iter().enumerate().map(|(k, h)| h + if k >= 3 { 0.02 * i as f64 } else { 0.0 }).collect()
+        };
+        type Read = (String, String);
+        // The whole pose and group 1's load, as text (floats as their shortest round trip).
+        let read = |m: &CustomModel, x: &[f64], mode: Mode| -> Read {
+            let whole = solve_members_near(&[m], x, Some((&rates, &rates)), mode, None, Wanted::WithoutCond).0;
+            let load = group_load_near(m, x, Some((&rates, &rates)), mode, None, 1).0;
+            (format!("{whole:?}"), format!("{load:?}"))
+        };
+        let order: Vec<(bool, usize, Mode)> = [0, 1, 0, 2, 1, 0]
+            .into_iter()
+            .flat_map(|i| [(false, i, Mode::Kinetostatic), (true, i, Mode::Kinetostatic), (false, i, Mode::Dynamic)])
+            .collect();
+        let mut solved = 0;
+        for &(heavy_one, i, mode) in &order {
+            let m = if heavy_one { &heavy } else { &light };
+            let here = read(m, &x(i), mode);
+            let fresh = std::thread::scope(|s| s.spawn(|| read(m, &x(i), mode)).join().unwrap());
+            assert_eq!(here, fresh, "{} preset, pose {i}, {mode:?}", if heavy_one { "heavy" } else { "light" });
+            solved += usize::from(here.1 != "None");
+        }
+        assert_eq!(solved, order.len(), "every pose has the group's load");
+        // The presets' loads differ: a pose read for the wrong one would be caught.
+        assert_ne!(read(&light, &x(0), Mode::Kinetostatic), read(&heavy, &x(0), Mode::Kinetostatic));
     }
 
     /// Where no column holds the condition number, a preset's poses compute it only

@@ -390,6 +390,10 @@ impl Reactions {
     pub fn refill<L: AsRef<[(V3, V3)]>>(mut self, limbs: &[L]) -> Self {
         self.values.clear();
         self.ends.clear();
+        // Room for all at once: grown limb by limb, a fresh value was reallocated at
+        // each of its first limbs.
+        self.values.reserve(limbs.iter().map(|l| l.as_ref().len()).sum());
+        self.ends.reserve(limbs.len());
         for l in limbs {
             self.push_limb(l.as_ref().iter().copied());
         }
@@ -548,7 +552,15 @@ pub enum Wanted {
     /// kinds' groups (their unit responses and envelope) is most of a whole solve
     /// where the kernel does not give it.
     Kind(usize),
+    /// What the switch search reads of a switch's own point: the coordinates and
+    /// whether the pose has loads, [`Wanted::WithoutCond`]'s bits. No group's take-up
+    /// (each left default, so the status is `ok` where the pose has loads), no error,
+    /// no envelope, no total, no dominant joint.
+    Posed,
 }
+
+/// `only` of a solve that reads no kind's take-up ([`Wanted::Posed`]): a kind no group has.
+const NO_KIND: usize = usize::MAX;
 
 /// [`solve_custom_near`] for the members of a clearance sweep: models equal but for
 /// their clearances (with the same kinds), giving what `wanted` asks. The kinematics
@@ -566,6 +578,7 @@ pub fn solve_members_near(
         Wanted::Whole => (CondOf::Each, None),
         Wanted::WithoutCond => (CondOf::Verdict, None),
         Wanted::Kind(k) => (CondOf::Verdict, Some(k)),
+        Wanted::Posed => (CondOf::Verdict, Some(NO_KIND)),
     };
     let model = models[0];
     let rates = if mode == Mode::Dynamic { rates } else { None };
@@ -1212,7 +1225,7 @@ fn preset_result(
         Preset::Prs3(p) => prs_result(model, p, inputs, rates, mode, cond_of),
         Preset::Ups6(p) => UPS_KERNEL.with(|k| {
             let mut k = k.borrow_mut();
-            let pose = k.pose(p, &ups_sample(inputs, rates), mode)?;
+            let pose = k.recalled(p, &ups_sample(inputs, rates), mode)?;
             ups_result(model, p, inputs, pose, cond_of, &mut None, only)
         }),
     }
@@ -1247,12 +1260,15 @@ fn preset_load(
 #[derive(Clone, Debug)]
 pub struct UpsPreset {
     /// The built-in kind's model.
-    pub model: crate::ups::UpsModel,
+    model: crate::ups::UpsModel,
     /// The legs' lengths at home: a custom `q` is measured from there.
-    pub q_home: [f64; 6],
+    q_home: [f64; 6],
     /// Per leg, the P joint's centre at home as its distance from the U joint's
     /// along the leg (it travels with the piston).
-    pub p_from_b: [f64; 6],
+    p_from_b: [f64; 6],
+    /// This preset among those the process made ([`UpsKernel::recalled`]): its fields
+    /// are fixed once made, and a clone is the same preset.
+    id: u64,
 }
 
 impl UpsPreset {
@@ -1284,7 +1300,9 @@ impl UpsPreset {
             let j = &custom.geom.limbs[l].joints;
             (j[1].centre - j[0].centre).norm()
         });
-        Some(Self { q_home: at_home.q, p_from_b, model })
+        static MADE: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let id = MADE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Some(Self { q_home: at_home.q, p_from_b, model, id })
     }
 }
 
@@ -1294,10 +1312,39 @@ fn ups_sample(inputs: &[f64], rates: Option<(&[f64], &[f64])>) -> crate::ups::Up
 }
 
 /// The 6-UPS kernel's scratch and the pose it gives, per thread (its sizes are the
-/// kind's, whatever the model).
+/// kind's, whatever the model), with the poses the switch search solved last.
 struct UpsKernel {
     ws: crate::ups::UpsWorkspace,
     pose: UpsPose,
+    /// The last [`RECALLED`] poses [`UpsKernel::recalled`] solved, each key's hash in
+    /// `hashes` at its index; the oldest at `next` once full.
+    recent: Vec<Recalled>,
+    hashes: Vec<u64>,
+    next: usize,
+}
+
+/// Poses a thread's [`UpsKernel`] keeps. The search reads a group's load at a point
+/// (the kernel's pose, for one joint's reaction), and later solves the whole pose at
+/// points among those: the switch at a polished minimum, the readings where the load
+/// rose to twice it. On a described 6-UPS those were a sixth of the kernel's poses,
+/// each solved a few dozen poses before.
+const RECALLED: usize = 64;
+
+/// What a kept pose was solved for: the preset's id, the mode, the sample's bits.
+type RecallKey = (u64, Mode, [[u64; 3]; 6]);
+
+/// A pose kept by [`UpsKernel::recalled`], and whether the kernel solved it.
+struct Recalled {
+    key: RecallKey,
+    solved: bool,
+    pose: UpsPose,
+}
+
+/// A hash of a [`RecallKey`] (a multiply–rotate mix of its words), to find a kept
+/// pose without comparing the keys of all.
+fn recall_hash((id, mode, bits): &RecallKey) -> u64 {
+    let mix = |h: u64, w: u64| (h ^ w).wrapping_mul(0x9e37_79b9_7f4a_7c15).rotate_left(23);
+    bits.iter().flatten().fold(mix(*id, *mode as u64), |h, &w| mix(h, w))
 }
 
 impl UpsKernel {
@@ -1305,12 +1352,45 @@ impl UpsKernel {
     fn pose(&mut self, preset: &UpsPreset, sample: &crate::ups::UpsSample, mode: Mode) -> Option<&UpsPose> {
         ups_pose(preset, sample, mode, &mut self.ws, &mut self.pose).then_some(&self.pose)
     }
+
+    /// [`UpsKernel::pose`], the same bits, from the poses kept where one was solved for
+    /// the same preset, mode and sample; else solved and kept. For the switch search's
+    /// points: the pass's poses are never solved twice.
+    fn recalled(&mut self, preset: &UpsPreset, sample: &crate::ups::UpsSample, mode: Mode) -> Option<&UpsPose> {
+        let key = (preset.id, mode, sample.map(|s| s.map(f64::to_bits)));
+        let hash = recall_hash(&key);
+        let found = self.hashes.iter().zip(&self.recent).position(|(&h, r)| h == hash && r.key == key);
+        let slot = match found {
+            Some(i) => i,
+            None => {
+                let slot = if self.recent.len() < RECALLED {
+                    self.recent.push(Recalled { key, solved: false, pose: UpsPose::default() });
+                    self.hashes.push(hash);
+                    self.recent.len() - 1
+                } else {
+                    let oldest = self.next;
+                    self.next = (self.next + 1) % RECALLED;
+                    oldest
+                };
+                let kept = &mut self.recent[slot];
+                kept.key = key;
+                kept.solved = ups_pose(preset, sample, mode, &mut self.ws, &mut kept.pose);
+                self.hashes[slot] = hash;
+                slot
+            }
+        };
+        let kept = &self.recent[slot];
+        kept.solved.then_some(&kept.pose)
+    }
 }
 
 thread_local! {
     static UPS_KERNEL: std::cell::RefCell<UpsKernel> = std::cell::RefCell::new(UpsKernel {
         ws: crate::ups::UpsWorkspace::new(&crate::ups::UpsModel::default()),
         pose: UpsPose::default(),
+        recent: Vec::new(),
+        hashes: Vec::new(),
+        next: 0,
     });
 }
 
@@ -1428,7 +1508,7 @@ fn ups_load(
     mode: Mode,
     group: usize,
 ) -> Option<Option<[f64; 3]>> {
-    UPS_KERNEL.with(|k| ups_load_at(model, k.borrow_mut().pose(preset, &ups_sample(inputs, rates), mode)?, group))
+    UPS_KERNEL.with(|k| ups_load_at(model, k.borrow_mut().recalled(preset, &ups_sample(inputs, rates), mode)?, group))
 }
 
 /// [`ups_load`] from the kernel's pose.
