@@ -733,7 +733,11 @@ fn search(
             let mut out: Vec<Vec<CustomSwitch>> = vec![Vec::new(); models.len()];
             for &g in &groups {
                 let def = &model.groups[g];
-                let loads: Vec<Option<[f64; 3]>> = samples[0].iter().map(|r| r.loads[g]).collect();
+                // The loads of a member with the group's play: the members' loads are the
+                // same, but a member without it leaves the group immobile.
+                let played =
+                    models.iter().position(|m| m.groups[g].magnitude > 0.0).expect("searched groups have play");
+                let loads: Vec<Option<[f64; 3]>> = samples[played].iter().map(|r| r.loads[g]).collect();
                 let at = |p: f64| {
                     let (.., inputs) = point(p);
                     let (load, reached) = load_of(model, &inputs, mode, trail.borrow().nearest(p), g);
@@ -742,7 +746,7 @@ fn search(
                 };
                 let solve_at = |p: f64| solve_wanted(p, Wanted::Kind(def.kind));
                 let found = if model.scalar(g) {
-                    scalar_switches(path, &loads, floor, def.limb, &at, &solve_at, def.kind, g)
+                    scalar_switches(path, &loads, floor, def.limb, &at, &solve_at, def.kind, (g, played))
                 } else {
                     // The switch's own point: its coordinates and whether it has loads.
                     let posed_at = |p: f64| solve_wanted(p, Wanted::Posed);
@@ -833,7 +837,7 @@ fn scalar_switches(
     at: &dyn Fn(f64) -> Option<[f64; 3]>,
     solve_at: &SolveAt,
     kind: usize,
-    group: usize,
+    (group, played): (usize, usize),
 ) -> Vec<(CustomSwitch, Side, Side)> {
     // A scalar load sits in its first component.
     let values: Vec<Option<f64>> = loads.iter().map(|l| l.map(|v| v[0])).collect();
@@ -841,8 +845,9 @@ fn scalar_switches(
         .into_iter()
         .filter_map(|c| {
             let (t, s, r) = solve_at(c.at);
-            // |load| of the pose just solved; none where it cannot be solved there.
-            let v = group_load(&r[0], group)?;
+            // |load| of the pose just solved (of the member `played`, which has the
+            // group's play); none where it cannot be solved there.
+            let v = group_load(&r[played], group)?;
             let margin = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
             Some((switch(path, limb, kind, t, &s, &r[0], margin), c.before, c.after))
         })

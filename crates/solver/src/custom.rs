@@ -335,7 +335,10 @@ pub struct GroupTake {
     /// The displacement as a spatial twist (magnitude included).
     pub twist: V6,
     pub indeterminate: bool,
-    /// Whether its unit response moves P at all.
+    /// Whether its unit response moves P at all; `false` where the group has no play
+    /// (its take-up is nothing, and nothing reads whether it could move P: the switch
+    /// search reads a member of a sweep that has the play), except on a described
+    /// 3-PRS's kernel.
     pub mobile: bool,
     /// Its own contribution to `|Δp|` (for the dominant joint).
     pub dp: f64,
@@ -1947,6 +1950,14 @@ fn take_up_at(
         let (centre, axis, normal) = joint_at(g.limb, g.joint);
         let at = (&centre, &axis, &normal);
         let mut t = group_take(model, g, joint, at, out.reactions[g.limb][g.joint]);
+        if g.magnitude == 0.0 {
+            // No play: its take-up (a zero twist) adds ±0 to its kind's error, which
+            // from +0 never holds −0, and 0·reach to the envelope: nothing. Its unit
+            // reach, a sixth of a described 6-UPS's pose where its U joints' tilt play
+            // is zero, is not solved (`mobile` stays false, `dp` 0 as solved).
+            out.takes.push(t);
+            continue;
+        }
         // The admissible set's unit responses: the envelope, and whether it moves P.
         let system = (g_matrix, block(g.limb), gi);
         let reach_here = || unit_reach(system, (joint, g.group), at, &pos);
