@@ -675,8 +675,12 @@ fn search(
     tables: Vec<Option<Table>>,
 ) -> Vec<Vec<CustomSwitch>> {
     let model = models[0];
-    let groups: Vec<usize> =
-        (0..model.groups.len()).filter(|&g| models.iter().any(|m| m.groups[g].magnitude > 0.0)).collect();
+    // The groups with play in some member, each with the first such member: the
+    // members' loads are the same, but a member without the play leaves the group
+    // immobile, so the search reads that member's.
+    let groups: Vec<(usize, usize)> = (0..model.groups.len())
+        .filter_map(|g| Some((g, models.iter().position(|m| m.groups[g].magnitude > 0.0)?)))
+        .collect();
     if groups.is_empty() {
         return vec![Vec::new(); models.len()];
     }
@@ -731,12 +735,8 @@ fn search(
                 }
             };
             let mut out: Vec<Vec<CustomSwitch>> = vec![Vec::new(); models.len()];
-            for &g in &groups {
+            for &(g, played) in &groups {
                 let def = &model.groups[g];
-                // The loads of a member with the group's play: the members' loads are the
-                // same, but a member without it leaves the group immobile.
-                let played =
-                    models.iter().position(|m| m.groups[g].magnitude > 0.0).expect("searched groups have play");
                 let loads: Vec<Option<[f64; 3]>> = samples[played].iter().map(|r| r.loads[g]).collect();
                 let at = |p: f64| {
                     let (.., inputs) = point(p);
