@@ -641,26 +641,25 @@ pub fn group_load_near(
         let g = &model.groups[group];
         let pj = &posture.joints[g.limb][g.joint];
         let at = (&pj.centre, &pj.axis, &pj.normal);
-        let system = (&basis.g, basis.block(g.limb), &gi);
-        mobile_load(model, g, out.reactions[g.limb][g.joint], at, system, &posture.platform.t)
+        let system = Blocks { g: &basis.g, block: |l| basis.block(l), gi: &gi, pos: posture.platform.t };
+        mobile_load(model, g, out.reactions[g.limb][g.joint], at, &system)
     });
     (load, Some((posture.coords, posture.states)))
 }
 
 /// Group `def`'s deciding load from its joint's reaction `(f, m)` and its centre, axis
-/// and normal (`at`), where the group can move P (its unit reach from `G`, the limb's
-/// block of it and `G⁻¹` in `system`, at least [`IMMOBILE`]); else `None`.
+/// and normal (`at`), where the group can move P (its unit reach in the pose's error
+/// system at least [`IMMOBILE`]); else `None`.
 fn mobile_load(
     model: &CustomModel,
     def: &GroupDef,
     (f, m): (V3, V3),
     at: (&V3, &V3, &V3),
-    system: (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
-    pos: &V3,
+    system: &impl Responder,
 ) -> Option<[f64; 3]> {
     let joint = model.joint_type(def);
     let (load, ..) = deciding_load(joint, def.group, at.1, at.2, &f, &m);
-    let (.., unit_p, _) = unit_reach(system, (joint, def.group), at, pos);
+    let (.., unit_p, _) = system.reach(def.limb, (joint, def.group), at);
     (unit_p >= IMMOBILE).then_some([load.x, load.y, load.z])
 }
 
@@ -1032,7 +1031,8 @@ fn prs_load(
         _ => ((r.f_r[l], r.m_r[l]), pose.b[l], preset.model.geometry.y[l]),
     };
     let at = (&centre, &axis, &V3::zeros());
-    Some(mobile_load(model, def, reaction, at, (&g, (2 * l, 2), &gi), &pose.p))
+    let system = Blocks { g: &g, block: |l| (2 * l, 2), gi: &gi, pos: pose.p };
+    Some(mobile_load(model, def, reaction, at, &system))
 }
 
 /// The kernel's sample of a preset's inputs (`z`, `ψ`, `θ`) and their rates.
@@ -1163,9 +1163,9 @@ fn preset_result_of(
         let at = (&centre, &axis, &V3::zeros());
         let mut take = group_take(model, def, joint, at, out.reactions[l][def.joint]);
         if let Some(gi) = &gi {
-            let system = (&g, (2 * l, 2), gi);
-            let reach = unit_reach(system, (joint, def.group), at, &pose.p);
-            settle(model, def, &reach, system, &pose.p, &mut take);
+            let system = Blocks { g: &g, block: |l| (2 * l, 2), gi, pos: pose.p };
+            let reach = system.reach(l, (joint, def.group), at);
+            settle(model, def, &reach, &system, &mut take);
             undetermined[def.kind] |= take.indeterminate;
         } else {
             // A group's own |Δp| bounds its unit reach from below: at least IMMOBILE
@@ -1497,7 +1497,7 @@ fn ups_result(
         cond,
         ..Default::default()
     };
-    take_up_at(model, |l, j| ups_joint_at(pose, l, j), (g, |l| (l, 1), gi), &pose.p, &coords, &mut out, only);
+    take_up_at(model, |l, j| ups_joint_at(pose, l, j), &Legs::new(g, gi, &pose.p), &coords, &mut out, only);
     Some(out)
 }
 
@@ -1522,8 +1522,8 @@ fn ups_load_at(model: &CustomModel, pose: &UpsPose, group: usize) -> Option<Opti
     let def = &model.groups[group];
     let (centre, axis, normal) = ups_joint_at(pose, def.limb, def.joint);
     let at = (&centre, &axis, &normal);
-    let system = (&pose.g, (def.limb, 1), &pose.gi);
-    Some(mobile_load(model, def, pose.reactions[def.limb][def.joint], at, system, &pose.p))
+    let system = Legs::of(&pose.g, &pose.gi, &pose.p, def.limb..def.limb + 1);
+    Some(mobile_load(model, def, pose.reactions[def.limb][def.joint], at, &system))
 }
 
 /// [`preset_members`] for 6-UPS presets: per pose, the kernel once (the members differ
@@ -1841,6 +1841,94 @@ fn unit_reach(
     (responses, shape, unit_p, unit_a)
 }
 
+/// A pose's error system as the take-up reads it (docs/model.md §12.7): the response at
+/// P of a limb's displacement twist, and a group's unit reach.
+trait Responder {
+    /// `ΔΓ` at P of a displacement twist `zeta` of limb `limb` ([`response`]).
+    fn response(&self, limb: usize, zeta: &V6) -> [f64; 6];
+
+    /// The unit reach of a group of limb `limb` ([`unit_reach`]): its joint and group,
+    /// and its joint's centre, axis and normal in `at`.
+    fn reach(&self, limb: usize, kind: (JointType, Group), at: (&V3, &V3, &V3)) -> Reach;
+}
+
+/// Any mechanism's error system: `G`, each limb's block of its columns (start, width) by
+/// `block`, `G⁻¹` and P.
+struct Blocks<'a, B> {
+    g: &'a Matrix6<f64>,
+    block: B,
+    gi: &'a Matrix6<f64>,
+    pos: V3,
+}
+
+impl<B: Fn(usize) -> (usize, usize)> Responder for Blocks<'_, B> {
+    fn response(&self, limb: usize, zeta: &V6) -> [f64; 6] {
+        response(self.g, (self.block)(limb), self.gi, zeta, &self.pos)
+    }
+
+    fn reach(&self, limb: usize, kind: (JointType, Group), at: (&V3, &V3, &V3)) -> Reach {
+        unit_reach((self.g, (self.block)(limb), self.gi), kind, at, &self.pos)
+    }
+}
+
+/// A 6-UPS preset's error system (docs/model.md §12.6): each leg lets one wrench
+/// through, so its block of `G` is one column `g_l` and the response of a twist `ζ` of
+/// the leg is `(g_lᵀ·S·ζ)·r_l`, where `r_l` is row `l` of `G⁻¹` as a twist, at P. A
+/// group's unit responses are then multiples of one vector, and its unit reach is
+/// `|r_l|` (its translation or rotation half) times the length of the multiples.
+/// The same values as [`Blocks`] gives to round-off.
+struct Legs {
+    /// `g_l`, leg by leg.
+    columns: [[f64; 6]; 6],
+    /// `r_l` at P, leg by leg.
+    rows: [[f64; 6]; 6],
+    /// `(|Δp|, |Δα|)` of each `r_l`.
+    norms: [(f64, f64); 6],
+}
+
+impl Legs {
+    fn new(g: &Matrix6<f64>, gi: &Matrix6<f64>, pos: &V3) -> Self {
+        Self::of(g, gi, pos, 0..6)
+    }
+
+    /// The system of the legs `legs` alone (the others' entries zero): what the switch
+    /// search reads one group with.
+    fn of(g: &Matrix6<f64>, gi: &Matrix6<f64>, pos: &V3, legs: std::ops::Range<usize>) -> Self {
+        let mut out = Self { columns: [[0.0; 6]; 6], rows: [[0.0; 6]; 6], norms: [(0.0, 0.0); 6] };
+        for l in legs {
+            out.columns[l] = std::array::from_fn(|i| g[(i, l)]);
+            let r = at_p(&swap(&V6::from_fn(|i, _| gi[(l, i)])), pos);
+            let half = |h: &[f64]| (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+            out.norms[l] = (half(&r[..3]), half(&r[3..]));
+            out.rows[l] = r;
+        }
+        out
+    }
+
+    /// `g_lᵀ·S·ζ`: the leg's one wrench paired with the twist.
+    fn pairing(&self, limb: usize, zeta: &V6) -> f64 {
+        let c = &self.columns[limb];
+        c[0] * zeta[3] + c[1] * zeta[4] + c[2] * zeta[5] + c[3] * zeta[0] + c[4] * zeta[1] + c[5] * zeta[2]
+    }
+}
+
+impl Responder for Legs {
+    fn response(&self, limb: usize, zeta: &V6) -> [f64; 6] {
+        let b = self.pairing(limb, zeta);
+        self.rows[limb].map(|r| r * b)
+    }
+
+    fn reach(&self, limb: usize, (joint, group): (JointType, Group), (centre, axis, normal): (&V3, &V3, &V3)) -> Reach {
+        let (set, shape) = unit_set(joint, group, centre, axis, normal);
+        let pairings = set.map(|z| self.pairing(limb, z));
+        let responses = pairings.map(|b| self.rows[limb].map(|r| r * b));
+        // The largest singular value of the rank-one `r·bᵀ` is `|r|·|b|`.
+        let length = pairings.iter().map(|b| b * b).sum::<f64>().sqrt();
+        let (unit_p, unit_a) = self.norms[limb];
+        (responses, shape, unit_p * length, unit_a * length)
+    }
+}
+
 /// A group's deciding load, margin and displacement twist at a pose (docs/model.md
 /// §12.5), from its joint's reaction `(f, m)` and its centre, axis and normal there;
 /// whether it moves P, its determinacy and its own error are [`settle`]'s.
@@ -1872,19 +1960,18 @@ fn group_take(
 }
 
 /// Whether `take`'s group moves P, whether its take-up is indeterminate, and its own
-/// `|Δp|`, from its admissible set's unit reach (`reach`, [`unit_reach`]) and `G⁻¹`
-/// (`(G, the limb's block of it, G⁻¹)` in `system`); returns its error at P.
+/// `|Δp|`, from its admissible set's unit reach (`reach`, [`Responder::reach`]) and the
+/// pose's error system; returns its error at P.
 fn settle(
     model: &CustomModel,
     def: &GroupDef,
     reach: &Reach,
-    (g, block, gi): (&Matrix6<f64>, (usize, usize), &Matrix6<f64>),
-    pos: &V3,
+    system: &impl Responder,
     take: &mut GroupTake,
 ) -> [f64; 6] {
     take.mobile = reach.2 >= IMMOBILE;
     take.indeterminate = def.magnitude > 0.0 && take.mobile && take.margin <= model.floor;
-    let e = response(g, block, gi, &take.twist, pos);
+    let e = system.response(def.limb, &take.twist);
     take.dp = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
     e
 }
@@ -1911,24 +1998,23 @@ fn take_up(
         let pj = &p.joints[l][j];
         (pj.centre, pj.axis, pj.normal)
     };
-    take_up_at(model, joint_at, (&basis.g, |l| basis.block(l), gi), &p.platform.t, &p.coords, out, only);
+    let system = Blocks { g: &basis.g, block: |l| basis.block(l), gi, pos: p.platform.t };
+    take_up_at(model, joint_at, &system, &p.coords, out, only);
 }
 
 /// [`take_up`] from what it reads of a pose: each joint's centre, axis and normal
-/// (`joint_at(limb, joint)`), `G` with each limb's block of it and `G⁻¹` (`system`), P
-/// (`pos`) and the coordinates; the reactions are `out`'s. Sets the status: `ok`, or
+/// (`joint_at(limb, joint)`), its error system and the coordinates; the reactions are
+/// `out`'s. Sets the status: `ok`, or
 /// `indeterminate_contact` where a take-up is. With `only`, that kind's groups alone
 /// ([`Wanted::Kind`]).
 fn take_up_at(
     model: &CustomModel,
     joint_at: impl Fn(usize, usize) -> (V3, V3, V3),
-    (g_matrix, block, gi): (&Matrix6<f64>, impl Fn(usize) -> (usize, usize), &Matrix6<f64>),
-    pos: &V3,
+    system: &impl Responder,
     coords: &[f64; 6],
     out: &mut CustomResult,
     only: Option<usize>,
 ) {
-    let pos = *pos;
     let nk = model.kinds.len();
     // Each kind's error `[Δp; Δα]` summed in the first six entries of its slot of
     // `kind_errors` (`None` once a group of it is indeterminate), then made the nine.
@@ -1959,8 +2045,7 @@ fn take_up_at(
             continue;
         }
         // The admissible set's unit responses: the envelope, and whether it moves P.
-        let system = (g_matrix, block(g.limb), gi);
-        let reach_here = || unit_reach(system, (joint, g.group), at, &pos);
+        let reach_here = || system.reach(g.limb, (joint, g.group), at);
         let computed;
         let reach: &Reach = match translation_ball(joint, g.group).then(|| balls.get_mut(g.limb)).flatten() {
             Some(kept) => kept.get_or_insert_with(reach_here),
@@ -1969,7 +2054,7 @@ fn take_up_at(
                 &computed
             }
         };
-        let e = settle(model, g, reach, system, &pos, &mut t);
+        let e = settle(model, g, reach, system, &mut t);
         let (responses, shape, unit_p, unit_a) = (&reach.0, reach.1, reach.2, reach.3);
         for c in 0..6 {
             let reach = match shape {
@@ -2227,5 +2312,68 @@ mod tests {
             }
         }
         assert!(vouched > 20_000 && near > vouched * 3 / 4 && beyond > 5_000, "{vouched} {near} {beyond}");
+    }
+    /// The 6-UPS kernel's rank-one error system ([`Legs`]) gives what the general one
+    /// ([`Blocks`], each limb a block of one column) gives, to 1e-12 of each quantity's
+    /// scale: every group's unit responses, shape and unit reach (the general one's
+    /// largest singular value in closed form), and the response of any twist; for every
+    /// joint and group, at random joints, on random bases of unit columns, and for one
+    /// leg alone ([`Legs::of`]).
+    #[test]
+    fn the_legs_rank_one_system_is_the_general_one() {
+        let mut rng = ChaCha8Rng::seed_from_u64(47);
+        let v3 = |rng: &mut ChaCha8Rng| V3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let kinds = [
+            (JointType::R, Group::Radial),
+            (JointType::R, Group::Axial),
+            (JointType::R, Group::Angular),
+            (JointType::R, Group::Backlash),
+            (JointType::P, Group::Radial),
+            (JointType::P, Group::Angular),
+            (JointType::P, Group::Backlash),
+            (JointType::U, Group::Radial),
+            (JointType::U, Group::Angular),
+            (JointType::S, Group::Radial),
+        ];
+        let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-12 * scale.max(f64::MIN_POSITIVE);
+        let mut compared = 0;
+        for _ in 0..200 {
+            let mut g = Matrix6::from_fn(|_, _| rng.random_range(-1.0..1.0));
+            for mut c in g.column_iter_mut() {
+                let n = c.norm();
+                c /= n;
+            }
+            let Some(gi) = g.try_inverse() else { continue };
+            let pos = v3(&mut rng);
+            let general = Blocks { g: &g, block: |l| (l, 1), gi: &gi, pos };
+            let legs = Legs::new(&g, &gi, &pos);
+            for l in 0..6 {
+                let alone = Legs::of(&g, &gi, &pos, l..l + 1);
+                let zeta = V6::from_fn(|_, _| rng.random_range(-1.0..1.0));
+                let want = general.response(l, &zeta);
+                let scale = want.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                for got in [legs.response(l, &zeta), alone.response(l, &zeta)] {
+                    assert!(want.iter().zip(&got).all(|(a, b)| close(*a, *b, scale)), "{want:?} {got:?}");
+                }
+                for kind in kinds {
+                    let (centre, axis, normal) = (v3(&mut rng), v3(&mut rng).normalize(), v3(&mut rng).normalize());
+                    let at = (&centre, &axis, &normal);
+                    let want = general.reach(l, kind, at);
+                    let scale = want.0.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+                    for got in [legs.reach(l, kind, at), alone.reach(l, kind, at)] {
+                        assert_eq!((got.0.len(), got.1), (want.0.len(), want.1), "{kind:?}");
+                        for (w, r) in want.0.iter().zip(got.0.iter()) {
+                            assert!(w.iter().zip(r).all(|(a, b)| close(*a, *b, scale)), "{kind:?}: {w:?} {r:?}");
+                        }
+                        assert!(
+                            close(got.2, want.2, want.2) && close(got.3, want.3, want.3),
+                            "{kind:?}: {got:?} {want:?}"
+                        );
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        assert!(compared > 20_000, "{compared}");
     }
 }
