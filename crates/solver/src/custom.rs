@@ -495,11 +495,24 @@ pub fn log_so3(r: &Matrix3<f64>) -> V3 {
 /// The nine components of an error `[Δp; Δα]` at the pose `coords`: the six, then
 /// `[ΔΦ, ΔΨ, ΔΘ]` from `Δα = ΔΘ·ŷ + ΔΨ·R_y x̂ + ΔΦ·R_y R_x ẑ` (docs/model.md §6), NaN
 /// where the angles are singular. The 3 × 3 map is factored once for the pose's kinds
-/// and total.
+/// and total; the last angles' factors are kept on each thread (a grid at one
+/// orientation, or a line of one angle, meets the same angles pose after pose).
 fn nine_at(coords: &[f64; 6]) -> impl Fn(&[f64; 6]) -> [f64; 9] {
-    let ry = nalgebra::Rotation3::from_axis_angle(&V3::y_axis(), coords[5]).into_inner();
-    let rx = nalgebra::Rotation3::from_axis_angle(&V3::x_axis(), coords[4]).into_inner();
-    let lu = Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]).lu();
+    type Factored = ([u64; 2], nalgebra::LU<f64, nalgebra::U3, nalgebra::U3>);
+    thread_local! {
+        static LAST: std::cell::Cell<Option<Factored>> = const { std::cell::Cell::new(None) };
+    }
+    let key = [coords[4].to_bits(), coords[5].to_bits()];
+    let lu = LAST.with(|last| match last.get() {
+        Some((k, lu)) if k == key => lu,
+        _ => {
+            let ry = nalgebra::Rotation3::from_axis_angle(&V3::y_axis(), coords[5]).into_inner();
+            let rx = nalgebra::Rotation3::from_axis_angle(&V3::x_axis(), coords[4]).into_inner();
+            let lu = Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]).lu();
+            last.set(Some((key, lu)));
+            lu
+        }
+    });
     move |e| {
         let eu = match lu.solve(&V3::new(e[3], e[4], e[5])) {
             Some(x) => [x[0], x[1], x[2]],
@@ -1709,6 +1722,9 @@ fn reactions(model: &CustomModel, p: &CustomPosture, basis: &Basis, gi: &Matrix6
 /// Unit displacement twists spanning a group's admissible set at the pose (at most
 /// three, held in place), whether they are rotations, and the set's shape (for the
 /// envelope).
+// Inlined into each error system's reach: called, it cost its result's copy (a per cent
+// of a general 6-PUS's instructions).
+#[inline(always)]
 fn unit_set(joint: JointType, group: Group, centre: &V3, axis: &V3, normal: &V3) -> (Few<V6>, Shape) {
     let trans = |d: V3| six(V3::zeros(), d);
     let rot = |d: V3| six(d, centre.cross(&d));
