@@ -1887,7 +1887,7 @@ impl<B: Fn(usize) -> (usize, usize)> Responder for Blocks<'_, B> {
     }
 }
 
-/// A 6-UPS preset's error system (docs/model.md §12.6): each leg lets one wrench
+/// A 6-UPS preset's error system (docs/model.md §12.10): each leg lets one wrench
 /// through, so its block of `G` is one column `g_l` and the response of a twist `ζ` of
 /// the leg is `(g_lᵀ·S·ζ)·r_l`, where `r_l` is row `l` of `G⁻¹` as a twist, at P. A
 /// group's unit responses are then multiples of one vector, and its unit reach is
