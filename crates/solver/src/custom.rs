@@ -2020,9 +2020,8 @@ fn take_up(
 
 /// [`take_up`] from what it reads of a pose: each joint's centre, axis and normal
 /// (`joint_at(limb, joint)`), its error system and the coordinates; the reactions are
-/// `out`'s. Sets the status: `ok`, or
-/// `indeterminate_contact` where a take-up is. With `only`, that kind's groups alone
-/// ([`Wanted::Kind`]).
+/// `out`'s. Sets the status: `ok`, or `indeterminate_contact` where a take-up is. With
+/// `only`, that kind's groups alone ([`Wanted::Kind`]).
 fn take_up_at(
     model: &CustomModel,
     joint_at: impl Fn(usize, usize) -> (V3, V3, V3),
@@ -2329,6 +2328,7 @@ mod tests {
         }
         assert!(vouched > 20_000 && near > vouched * 3 / 4 && beyond > 5_000, "{vouched} {near} {beyond}");
     }
+
     /// The 6-UPS kernel's rank-one error system ([`Legs`]) gives what the general one
     /// ([`Blocks`], each limb a block of one column) gives, to 1e-12 of each quantity's
     /// scale: every group's unit responses, shape and unit reach (the general one's
