@@ -38,4 +38,7 @@ pub use inverse::{
     parasitic, parasitic_of, parasitic_sc, rotation, rotation_sc, slider,
 };
 pub use jet::{Elementary, Jet, Real};
-pub use ups::{UpsGeometry, UpsMotion, UpsParams, UpsPosture, ups_inverse_kinematics, ups_inverse_kinematics_motion};
+pub use ups::{
+    UpsGeometry, UpsMotion, UpsParams, UpsPosture, ups_inverse_kinematics, ups_inverse_kinematics_into,
+    ups_inverse_kinematics_motion,
+};

@@ -229,39 +229,50 @@ fn legs_turned<T: Real>(geom: &UpsGeometry, inputs: [T; 6], rot: [[T; 3]; 3]) ->
 }
 
 fn posture_of<T: Real>(geom: &UpsGeometry, inputs: [f64; 6], l: &Legs<T>) -> UpsPosture {
+    let mut out = UpsPosture::default();
+    posture_into(geom, inputs, l, &mut out);
+    out
+}
+
+/// [`posture_of`] into `out`, every field written: built in place, not moved there
+/// (a posture is some 1.2 kB, and the search solves hundreds of thousands).
+fn posture_into<T: Real>(geom: &UpsGeometry, inputs: [f64; 6], l: &Legs<T>, out: &mut UpsPosture) {
     let val = |v: V<T>| Vector3::new(v[0].value(), v[1].value(), v[2].value());
-    let e = l.e.map(val);
-    let a1 = geom.a1;
-    let mut a2 = [Vector3::zeros(); 6];
-    let mut n = [Vector3::zeros(); 6];
-    let mut u_sine = [0.0; 6];
+    out.e = l.e.map(val);
+    out.a1 = geom.a1;
     for i in 0..6 {
-        let c = a1[i].cross(&e[i]);
-        u_sine[i] = c.norm();
-        a2[i] = c / u_sine[i];
-        n[i] = a1[i].cross(&a2[i]);
+        let c = out.a1[i].cross(&out.e[i]);
+        out.u_sine[i] = c.norm();
+        out.a2[i] = c / out.u_sine[i];
+        out.n[i] = out.a1[i].cross(&out.a2[i]);
     }
-    UpsPosture {
-        inputs,
-        p: Vector3::new(inputs[0], inputs[1], inputs[2]),
-        rot: Matrix3::from_fn(|i, k| l.rot[i][k].value()),
-        a: l.a.map(val),
-        b: geom.b,
-        q: l.q.map(|v| v.value()),
-        e,
-        a1,
-        a2,
-        n,
-        u_sine,
-        // NaN (a leg of zero length) is singular too.
-        near_singular: u_sine.iter().any(|&s| s.is_nan() || s < U_SINGULAR),
-    }
+    out.inputs = inputs;
+    out.p = Vector3::new(inputs[0], inputs[1], inputs[2]);
+    out.rot = Matrix3::from_fn(|i, k| l.rot[i][k].value());
+    out.a = l.a.map(val);
+    out.b = geom.b;
+    out.q = l.q.map(|v| v.value());
+    // NaN (a leg of zero length) is singular too.
+    out.near_singular = out.u_sine.iter().any(|&s| s.is_nan() || s < U_SINGULAR);
 }
 
 /// The posture at `(x, y, z, Φ, Ψ, Θ)`, or the first leg outside its stroke.
 pub fn ups_inverse_kinematics(geom: &UpsGeometry, inputs: [f64; 6]) -> Result<UpsPosture, Unreachable> {
+    let mut out = UpsPosture::default();
+    ups_inverse_kinematics_into(geom, inputs, &mut out)?;
+    Ok(out)
+}
+
+/// [`ups_inverse_kinematics`] into `out` (left as it was where a leg is outside its
+/// stroke).
+pub fn ups_inverse_kinematics_into(
+    geom: &UpsGeometry,
+    inputs: [f64; 6],
+    out: &mut UpsPosture,
+) -> Result<(), Unreachable> {
     let rot = same_rotation(inputs[3], inputs[4], inputs[5]);
-    Ok(posture_of(geom, inputs, &legs_turned(geom, inputs, rot)?))
+    posture_into(geom, inputs, &legs_turned(geom, inputs, rot)?, out);
+    Ok(())
 }
 
 /// Three angles (as bits) and their rotation.

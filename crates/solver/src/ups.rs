@@ -28,7 +28,9 @@
 //! assert!(out[0].errors[2].dp.norm() < 1e-18); // U-joint tilt play is harmless
 //! ```
 
-use clearance_kinematics::{UpsGeometry, UpsMotion, UpsPosture, ups_inverse_kinematics, ups_inverse_kinematics_motion};
+use clearance_kinematics::{
+    UpsGeometry, UpsMotion, UpsPosture, ups_inverse_kinematics_into, ups_inverse_kinematics_motion,
+};
 use clearance_model::Mode;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use rayon::prelude::*;
@@ -401,8 +403,9 @@ fn ups_posture_into(
 ) -> bool {
     match mode {
         Mode::Kinetostatic => {
-            let Ok(solved) = ups_inverse_kinematics(&model.geometry, sample.map(|v| v[0])) else { return false };
-            *pose = solved;
+            if ups_inverse_kinematics_into(&model.geometry, sample.map(|v| v[0]), pose).is_err() {
+                return false;
+            }
             ups_posed_into(model, pose, None, posed);
         }
         Mode::Dynamic => {
@@ -493,26 +496,27 @@ pub fn solve_ups_leg_loads(model: &UpsModel, sample: &UpsSample, mode: Mode, ws:
 
 /// The posture of one sample (in `ws.pose`) with its bodies (in `ws.posed`) and the
 /// legs' reactions (`f_s`, `f_b`, `mu`, `m_b` in `ws.sol`), with the legs eliminated
-/// where that applies, and `G⁻¹` of the legs' screws about P ([`ups_condition`]); else
-/// the status, `unreachable` or `near_singular`. What the switch search
-/// evaluates between samples ([`solve_ups_leg_loads`]), and what a custom description
-/// of a 6-UPS takes from this kind's kernel (docs/model.md §12.10).
+/// where that applies, `G⁻¹` of the legs' screws about P ([`ups_condition`]) and
+/// `(κ₁(G), κ∞(G))`, each within the model's limit; else the status, `unreachable` or
+/// `near_singular`. What the switch search evaluates between samples
+/// ([`solve_ups_leg_loads`]), and what a custom description of a 6-UPS takes from this
+/// kind's kernel (docs/model.md §12.10).
 pub(crate) fn ups_reactions_into(
     model: &UpsModel,
     sample: &UpsSample,
     mode: Mode,
     ws: &mut UpsWorkspace,
-) -> Result<SMatrix<f64, 6, 6>, Status> {
+) -> Result<(SMatrix<f64, 6, 6>, (f64, f64)), Status> {
     if !ups_posture_into(model, sample, mode, &mut ws.pose, &mut ws.posed) {
         return Err(Status::Unreachable);
     }
-    let (_, _, inverse, conditioned) = conditioning(model, &ws.pose);
+    let (cond_1, cond_inf, inverse, conditioned) = conditioning(model, &ws.pose);
     let Some(inverse) = inverse.filter(|_| conditioned) else { return Err(Status::NearSingular) };
     let loaded = model.assembly.reduced_reactions_into(&ws.posed, Some(&inverse), &mut ws.sol) || {
         ws.sol = model.assembly.solve_loads(&ws.posed, &mut ws.data);
         ws.sol.status != Status::NearSingular
     };
-    if loaded { Ok(inverse) } else { Err(Status::NearSingular) }
+    if loaded { Ok((inverse, (cond_1, cond_inf))) } else { Err(Status::NearSingular) }
 }
 
 /// `(cond_a, cond_jp, G⁻¹)` of a posture, and whether it is regular and within the
