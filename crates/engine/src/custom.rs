@@ -318,9 +318,12 @@ struct CustomRun<'a> {
 /// part's columns (filled in place), statistics and search table before the next
 /// block is solved. A result is some 2 kB of vectors; a whole part's (65 536 rows)
 /// held at once came as fresh pages, a fault every few poses, and was freed on the
-/// pool afterwards. A multiple of [`RUN`], so that no run of continued samples
-/// straddles two blocks (a sample's result depends only on its run).
-const BLOCK: u64 = 8 * 1024;
+/// pool afterwards. Blocks of 8 192 (some 20 MB of results, and as much again kept
+/// for reuse) were read back for the columns and the statistics from beyond the
+/// caches: with 2 048 a described 6-UPS or 3-PRS took 12–15 % less CPU (512 no less
+/// than 2 048). A multiple of [`RUN`], so that no run of continued samples straddles
+/// two blocks (a sample's result depends only on its run).
+const BLOCK: u64 = 2 * 1024;
 
 /// One member's unit of a solved work: its part's rows (when written), its statistics
 /// (every pose pushed in sample order) and what the search reads of each of its
