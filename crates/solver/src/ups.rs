@@ -679,7 +679,7 @@ fn norms(m: &SMatrix<f64, 6, 6>) -> (f64, f64) {
 /// its pivot: those left of it are never read again (the pivots to come are further
 /// right, the inverse is the right half), so every value read is the one updating the
 /// whole rows in place would give.
-fn inverse6(g: &SMatrix<f64, 6, 6>) -> Option<SMatrix<f64, 6, 6>> {
+pub(crate) fn inverse6(g: &SMatrix<f64, 6, 6>) -> Option<SMatrix<f64, 6, 6>> {
     // Rows [g | I], eliminated in place; `order[k]` is the row in position k.
     let mut m = [[0.0f64; 12]; 6];
     for (r, row) in m.iter_mut().enumerate() {
