@@ -1367,17 +1367,19 @@ struct UpsKernel {
     hashes: Vec<u64>,
     next: usize,
     /// By the low byte of a key's hash, 1 + the index of the pose kept last with it (0:
-    /// none). Comparing the hashes of all the poses kept was 5 % of a described 6-UPS's
+    /// none). Comparing the hashes of all the poses kept was 4 % of a described 6-UPS's
     /// search; a pose whose bucket a later one took is solved again, to the same bits.
     bucket: [u8; 256],
 }
 
-/// Poses a thread's [`UpsKernel`] keeps (fewer than 256: see [`UpsKernel::bucket`]). The search reads a group's load at a point
-/// (the kernel's pose, for one joint's reaction), and later solves the whole pose at
-/// points among those: the switch at a polished minimum, the readings where the load
-/// rose to twice it. On a described 6-UPS those were a sixth of the kernel's poses,
-/// each solved a few dozen poses before.
+/// Poses a thread's [`UpsKernel`] keeps (fewer than 256: [`UpsKernel::bucket`] holds
+/// their indices in bytes). The search reads a group's load at a point (the kernel's
+/// pose, for one joint's reaction), and later solves the whole pose at points among
+/// those: the switch at a polished minimum, the readings where the load rose to twice
+/// it. On a described 6-UPS those were a sixth of the kernel's poses, each solved a few
+/// dozen poses before.
 const RECALLED: usize = 64;
+const _: () = assert!(RECALLED < 256);
 
 /// What a kept pose was solved for: the preset's id, the mode, the sample's bits.
 type RecallKey = (u64, Mode, [[u64; 3]; 6]);
