@@ -21,7 +21,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use nalgebra::{DMatrix, Matrix3, Matrix6, SMatrix, Vector3, Vector6};
 
-use clearance_kinematics::Posture;
 use clearance_kinematics::custom::{
     Configuration, CustomGeometry, CustomPosture, Few, JointState, Reflectors, Rigid, Unsolved, custom_posture,
     custom_posture_near, exp_so3, householder, placement,
@@ -29,6 +28,7 @@ use clearance_kinematics::custom::{
 use clearance_model::custom::{Group, JointType};
 use clearance_model::{JobError, JobSpec, Mode};
 
+use crate::fast::Points;
 use crate::pose::{PoseResult, Status, Workspace, solve_pose};
 
 type V3 = Vector3<f64>;
@@ -747,7 +747,14 @@ fn given_cond(
                 // Another member's, at the same `G`.
                 return within_limit(model, *bound).then_some(f64::NAN);
             }
-            let bound = cond_bound(g, gi, known);
+            if let Some(bound) = near_bound(g).filter(|b| *b < known && within_limit(model, *b)) {
+                *open = Some((bound, *g));
+                return Some(f64::NAN);
+            }
+            let (bound, sigmas) = cond_bound(g, gi, known);
+            if let Some((hi, lo)) = sigmas {
+                NEAR.set(Some(Near { g: *g, hi, lo }));
+            }
             if within_limit(model, bound) {
                 *open = Some((bound, *g));
                 Some(f64::NAN)
@@ -756,6 +763,36 @@ fn given_cond(
             }
         }
     }
+}
+
+/// A pose whose singular values of `G` are bounded, `σ_max ≤ hi` and `σ_min ≥ lo`
+/// (by the bounds of [`cond_bound`] that need `G⁻¹`, where it vouches for them).
+#[derive(Clone, Copy)]
+struct Near {
+    g: Matrix6<f64>,
+    hi: f64,
+    lo: f64,
+}
+
+thread_local! {
+    /// The last pose on this thread whose singular values [`cond_bound`] bounded:
+    /// the poses of a run are neighbours on a grid line or a trajectory.
+    static NEAR: std::cell::Cell<Option<Near>> = const { std::cell::Cell::new(None) };
+}
+
+/// An upper bound of `κ₂(G)` from the last pose this thread bounded ([`NEAR`]), about
+/// a twentieth of [`cond_bound`]'s arithmetic: each singular value moves by at most
+/// `‖G − G'‖₂ ≤ ‖G − G'‖_F = d` (Weyl), so `κ₂(G) ≤ (hi + d)/(lo − d)`. `None` where
+/// `d` exceeds half of `lo` (the bound would be loose, and its round-off no longer
+/// that of `hi` and `lo`). Its margin is [`cond_bound`]'s.
+fn near_bound(g: &Matrix6<f64>) -> Option<f64> {
+    let near = NEAR.get()?;
+    let mut d2 = 0.0;
+    for (a, b) in g.as_slice().iter().zip(near.g.as_slice()) {
+        d2 += (a - b) * (a - b);
+    }
+    let d = d2.sqrt();
+    (d <= 0.5 * near.lo).then(|| (near.hi + d) / (near.lo - d) * (1.0 + 1e-6))
 }
 
 /// Above this, [`cond_bound`] does not vouch for its bound: the round-off of `(GᵀG)⁻¹`
@@ -775,7 +812,11 @@ const BOUND_VOUCHED: f64 = 1e3;
 /// (on the way to `A⁴`), is already below `below` (a `cond` some pose of the solve
 /// has), that bound is given instead: such a pose cannot be the largest, whichever bound
 /// it has ([`settle_largest`]), and the eighth powers were most of the arithmetic.
-fn cond_bound(g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>, below: f64) -> f64 {
+///
+/// With the bound, the bounds `(hi, lo)` of `σ_max(G)` and `σ_min(G)` found on the way,
+/// where they are vouched for and come from `Σλ⁴` or `Σλ⁸` (`hi/lo` is then the bound
+/// before its margin; a bound by `Σλ²` gives none): [`near_bound`] starts from them.
+fn cond_bound(g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>, below: f64) -> (f64, Option<(f64, f64)>) {
     let col = |m: &Matrix6<f64>, j: usize| -> [f64; 6] { std::array::from_fn(|i| m[(i, j)]) };
     let cols: [[f64; 6]; 6] = std::array::from_fn(|j| col(g, j));
     let m = gram(|i, j| dot(&cols[i], &cols[j]));
@@ -793,7 +834,7 @@ fn cond_bound(g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>, below: f64) -> f64 {
                     if i == j {
                         // Not positive (or NaN): `M` is not numerically definite.
                         if v.is_nan() || v <= 0.0 {
-                            return f64::INFINITY;
+                            return (f64::INFINITY, None);
                         }
                         l[j][j] = v.sqrt();
                     } else {
@@ -821,15 +862,22 @@ fn cond_bound(g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>, below: f64) -> f64 {
     let given = |power: f64, root: f64| Some(power.powf(root) * (1.0 + 1e-6)).filter(|b| *b < below);
     let power = squares(&m) * squares(&inverse);
     if let Some(bound) = (power < limit4).then(|| given(power, 1.0 / 4.0)).flatten() {
-        return bound;
+        return (bound, None);
     }
+    // `σ_max² = λ_max(M) ≤ (Σλ^k)^{1/k}`, `σ_min⁻² = λ_max(M⁻¹)` likewise.
+    let sigmas = |a: f64, b: f64, k: f64| {
+        let (hi, lo) = (a.powf(0.5 / k), b.powf(-0.5 / k));
+        (hi.is_finite() && lo > 0.0 && vouched(hi / lo)).then_some((hi, lo))
+    };
     let (m2, inverse2) = (squared(&m), squared(&inverse));
-    let power = squares(&m2) * squares(&inverse2);
+    let (a, b) = (squares(&m2), squares(&inverse2));
+    let power = a * b;
     if let Some(bound) = (power < limit4 * limit4).then(|| given(power, 1.0 / 8.0)).flatten() {
-        return bound;
+        return (bound, sigmas(a, b, 4.0));
     }
-    let bound = (eighth_powers(&m2) * eighth_powers(&inverse2)).powf(1.0 / 16.0);
-    if vouched(bound) { bound * (1.0 + 1e-6) } else { f64::INFINITY }
+    let (a, b) = (eighth_powers(&m2), eighth_powers(&inverse2));
+    let bound = (a * b).powf(1.0 / 16.0);
+    if vouched(bound) { (bound * (1.0 + 1e-6), sigmas(a, b, 8.0)) } else { (f64::INFINITY, None) }
 }
 
 /// `a·b`, summed in order.
@@ -1023,9 +1071,8 @@ fn limbs_are(custom: &CustomModel, limbs: usize, order: [JointType; 3]) -> bool 
 /// `y_j` and the leg: `[f; A_j × f]` for `f` in span(`y_j`, `e_j`), made orthonormal.
 /// It is the general path's `G` but for an orthogonal change of basis within each
 /// limb's block, to which `κ₂(G)` and every response are blind.
-fn preset_frame(preset: &PrsPreset, inputs: &[f64]) -> (Posture, Matrix6<f64>) {
+fn preset_frame(preset: &PrsPreset, pose: &Points) -> Matrix6<f64> {
     let geometry = &preset.model.geometry;
-    let pose = crate::fast::Pose::<f64>::new(geometry, inputs[0], inputs[1], inputs[2]).posture(0);
     let mut g = Matrix6::zeros();
     for j in 0..3 {
         let a = pose.a[j];
@@ -1036,7 +1083,13 @@ fn preset_frame(preset: &PrsPreset, inputs: &[f64]) -> (Posture, Matrix6<f64>) {
         g.set_column(2 * j, &u);
         g.set_column(2 * j + 1, &w);
     }
-    (pose, g)
+    g
+}
+
+/// A 3-PRS preset's points at `inputs` (`z`, `ψ`, `θ`), as its kernel's
+/// [`solve_poses_posed`](crate::pose::solve_poses_posed) gives them.
+fn preset_points(preset: &PrsPreset, inputs: &[f64]) -> Points {
+    crate::fast::Pose::<f64>::new(&preset.model.geometry, inputs[0], inputs[1], inputs[2]).points(0)
 }
 
 /// The 2-norm condition number of `g` (from its singular values).
@@ -1056,9 +1109,12 @@ fn prs_load(
     group: usize,
 ) -> Option<Option<[f64; 3]>> {
     let sample = kernel_sample(inputs, rates);
-    let r = KERNEL
-        .with(|ws| crate::pose::solve_reactions_if_solvable(&preset.model, &sample, mode, &mut ws.borrow_mut()))?;
-    let (pose, g) = preset_frame(preset, inputs);
+    let mut posed = None;
+    let r = KERNEL.with(|ws| {
+        crate::pose::solve_reactions_posed(&preset.model, &sample, mode, &mut ws.borrow_mut(), &mut posed)
+    })?;
+    let pose = posed.unwrap_or_else(|| preset_points(preset, inputs));
+    let g = preset_frame(preset, &pose);
     // `G⁻¹` only decides here (the conditioning and whether the group moves P, each
     // against its limit): by the 6-UPS kernel's elimination, a third of nalgebra's cost.
     let gi = crate::ups::inverse6(&g)?;
@@ -1104,7 +1160,7 @@ fn prs_result(
 ) -> Option<CustomResult> {
     let sample = kernel_sample(inputs, rates);
     let r = KERNEL.with(|ws| solve_pose(&preset.model, &sample, mode, &mut ws.borrow_mut()));
-    preset_result_of(model, preset, inputs, &r, (cond_of, 0.0), &mut None)
+    preset_result_of(model, preset, (inputs, &preset_points(preset, inputs)), &r, (cond_of, 0.0), &mut None)
 }
 
 /// [`solve_members_near`] for a run of poses of a description that is a preset, every
@@ -1139,12 +1195,21 @@ pub fn preset_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     // The members share `G` (they differ only in their clearances), so its bound too.
     let mut open: Vec<Option<Open>> = vec![None; poses.len()];
     let known = largest.get();
-    for (model, preset) in models.iter().zip(presets) {
-        KERNEL.with(|ws| crate::pose::solve_poses(&preset.model, &samples, mode, &mut ws.borrow_mut(), &mut kernel));
-        for (((pose, r), slot), open) in poses.iter().zip(&kernel).zip(&mut out).zip(&mut open) {
+    // The members' postures are the same (so are their geometries): the first
+    // member's kernel gives their points.
+    let mut points = vec![Points::default(); samples.len()];
+    for (m, (model, preset)) in models.iter().zip(presets).enumerate() {
+        KERNEL.with(|ws| {
+            let ws = &mut ws.borrow_mut();
+            match m {
+                0 => crate::pose::solve_poses_posed(&preset.model, &samples, mode, ws, &mut kernel, &mut points),
+                _ => crate::pose::solve_poses(&preset.model, &samples, mode, ws, &mut kernel),
+            }
+        });
+        for ((((pose, at), r), slot), open) in poses.iter().zip(&points).zip(&kernel).zip(&mut out).zip(&mut open) {
             let inputs: [f64; 3] = std::array::from_fn(|i| pose[i][0]);
             *slot = slot.take().and_then(|mut members| {
-                members.push(preset_result_of(model, preset, &inputs, r, (cond_of, known), open)?);
+                members.push(preset_result_of(model, preset, (&inputs, at), r, (cond_of, known), open)?);
                 Some(members)
             });
         }
@@ -1153,11 +1218,11 @@ pub fn preset_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     Some(out)
 }
 
-/// [`preset_result`] from the kernel's result `r` at `inputs`.
+/// [`preset_result`] from the kernel's result `r` at `inputs`, whose posture's points are `pose`.
 fn preset_result_of(
     model: &CustomModel,
     preset: &PrsPreset,
-    inputs: &[f64],
+    (inputs, pose): (&[f64], &Points),
     r: &PoseResult,
     (cond_of, known): (CondOf, f64),
     open: &mut Option<Open>,
@@ -1170,7 +1235,7 @@ fn preset_result_of(
         _ => return None,
     };
     let geometry = &preset.model.geometry;
-    let (pose, g) = preset_frame(preset, inputs);
+    let g = preset_frame(preset, pose);
     let inverse = if cond_of == CondOf::Verdict { g.try_inverse() } else { None };
     let cond = given_cond(model, &g, inverse.as_ref(), (cond_of, known), open)?;
     // A group without play is not proved mobile by its (zero) error: then too.
@@ -2459,7 +2524,7 @@ mod tests {
             }
             let cond = cond_of(&g);
             for gi in [None, g.try_inverse()] {
-                let bound = cond_bound(&g, gi.as_ref(), 0.0);
+                let bound = cond_bound(&g, gi.as_ref(), 0.0).0;
                 if bound.is_finite() {
                     assert!(cond < bound && bound <= cond * 6f64.powf(0.125) * (1.0 + 2e-6), "{cond} {bound}\n{g}");
                     vouched += 1;
@@ -2467,10 +2532,10 @@ mod tests {
                     // Below any known value, the loosest bound (by `Σλ²`) is given: still
                     // above `κ₂`, within `√6`; and below a value between the two, the
                     // bound given is below that value.
-                    let loose = cond_bound(&g, gi.as_ref(), f64::INFINITY);
+                    let loose = cond_bound(&g, gi.as_ref(), f64::INFINITY).0;
                     assert!(bound <= loose && loose <= cond * 6f64.sqrt() * (1.0 + 2e-6), "{cond} {bound} {loose}");
                     let between = (bound + loose) / 2.0;
-                    let given = cond_bound(&g, gi.as_ref(), between);
+                    let given = cond_bound(&g, gi.as_ref(), between).0;
                     assert!(cond < given && (given < between || given == bound), "{cond} {given} {between}");
                 } else {
                     assert!(cond > BOUND_VOUCHED / 3.0, "{cond}\n{g}");
@@ -2479,6 +2544,49 @@ mod tests {
             }
         }
         assert!(vouched > 20_000 && near > vouched * 3 / 4 && beyond > 5_000, "{vouched} {near} {beyond}");
+    }
+
+    /// The bounds of `σ_max(G)` and `σ_min(G)` that [`cond_bound`] gives are around the
+    /// singular values as the SVD computes them (to 1e-9), and [`near_bound`] from them is above
+    /// `κ₂` of every matrix within its reach, on matrices of unit columns perturbed by
+    /// up to a tenth of `σ_min` (in Frobenius norm), which it answers.
+    #[test]
+    fn the_neighbours_bound_of_the_condition_number_is_above_it() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3838);
+        let unit = |mut g: Matrix6<f64>| {
+            for mut c in g.column_iter_mut() {
+                let n = c.norm();
+                c /= n;
+            }
+            g
+        };
+        let (mut bounded, mut answered, mut asked) = (0, 0, 0);
+        for k in 0..4_000 {
+            let g = unit(Matrix6::from_fn(|_, _| rng.random_range(-1.0..1.0)));
+            let gi = g.try_inverse();
+            let below = if k % 2 == 0 { 0.0 } else { f64::INFINITY };
+            let Some((hi, lo)) = cond_bound(&g, gi.as_ref(), below).1 else { continue };
+            bounded += 1;
+            let s = g.singular_values();
+            // To their round-off, which the bound's margin covers: where one eigenvalue
+            // dominates, they are the singular values.
+            assert!(hi >= s.max() * (1.0 - 1e-9) && lo <= s.min() * (1.0 + 1e-9) && lo > 0.0, "{hi} {lo} {s}");
+            NEAR.set(Some(Near { g, hi, lo }));
+            for _ in 0..10 {
+                let e = Matrix6::from_fn(|_, _| rng.random_range(-1.0..1.0));
+                let near = g + e * (rng.random_range(0.0..0.1) * lo / e.norm());
+                asked += 1;
+                if let Some(bound) = near_bound(&near) {
+                    answered += 1;
+                    assert!(cond_of(&near) < bound, "{} {bound}", cond_of(&near));
+                }
+            }
+            // Beyond half of `σ_min`, none.
+            let e = Matrix6::from_fn(|_, _| rng.random_range(-1.0..1.0));
+            assert!(near_bound(&(g + e * (0.6 * lo / e.norm()))).is_none());
+        }
+        NEAR.set(None);
+        assert!(bounded > 1_500 && answered == asked, "{bounded} {answered} {asked}");
     }
 
     /// The 6-UPS kernel's rank-one error system ([`Legs`]) gives what the general one

@@ -277,6 +277,16 @@ pub struct Pose<L: Lane> {
     pub across: L::M,
 }
 
+/// What a described 3-PRS reads of a posture ([`Pose::points`]): the S joints' centres
+/// `A_j`, the R joints' `B_j`, the legs' directions `e_j` and the TCP `p`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Points {
+    pub a: [Vector3<f64>; 3],
+    pub b: [Vector3<f64>; 3],
+    pub e: [Vector3<f64>; 3],
+    pub p: Vector3<f64>,
+}
+
 impl<L: Lane> Pose<L> {
     /// The inverse kinematics of `inverse_kinematics`, lane by lane: the closed forms,
     /// or Newton one lane at a time where the layout has none.
@@ -327,6 +337,12 @@ impl<L: Lane> Pose<L> {
         }
         let p = V3::from_array(p);
         Self { z, psi, theta, sc_psi, sc_theta, x, y, phi, p, rot, a, b, e, q, ell, reachable, across }
+    }
+
+    /// Lane `i`'s points (a tenth of [`Pose::posture`]'s cost).
+    #[inline(always)]
+    pub fn points(&self, i: usize) -> Points {
+        Points { a: lane3v(&self.a, i), b: lane3v(&self.b, i), e: lane3v(&self.e, i), p: self.p.get(i) }
     }
 
     /// Lane `i` as a [`Posture`].

@@ -67,6 +67,7 @@ pub use error_system::PoseError;
 pub use linalg::LuSolver;
 pub use pose::{
     Blocks, DOMINANT_TIE, Isa, PoseResult, Status, Workspace, cap_isa, dominant_joint, solve_batches, solve_errors,
-    solve_in_blocks, solve_pose, solve_poses, solve_reactions, solve_reactions_if_solvable,
+    solve_in_blocks, solve_pose, solve_poses, solve_poses_posed, solve_reactions, solve_reactions_if_solvable,
+    solve_reactions_posed,
 };
 pub use takeup::{Margins, TakeUp};

@@ -11,7 +11,7 @@ use crate::bodies::{Inertial, Model};
 use crate::equilibrium::{self, JointReactions};
 use crate::error_system::{self, PoseError};
 use crate::exact::exact_error;
-use crate::fast::{Errors, Loads, Pose, Reactions, Reduced, euler_inverse, pose_error};
+use crate::fast::{Errors, Loads, Points, Pose, Reactions, Reduced, euler_inverse, pose_error};
 use crate::lanes::{F8, LANES, Lane, Mask, lane3};
 use crate::linalg::LuSolver;
 use crate::takeup::{Margins, TakeUp, TakeUps, take_ups};
@@ -269,7 +269,7 @@ fn posture(model: &Model, sample: &Sample, mode: Mode) -> Option<(Pose<f64>, Loa
 /// status is already known: the same numbers as [`solve_pose`]'s reactions, without
 /// the conditioning, take-up and errors. `None` where `solve_pose` has no reactions.
 pub fn solve_reactions(model: &Model, sample: &Sample, mode: Mode, ws: &mut Workspace) -> Option<JointReactions> {
-    reactions_only(model, sample, mode, ws, false)
+    reactions_only(model, sample, mode, ws, false, None)
 }
 
 /// The joint reactions of a pose that [`solve_pose`] solves (status ok or
@@ -282,7 +282,20 @@ pub fn solve_reactions_if_solvable(
     mode: Mode,
     ws: &mut Workspace,
 ) -> Option<JointReactions> {
-    reactions_only(model, sample, mode, ws, true)
+    reactions_only(model, sample, mode, ws, true, None)
+}
+
+/// [`solve_reactions_if_solvable`], also setting `posed` to the points as
+/// [`solve_poses_posed`] gives them, where the solve has it at hand (statics and the
+/// fast solver; elsewhere `posed` is left as it is).
+pub fn solve_reactions_posed(
+    model: &Model,
+    sample: &Sample,
+    mode: Mode,
+    ws: &mut Workspace,
+    posed: &mut Option<Points>,
+) -> Option<JointReactions> {
+    reactions_only(model, sample, mode, ws, true, Some(posed))
 }
 
 fn reactions_only(
@@ -291,12 +304,18 @@ fn reactions_only(
     mode: Mode,
     ws: &mut Workspace,
     conditioned: bool,
+    posed: Option<&mut Option<Points>>,
 ) -> Option<JointReactions> {
     if model.solver == SolverKind::General {
         let r = solve_pose(model, sample, mode, ws);
         return matches!(r.status, Status::Ok | Status::IndeterminateContact).then_some(r.reactions);
     }
     let (pose, loads, _) = posture(model, sample, mode)?;
+    if let Some(posed) = posed
+        && mode == Mode::Kinetostatic
+    {
+        *posed = Some(pose.points(0));
+    }
     // As `solve_fast` decides: both condition numbers within the limit (NaN is not),
     // shown by a bound where it can be.
     let (reduced, solvable) = if conditioned {
@@ -388,6 +407,28 @@ pub fn solve_poses(model: &Model, samples: &[Sample], mode: Mode, ws: &mut Works
         return;
     }
     solve_batches(model, samples, out, Isa::best());
+}
+
+/// [`solve_poses`], with each sample's points as [`Pose::new`] gives them from the
+/// sample's `z`, `ψ`, `θ` (the kinetostatic posture's, in either mode), bit for bit:
+/// in statics, the batched kernel's own lanes, which it has computed anyway.
+pub fn solve_poses_posed(
+    model: &Model,
+    samples: &[Sample],
+    mode: Mode,
+    ws: &mut Workspace,
+    out: &mut [PoseResult],
+    points: &mut [Points],
+) {
+    assert_eq!(samples.len(), points.len(), "points per sample");
+    if model.solver != SolverKind::Fast || mode != Mode::Kinetostatic {
+        solve_poses(model, samples, mode, ws, out);
+        for (s, p) in samples.iter().zip(points) {
+            *p = Pose::new(&model.geometry, s.z[0], s.psi[0], s.theta[0]).points(0);
+        }
+        return;
+    }
+    batches(model, samples, out, Some(points), Isa::best());
 }
 
 /// Scratch for solving runs of consecutive samples with [`solve_poses`], one per
@@ -512,36 +553,43 @@ impl Isa {
 /// instruction set (falls back to the portable code for one this CPU lacks).
 #[doc(hidden)]
 pub fn solve_batches(model: &Model, samples: &[Sample], out: &mut [PoseResult], isa: Isa) {
+    batches(model, samples, out, None, isa);
+}
+
+/// [`solve_batches`], with each sample's points where `points` is given.
+fn batches(model: &Model, samples: &[Sample], out: &mut [PoseResult], mut points: Option<&mut [Points]>, isa: Isa) {
     assert_eq!(samples.len(), out.len(), "one result per sample");
     let isa = if isa <= Isa::detected() { isa } else { Isa::Portable };
-    for (s, o) in samples.chunks(LANES).zip(out.chunks_mut(LANES)) {
+    for (k, (s, o)) in samples.chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
+        let p = points.as_deref_mut().map(|p| &mut p[k * LANES..k * LANES + s.len()]);
         match isa {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the CPU has AVX-512F (`isa <= Isa::detected()`).
-            Isa::Avx512 => unsafe { solve_batch_avx512(model, s, o) },
+            Isa::Avx512 => unsafe { solve_batch_avx512(model, s, o, p) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the CPU has AVX2 (`isa <= Isa::detected()`).
-            Isa::Avx2 => unsafe { solve_batch_avx2(model, s, o) },
-            _ => solve_batch_lanes(model, s, o),
+            Isa::Avx2 => unsafe { solve_batch_avx2(model, s, o, p) },
+            _ => solve_batch_lanes(model, s, o, p),
         }
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn solve_batch_avx512(model: &Model, samples: &[Sample], out: &mut [PoseResult]) {
-    solve_batch_lanes(model, samples, out)
+fn solve_batch_avx512(model: &Model, samples: &[Sample], out: &mut [PoseResult], points: Option<&mut [Points]>) {
+    solve_batch_lanes(model, samples, out, points)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn solve_batch_avx2(model: &Model, samples: &[Sample], out: &mut [PoseResult]) {
-    solve_batch_lanes(model, samples, out)
+fn solve_batch_avx2(model: &Model, samples: &[Sample], out: &mut [PoseResult], points: Option<&mut [Points]>) {
+    solve_batch_lanes(model, samples, out, points)
 }
 
-/// Up to [`LANES`] kinetostatic samples; a short batch repeats its last sample.
+/// Up to [`LANES`] kinetostatic samples; a short batch repeats its last sample. Each
+/// lane's points into `points`, where given.
 #[inline(always)]
-fn solve_batch_lanes(model: &Model, samples: &[Sample], out: &mut [PoseResult]) {
+fn solve_batch_lanes(model: &Model, samples: &[Sample], out: &mut [PoseResult], points: Option<&mut [Points]>) {
     let last = samples.len() - 1;
     let input = |f: fn(&Sample) -> f64| {
         let mut v = [0.0; LANES];
@@ -551,6 +599,18 @@ fn solve_batch_lanes(model: &Model, samples: &[Sample], out: &mut [PoseResult]) 
         F8(v)
     };
     let pose = Pose::new(&model.geometry, input(|s| s.z[0]), input(|s| s.psi[0]), input(|s| s.theta[0]));
+    if let Some(points) = points {
+        // Lane by lane from the arrays, as one transposition.
+        let v = |v: &crate::lanes::V3<F8>, i: usize| nalgebra::Vector3::new(v.x.0[i], v.y.0[i], v.z.0[i]);
+        for (i, p) in points.iter_mut().enumerate().take(LANES) {
+            *p = Points {
+                a: pose.a.each_ref().map(|a| v(a, i)),
+                b: pose.b.each_ref().map(|b| v(b, i)),
+                e: pose.e.each_ref().map(|e| v(e, i)),
+                p: v(&pose.p, i),
+            };
+        }
+    }
     solve_fast(model, &pose, &Loads::statics(model, &pose), out);
 }
 

@@ -8,7 +8,11 @@ mod common;
 use clearance_grid::Sample;
 use clearance_kinematics::Geometry;
 use clearance_model::Mode;
-use clearance_solver::{Isa, Model, PoseResult, Workspace, solve_batches, solve_pose, solve_poses};
+use clearance_solver::fast::Pose;
+use clearance_solver::{
+    Isa, Model, PoseResult, Workspace, solve_batches, solve_pose, solve_poses, solve_poses_posed,
+    solve_reactions_if_solvable, solve_reactions_posed,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -80,6 +84,46 @@ fn batches_give_each_pose_its_scalar_bits() {
     }
     // Every status went through the masks, and exact errors were compared.
     assert!(seen.iter().all(|&k| k > 5), "statuses seen: {seen:?}");
+}
+
+/// The points the batched kernel gives beside its results (what a described 3-PRS
+/// reads of a posture) are, bit for bit, those of the posture computed alone from the
+/// sample, in statics and in dynamics (where they are the kinetostatic posture's); the
+/// results are `solve_poses`' and the reactions with points `solve_reactions_if_solvable`'s.
+#[test]
+fn batches_give_each_pose_its_points() {
+    let mut rng = ChaCha8Rng::seed_from_u64(23);
+    let mut ws = Workspace::new();
+    for case in 0..20 {
+        let job = common::grid_job(&mut rng, [1e-4; 4]);
+        let model = Model::from_job(&job);
+        let n = rng.random_range(1..40);
+        let mut samples = samples_near(&mut rng, n, 2.0, 0.4, 0.8);
+        let mode = if case % 4 == 3 { Mode::Dynamic } else { Mode::Kinetostatic };
+        if mode == Mode::Dynamic {
+            for s in &mut samples {
+                s.psi[1] = rng.random_range(-1.0..1.0);
+                s.theta[2] = rng.random_range(-1.0..1.0);
+            }
+        }
+        let alone = |s: &Sample| Pose::<f64>::new(&model.geometry, s.z[0], s.psi[0], s.theta[0]).points(0);
+        let (mut plain, mut posed) = (vec![PoseResult::default(); n], vec![PoseResult::default(); n]);
+        let mut points = vec![Default::default(); n];
+        solve_poses(&model, &samples, mode, &mut ws, &mut plain);
+        solve_poses_posed(&model, &samples, mode, &mut ws, &mut posed, &mut points);
+        for (i, s) in samples.iter().enumerate() {
+            assert_eq!(bits(&posed[i]), bits(&plain[i]), "case {case}, pose {i}");
+            assert_eq!(format!("{:?}", points[i]), format!("{:?}", alone(s)), "case {case}, pose {i}");
+            let mut at = None;
+            let reactions = solve_reactions_posed(&model, s, mode, &mut ws, &mut at);
+            assert_eq!(reactions, solve_reactions_if_solvable(&model, s, mode, &mut ws), "case {case}, pose {i}");
+            match (mode, reactions) {
+                (Mode::Kinetostatic, Some(_)) => assert_eq!(format!("{:?}", at), format!("{:?}", Some(alone(s)))),
+                (Mode::Dynamic, _) => assert!(at.is_none()),
+                _ => {}
+            }
+        }
+    }
 }
 
 /// The family's layouts (Newton solved lane by lane, stroke limits, legs across
