@@ -102,6 +102,10 @@ pub struct CustomModel {
     /// solves its poses ([`Preset`]); `None` (as [`CustomModel::from_job`] leaves it):
     /// the general path for every pose.
     pub preset: Option<std::sync::Arc<Preset>>,
+    /// The groups in the order that breaks a tie for the dominant joint (joint type S,
+    /// U, R, P; place in the limb; group; limb), from [`CustomModel::groups`] and the
+    /// joints, which a sweep's variants do not change.
+    tie_order: Vec<usize>,
 }
 
 /// A group's unit response below this `|Δp|` (m per m, or per rad times 1 m) cannot
@@ -142,6 +146,11 @@ impl CustomModel {
             )),
         };
         let weight = job.weight();
+        let mut tie_order: Vec<usize> = (0..groups.len()).collect();
+        tie_order.sort_by_key(|&i| {
+            let g: &GroupDef = &groups[i];
+            (geom.limbs[g.limb].joints[g.joint].joint.tie_rank(), g.joint, g.group, g.limb)
+        });
         let model = Self {
             gravity: V3::from(job.mechanism.gravity),
             platform_mass: m.platform,
@@ -157,6 +166,7 @@ impl CustomModel {
             singular_cond: job.analysis.singular_cond,
             exact: job.analysis.exact,
             preset: None,
+            tie_order,
             geom,
         };
         // Rigid at home: the limbs' constraint wrenches span every wrench.
@@ -498,7 +508,7 @@ pub fn log_so3(r: &Matrix3<f64>) -> V3 {
 /// and total; the last angles' factors are kept on each thread (a grid at one
 /// orientation, or a line of one angle, meets the same angles pose after pose).
 fn nine_at(coords: &[f64; 6]) -> impl Fn(&[f64; 6]) -> [f64; 9] {
-    type Factored = ([u64; 2], nalgebra::LU<f64, nalgebra::U3, nalgebra::U3>);
+    type Factored = ([u64; 2], Lu3);
     thread_local! {
         static LAST: std::cell::Cell<Option<Factored>> = const { std::cell::Cell::new(None) };
     }
@@ -508,17 +518,62 @@ fn nine_at(coords: &[f64; 6]) -> impl Fn(&[f64; 6]) -> [f64; 9] {
         _ => {
             let ry = nalgebra::Rotation3::from_axis_angle(&V3::y_axis(), coords[5]).into_inner();
             let rx = nalgebra::Rotation3::from_axis_angle(&V3::x_axis(), coords[4]).into_inner();
-            let lu = Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]).lu();
+            let lu = Lu3::new(&Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]));
             last.set(Some((key, lu)));
             lu
         }
     });
     move |e| {
-        let eu = match lu.solve(&V3::new(e[3], e[4], e[5])) {
-            Some(x) => [x[0], x[1], x[2]],
-            None => [f64::NAN; 3],
-        };
+        let eu = lu.solve([e[3], e[4], e[5]]).unwrap_or([f64::NAN; 3]);
         [e[0], e[1], e[2], e[3], e[4], e[5], eu[0], eu[1], eu[2]]
+    }
+}
+
+/// nalgebra's LU of a 3 × 3 matrix (partial pivoting), read out once for the solves
+/// that follow: [`Lu3::solve`] is its `solve`, the same operations in the same order
+/// (so the same bits), without its generic loops.
+#[derive(Clone, Copy, Debug)]
+struct Lu3 {
+    /// Row `k` of the permuted right-hand side is row `perm[k]` of the given one.
+    perm: [usize; 3],
+    /// `L` (unit diagonal) below the diagonal, `U` on and above it.
+    lu: [[f64; 3]; 3],
+}
+
+impl Lu3 {
+    fn new(m: &Matrix3<f64>) -> Self {
+        let lu = m.lu();
+        // The row swaps, applied to the rows' indices, give where each row comes from.
+        let mut order = V3::new(0.0, 1.0, 2.0);
+        lu.p().permute_rows(&mut order);
+        let (l, u) = (lu.l(), lu.u());
+        Self {
+            perm: [order[0] as usize, order[1] as usize, order[2] as usize],
+            lu: std::array::from_fn(|r| std::array::from_fn(|c| if c < r { l[(r, c)] } else { u[(r, c)] })),
+        }
+    }
+
+    /// `x` with `M·x = b`; `None` where a pivot is zero (as nalgebra's `solve`). Each
+    /// update adds `(−c)·a`, as nalgebra's `axpy` (addition commutes, bit for bit).
+    fn solve(&self, b: [f64; 3]) -> Option<[f64; 3]> {
+        let a = &self.lu;
+        let mut x = self.perm.map(|k| b[k]);
+        // L·y = P·b, unit diagonal.
+        x[1] += (-x[0]) * a[1][0];
+        x[2] += (-x[0]) * a[2][0];
+        x[2] += (-x[1]) * a[2][1];
+        // U·x = y, from the last row.
+        for i in (0..3).rev() {
+            if a[i][i] == 0.0 {
+                return None;
+            }
+            let c = x[i] / a[i][i];
+            x[i] = c;
+            for j in 0..i {
+                x[j] += (-c) * a[j][i];
+            }
+        }
+        Some(x)
     }
 }
 
@@ -2331,17 +2386,12 @@ pub const DOMINANT_TIE: f64 = 1e-9;
 /// The group whose own take-up moves P most; ties go to the first in the canonical
 /// order (joint type S, U, R, P; place in the limb; group; limb).
 fn dominant(model: &CustomModel, takes: &[GroupTake]) -> Option<usize> {
-    let candidates = || (0..model.groups.len()).filter(|&i| model.groups[i].magnitude > 0.0 && takes[i].mobile);
-    let best = candidates().map(|i| takes[i].dp).fold(f64::NEG_INFINITY, f64::max);
+    let candidate = |i: usize| model.groups[i].magnitude > 0.0 && takes[i].mobile;
+    let best = (0..model.groups.len()).filter(|&i| candidate(i)).map(|i| takes[i].dp).fold(f64::NEG_INFINITY, f64::max);
     if best.is_nan() || best <= 0.0 {
         return None;
     }
-    let key = |i: usize| {
-        let g = &model.groups[i];
-        let j = &model.geom.limbs[g.limb].joints[g.joint];
-        (j.joint.tie_rank(), g.joint, g.group, g.limb)
-    };
-    candidates().filter(|&i| takes[i].dp >= best * (1.0 - DOMINANT_TIE)).min_by_key(|&i| key(i))
+    model.tie_order.iter().copied().find(|&i| candidate(i) && takes[i].dp >= best * (1.0 - DOMINANT_TIE))
 }
 
 /// Chord iterations of [`exact_error`] that run whatever their progress. The chord
@@ -2544,6 +2594,42 @@ mod tests {
             }
         }
         assert!(vouched > 20_000 && near > vouched * 3 / 4 && beyond > 5_000, "{vouched} {near} {beyond}");
+    }
+
+    /// [`Lu3`] solves as nalgebra's LU does, bit for bit: on random matrices, on ones
+    /// with a zero column or repeated rows (no solution: `None` from both), on the Euler
+    /// maps of [`nine_at`] (singular at `cos Ψ = 0`), and with NaN and infinite entries.
+    #[test]
+    fn the_3_by_3_lu_solves_as_nalgebras() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3933);
+        let mut some = 0;
+        for k in 0..20_000 {
+            let mut m = Matrix3::from_fn(|_, _| rng.random_range(-2.0..2.0));
+            match k % 8 {
+                0 => m.set_column(rng.random_range(0..3), &V3::zeros()),
+                1 => {
+                    let r = m.row(0).into_owned();
+                    m.set_row(2, &r);
+                }
+                2 => {
+                    let (psi, theta) = (
+                        if k % 16 == 2 { std::f64::consts::FRAC_PI_2 } else { rng.random_range(-1.5..1.5) },
+                        rng.random_range(-3.0..3.0),
+                    );
+                    let ry = nalgebra::Rotation3::from_axis_angle(&V3::y_axis(), theta).into_inner();
+                    let rx = nalgebra::Rotation3::from_axis_angle(&V3::x_axis(), psi).into_inner();
+                    m = Matrix3::from_columns(&[ry * rx * V3::z(), ry * V3::x(), V3::y()]);
+                }
+                3 => m[(rng.random_range(0..3), rng.random_range(0..3))] = [f64::NAN, f64::INFINITY, 0.0][k % 3],
+                _ => {}
+            }
+            let b = [rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)];
+            let theirs = m.lu().solve(&V3::from(b)).map(|x| [x[0], x[1], x[2]]);
+            let ours = Lu3::new(&m).solve(b);
+            assert_eq!(format!("{ours:?}"), format!("{theirs:?}"), "{m}");
+            some += usize::from(ours.is_some());
+        }
+        assert!(some > 10_000 && some < 19_000, "{some}");
     }
 
     /// The bounds of `σ_max(G)` and `σ_min(G)` that [`cond_bound`] gives are around the
