@@ -27,8 +27,8 @@ use clearance_parquet::{
     Precision, WriteOptions, Writer, custom_discontinuity_batch, custom_summary_batch, write_parquet,
 };
 use clearance_solver::custom::{
-    CustomModel, CustomResult, LargestCond, Wanted, drop_spare_results, group_load_near, preset_members, recycle,
-    solve_members_near,
+    CustomModel, CustomResult, LargestCond, MembersSolved, Wanted, drop_spare_results, group_load_near, preset_members,
+    recycle, solve_members_near,
 };
 use rayon::prelude::*;
 
@@ -182,7 +182,7 @@ fn solve_members(
 ) -> (Vec<CustomRow>, Vec<Vec<CustomResult>>) {
     let first = range.start - range.start % RUN;
     let largest = LargestCond::default();
-    let runs: Vec<Vec<(CustomRow, Vec<CustomResult>)>> = (first..range.end)
+    let runs: Vec<(Vec<CustomRow>, Vec<Vec<CustomResult>>)> = (first..range.end)
         .step_by(RUN as usize)
         .collect::<Vec<u64>>()
         .into_par_iter()
@@ -190,11 +190,16 @@ fn solve_members(
             let run = start.max(range.start)..(start + RUN).min(range.end);
             let (times, inputs): (Vec<Option<f64>>, Vec<Inputs>) =
                 run.clone().map(|i| inputs_of(models[0], source, i)).unzip();
-            // A preset's kernel solves the run at once; a pose it does not answer, and
-            // every pose of another description, goes through `solve_inputs`.
-            let mut fast = preset_members(models, &inputs, mode, each_cond, &largest).unwrap_or_default();
+            // A preset's kernel solves the run at once, each member's results in place;
+            // a pose it does not answer, and every pose of another description, goes
+            // through `solve_inputs`.
+            let MembersSolved { answered, mut results } = preset_members(models, &inputs, mode, each_cond, &largest)
+                .unwrap_or_else(|| MembersSolved {
+                    answered: vec![false; inputs.len()],
+                    results: models.iter().map(|_| vec![CustomResult::default(); inputs.len()]).collect(),
+                });
             let mut near = None;
-            let mut out = Vec::with_capacity(RUN as usize);
+            let mut rows = Vec::with_capacity(inputs.len());
             for i in start..run.end {
                 if i < range.start {
                     // Continuation runs from the run's first sample, whatever the range.
@@ -203,22 +208,26 @@ fn solve_members(
                     continue;
                 }
                 let k = (i - run.start) as usize;
-                let (r, reached) = match fast.get_mut(k).and_then(Option::take) {
-                    Some(r) => (r, None),
-                    None => solve_inputs(models, &inputs[k], mode, near.as_ref(), Wanted::Whole),
-                };
-                near = reached;
-                out.push((CustomRow { sample: i, t: times[k] }, r));
+                if answered[k] {
+                    near = None;
+                } else {
+                    let (all, reached) = solve_inputs(models, &inputs[k], mode, near.as_ref(), Wanted::Whole);
+                    for (to, r) in results.iter_mut().zip(all) {
+                        to[k] = r;
+                    }
+                    near = reached;
+                }
+                rows.push(CustomRow { sample: i, t: times[k] });
             }
-            out
+            (rows, results)
         })
         .collect();
     let mut rows = Vec::with_capacity((range.end - range.start) as usize);
     let mut results: Vec<Vec<CustomResult>> = models.iter().map(|_| Vec::with_capacity(rows.capacity())).collect();
-    for (row, all) in runs.into_iter().flatten() {
-        rows.push(row);
-        for (to, r) in results.iter_mut().zip(all) {
-            to.push(r);
+    for (run_rows, mut run_results) in runs {
+        rows.extend(run_rows);
+        for (to, from) in results.iter_mut().zip(&mut run_results) {
+            to.append(from);
         }
     }
     (rows, results)

@@ -979,27 +979,26 @@ fn eighth_powers(b: &[[f64; 6]; 6]) -> f64 {
 /// left open has a bound, and so a `κ₂`, below a `cond` that some pose of the solve
 /// has; the statistics' maximum is the same as with every pose's `cond`, whatever the
 /// runs and the order they are settled in.
-fn settle_largest(results: &mut [Option<Vec<CustomResult>>], open: &[Option<Open>], known: &LargestCond) {
+fn settle_largest(solved: &mut MembersSolved, open: &[Option<Open>], known: &LargestCond) {
+    let MembersSolved { answered, results } = solved;
     let mut largest = known.get();
-    for r in results.iter().flatten().flatten() {
-        if r.status != Status::Unreachable && r.cond.is_finite() {
-            largest = largest.max(r.cond);
+    for (k, _) in answered.iter().enumerate().filter(|(_, a)| **a) {
+        for r in results.iter().map(|rs| &rs[k]) {
+            if r.status != Status::Unreachable && r.cond.is_finite() {
+                largest = largest.max(r.cond);
+            }
         }
     }
-    let mut order: Vec<(f64, usize)> = open
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| results[*k].is_some())
-        .filter_map(|(k, o)| Some((o.as_ref()?.0, k)))
-        .collect();
+    let mut order: Vec<(f64, usize)> =
+        open.iter().enumerate().filter(|(k, _)| answered[*k]).filter_map(|(k, o)| Some((o.as_ref()?.0, k))).collect();
     order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
     for (bound, k) in order {
         if bound < largest {
             break;
         }
         let cond = open[k].as_ref().map_or(f64::NAN, |(_, g)| cond_of(g));
-        for r in results[k].iter_mut().flatten() {
-            r.cond = cond;
+        for rs in results.iter_mut() {
+            rs[k].cond = cond;
         }
         if cond.is_finite() {
             largest = largest.max(cond);
@@ -1221,8 +1220,8 @@ fn prs_result(
 /// [`solve_members_near`] for a run of poses of a description that is a preset, every
 /// member's kernel solving the run at once (in statics, the lanes of its batched fast
 /// solver): per pose (`inputs`: each input's value, rate and acceleration, in canonical
-/// order), every member's result, or `None` where some member's kernel answer is not
-/// the general path's (the caller then solves that pose with [`solve_members_near`]).
+/// order), every member's result, unless some member's kernel answer is not the
+/// general path's (the caller then solves that pose with [`solve_members_near`]).
 /// `None` unless every member is a preset.
 ///
 /// With `each_cond`, every result has its `cond`; without, only those that may be the
@@ -1233,7 +1232,7 @@ pub fn preset_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     mode: Mode,
     each_cond: bool,
     largest: &LargestCond,
-) -> Option<Vec<Option<Vec<CustomResult>>>> {
+) -> Option<MembersSolved> {
     let cond_of = if each_cond { CondOf::Each } else { CondOf::Largest };
     let presets: Vec<&Preset> = models.iter().map(|m| m.preset.as_deref()).collect::<Option<_>>()?;
     let presets: Vec<&PrsPreset> = match presets.as_slice() {
@@ -1245,8 +1244,7 @@ pub fn preset_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     let samples: Vec<clearance_grid::Sample> =
         poses.iter().map(|p| kernel_sample_of(|i| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] })).collect();
     let mut kernel = vec![PoseResult::default(); samples.len()];
-    let mut out: Vec<Option<Vec<CustomResult>>> =
-        (0..poses.len()).map(|_| Some(Vec::with_capacity(models.len()))).collect();
+    let mut out = MembersSolved::new(models.len(), poses.len());
     // The members share `G` (they differ only in their clearances), so its bound too.
     let mut open: Vec<Option<Open>> = vec![None; poses.len()];
     let known = largest.get();
@@ -1261,16 +1259,39 @@ pub fn preset_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
                 _ => crate::pose::solve_poses(&preset.model, &samples, mode, ws, &mut kernel),
             }
         });
-        for ((((pose, at), r), slot), open) in poses.iter().zip(&points).zip(&kernel).zip(&mut out).zip(&mut open) {
+        let results = &mut out.results[m];
+        for (k, (((pose, at), r), open)) in poses.iter().zip(&points).zip(&kernel).zip(&mut open).enumerate() {
             let inputs: [f64; 3] = std::array::from_fn(|i| pose[i][0]);
-            *slot = slot.take().and_then(|mut members| {
-                members.push(preset_result_of(model, preset, (&inputs, at), r, (cond_of, known), open)?);
-                Some(members)
-            });
+            let solved =
+                out.answered[k].then(|| preset_result_of(model, preset, (&inputs, at), r, (cond_of, known), open));
+            match solved.flatten() {
+                Some(r) => results.push(r),
+                None => {
+                    out.answered[k] = false;
+                    results.push(CustomResult::default());
+                }
+            }
         }
     }
     settle_largest(&mut out, &open, largest);
     Some(out)
+}
+
+/// A run of poses solved for the members of a sweep at once ([`preset_members`]):
+/// per member, one result a pose, a pose's results meant only where it is `answered`
+/// (elsewhere, placeholders for the caller's own solve).
+#[derive(Debug, Default)]
+pub struct MembersSolved {
+    pub answered: Vec<bool>,
+    /// Per member, per pose.
+    pub results: Vec<Vec<CustomResult>>,
+}
+
+impl MembersSolved {
+    /// Every pose answered until shown otherwise, no result yet.
+    fn new(members: usize, poses: usize) -> Self {
+        Self { answered: vec![true; poses], results: (0..members).map(|_| Vec::with_capacity(poses)).collect() }
+    }
 }
 
 /// [`preset_result`] from the kernel's result `r` at `inputs`, whose posture's points are `pose`.
@@ -1795,33 +1816,37 @@ fn ups_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     mode: Mode,
     cond_of: CondOf,
     largest: &LargestCond,
-) -> Vec<Option<Vec<CustomResult>>> {
-    let Some(Preset::Ups6(first)) = models[0].preset.as_deref() else { return vec![None; poses.len()] };
+) -> MembersSolved {
+    let mut out = MembersSolved::new(models.len(), poses.len());
+    let Some(Preset::Ups6(first)) = models[0].preset.as_deref() else {
+        out.answered.fill(false);
+        out.results.iter_mut().for_each(|rs| rs.resize_with(poses.len(), CustomResult::default));
+        return out;
+    };
     let dynamic = mode == Mode::Dynamic;
     let mut open: Vec<Option<Open>> = vec![None; poses.len()];
     let known = largest.get();
-    let mut out: Vec<Option<Vec<CustomResult>>> = UPS_KERNEL.with(|k| {
+    UPS_KERNEL.with(|k| {
         let k = &mut k.borrow_mut();
-        poses
-            .iter()
-            .zip(&mut open)
-            .map(|(p, open)| {
-                // Statics has no rates, as `solve_members_near` has none there.
-                let sample: crate::ups::UpsSample =
-                    std::array::from_fn(|i| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] });
-                let inputs: [f64; 6] = std::array::from_fn(|i| p[i][0]);
-                let pose = k.pose(first, &sample, mode)?;
-                models
-                    .iter()
-                    .map(|m| match m.preset.as_deref() {
-                        Some(Preset::Ups6(preset)) => {
-                            ups_result(m, preset, &inputs, pose, (cond_of, known), open, None)
-                        }
-                        _ => None,
-                    })
-                    .collect()
-            })
-            .collect()
+        for (i, (p, open)) in poses.iter().zip(&mut open).enumerate() {
+            // Statics has no rates, as `solve_members_near` has none there.
+            let sample: crate::ups::UpsSample =
+                std::array::from_fn(|i| if dynamic { p[i] } else { [p[i][0], 0.0, 0.0] });
+            let inputs: [f64; 6] = std::array::from_fn(|i| p[i][0]);
+            let mut pose = k.pose(first, &sample, mode);
+            for (m, results) in models.iter().zip(&mut out.results) {
+                let solved = match (m.preset.as_deref(), pose.as_deref_mut(), out.answered[i]) {
+                    (Some(Preset::Ups6(preset)), Some(pose), true) => {
+                        ups_result(m, preset, &inputs, pose, (cond_of, known), open, None)
+                    }
+                    _ => None,
+                };
+                if solved.is_none() {
+                    out.answered[i] = false;
+                }
+                results.push(solved.unwrap_or_default());
+            }
+        }
     });
     settle_largest(&mut out, &open, largest);
     out
