@@ -529,9 +529,8 @@ fn nine_at(coords: &[f64; 6]) -> impl Fn(&[f64; 6]) -> [f64; 9] {
     }
 }
 
-/// nalgebra's LU of a 3 × 3 matrix (partial pivoting), read out once for the solves
-/// that follow: [`Lu3::solve`] is its `solve`, the same operations in the same order
-/// (so the same bits), without its generic loops.
+/// nalgebra's LU of a 3 × 3 matrix (partial pivoting) and its `solve`: the same
+/// operations in the same order (so the same bits), without its generic loops.
 #[derive(Clone, Copy, Debug)]
 struct Lu3 {
     /// Row `k` of the permuted right-hand side is row `perm[k]` of the given one.
@@ -541,16 +540,37 @@ struct Lu3 {
 }
 
 impl Lu3 {
+    /// nalgebra's `LU::new`: at each column the first row of largest `|a|` at or below
+    /// the diagonal is the pivot (a zero pivot skips the column), the rows swapped, the
+    /// column below scaled by the pivot's reciprocal and the rows below updated.
     fn new(m: &Matrix3<f64>) -> Self {
-        let lu = m.lu();
-        // The row swaps, applied to the rows' indices, give where each row comes from.
-        let mut order = V3::new(0.0, 1.0, 2.0);
-        lu.p().permute_rows(&mut order);
-        let (l, u) = (lu.l(), lu.u());
-        Self {
-            perm: [order[0] as usize, order[1] as usize, order[2] as usize],
-            lu: std::array::from_fn(|r| std::array::from_fn(|c| if c < r { l[(r, c)] } else { u[(r, c)] })),
+        let mut a: [[f64; 3]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]));
+        let mut perm = [0, 1, 2];
+        for i in 0..3 {
+            let mut piv = i;
+            for r in i + 1..3 {
+                if a[r][i].abs() > a[piv][i].abs() {
+                    piv = r;
+                }
+            }
+            let diag = a[piv][i];
+            if diag == 0.0 {
+                continue;
+            }
+            a.swap(i, piv);
+            perm.swap(i, piv);
+            let inv = 1.0 / diag;
+            for row in a.iter_mut().skip(i + 1) {
+                row[i] *= inv;
+            }
+            for k in i + 1..3 {
+                let p = a[i][k];
+                for row in a.iter_mut().skip(i + 1) {
+                    row[k] += (-p) * row[i];
+                }
+            }
         }
+        Self { perm, lu: a }
     }
 
     /// `x` with `M·x = b`; `None` where a pivot is zero (as nalgebra's `solve`). Each
@@ -2621,7 +2641,7 @@ mod tests {
         assert!(vouched > 20_000 && near > vouched * 3 / 4 && beyond > 5_000, "{vouched} {near} {beyond}");
     }
 
-    /// [`Lu3`] solves as nalgebra's LU does, bit for bit: on random matrices, on ones
+    /// [`Lu3`] factors and solves as nalgebra's LU does, bit for bit: on random matrices, on ones
     /// with a zero column or repeated rows (no solution: `None` from both), on the Euler
     /// maps of [`nine_at`] (singular at `cos Ψ = 0`), and with NaN and infinite entries.
     #[test]
@@ -2649,9 +2669,19 @@ mod tests {
                 _ => {}
             }
             let b = [rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)];
-            let theirs = m.lu().solve(&V3::from(b)).map(|x| [x[0], x[1], x[2]]);
-            let ours = Lu3::new(&m).solve(b);
-            assert_eq!(format!("{ours:?}"), format!("{theirs:?}"), "{m}");
+            let lu = m.lu();
+            let theirs = lu.solve(&V3::from(b)).map(|x| [x[0], x[1], x[2]]);
+            let ours = Lu3::new(&m);
+            assert_eq!(format!("{:?}", ours.solve(b)), format!("{theirs:?}"), "{m}");
+            // The factors themselves, and where each row comes from.
+            let (l, u) = (lu.l(), lu.u());
+            let factors: [[f64; 3]; 3] =
+                std::array::from_fn(|r| std::array::from_fn(|c| if c < r { l[(r, c)] } else { u[(r, c)] }));
+            assert_eq!(format!("{:?}", ours.lu), format!("{factors:?}"), "{m}");
+            let mut order = V3::new(0.0, 1.0, 2.0);
+            lu.p().permute_rows(&mut order);
+            assert_eq!(ours.perm.map(|k| k as f64), [order[0], order[1], order[2]], "{m}");
+            let ours = ours.solve(b);
             some += usize::from(ours.is_some());
         }
         assert!(some > 10_000 && some < 19_000, "{some}");
