@@ -942,7 +942,7 @@ fn cond_bound(g: &Matrix6<f64>, gi: Option<&Matrix6<f64>>, below: f64) -> (f64, 
     // `σ_max² = λ_max(M) ≤ (Σλ^k)^{1/k}`, `σ_min⁻² = λ_max(M⁻¹)` likewise.
     let sigmas = |a: f64, b: f64, k: f64| {
         let (hi, lo) = (a.powf(0.5 / k), b.powf(-0.5 / k));
-        (hi.is_finite() && lo > 0.0 && vouched(hi / lo)).then_some((hi, lo))
+        (hi.is_finite() && lo.is_finite() && lo > 0.0 && vouched(hi / lo)).then_some((hi, lo))
     };
     let (m2, inverse2) = (squared(&m), squared(&inverse));
     let (a, b) = (squares(&m2), squares(&inverse2));
