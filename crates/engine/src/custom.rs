@@ -194,10 +194,7 @@ fn solve_members(
             // a pose it does not answer, and every pose of another description, goes
             // through `solve_inputs`.
             let MembersSolved { answered, mut results } = preset_members(models, &inputs, mode, each_cond, &largest)
-                .unwrap_or_else(|| MembersSolved {
-                    answered: vec![false; inputs.len()],
-                    results: models.iter().map(|_| vec![CustomResult::default(); inputs.len()]).collect(),
-                });
+                .unwrap_or_else(|| MembersSolved::unanswered(models.len(), inputs.len()));
             let mut near = None;
             let mut rows = Vec::with_capacity(inputs.len());
             for i in start..run.end {

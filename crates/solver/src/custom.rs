@@ -1312,6 +1312,14 @@ impl MembersSolved {
     fn new(members: usize, poses: usize) -> Self {
         Self { answered: vec![true; poses], results: (0..members).map(|_| Vec::with_capacity(poses)).collect() }
     }
+
+    /// No pose answered: a placeholder result for each, for the caller's own solve.
+    pub fn unanswered(members: usize, poses: usize) -> Self {
+        Self {
+            answered: vec![false; poses],
+            results: (0..members).map(|_| vec![CustomResult::default(); poses]).collect(),
+        }
+    }
 }
 
 /// [`preset_result`] from the kernel's result `r` at `inputs`, whose posture's points are `pose`.
@@ -1837,12 +1845,10 @@ fn ups_members<P: std::ops::Deref<Target = [[f64; 3]]>>(
     cond_of: CondOf,
     largest: &LargestCond,
 ) -> MembersSolved {
-    let mut out = MembersSolved::new(models.len(), poses.len());
     let Some(Preset::Ups6(first)) = models[0].preset.as_deref() else {
-        out.answered.fill(false);
-        out.results.iter_mut().for_each(|rs| rs.resize_with(poses.len(), CustomResult::default));
-        return out;
+        return MembersSolved::unanswered(models.len(), poses.len());
     };
+    let mut out = MembersSolved::new(models.len(), poses.len());
     let dynamic = mode == Mode::Dynamic;
     let mut open: Vec<Option<Open>> = vec![None; poses.len()];
     let known = largest.get();

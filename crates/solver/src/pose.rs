@@ -600,7 +600,9 @@ fn solve_batch_lanes(model: &Model, samples: &[Sample], out: &mut [PoseResult], 
     };
     let pose = Pose::new(&model.geometry, input(|s| s.z[0]), input(|s| s.psi[0]), input(|s| s.theta[0]));
     if let Some(points) = points {
-        // Lane by lane from the arrays, as one transposition.
+        // Lane by lane from the arrays, as one transposition: `Pose::points` reads each
+        // value through `Lane::get`, which takes the eight lanes by value (five times
+        // the instructions here).
         let v = |v: &crate::lanes::V3<F8>, i: usize| nalgebra::Vector3::new(v.x.0[i], v.y.0[i], v.z.0[i]);
         for (i, p) in points.iter_mut().enumerate().take(LANES) {
             *p = Points {
